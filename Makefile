@@ -1,0 +1,37 @@
+# Stages of the pipeline. The virtual environment .venv is created on first use.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
+
+.PHONY: demo test test-slow beams bench clean system-packages
+
+demo: beams
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -m slow
+
+beams: $(STAMP)
+	$(BIN)/surrogacy beams --out build/beams
+
+bench: $(STAMP)
+	$(BIN)/surrogacy bench
+
+# Debian libraries that the gmsh wheel and off-screen PyVista load at import time.
+system-packages:
+	@bash scripts/system_packages.sh
+
+$(STAMP): pyproject.toml
+	@$(MAKE) --no-print-directory system-packages
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+clean:
+	rm -rf build results

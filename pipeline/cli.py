@@ -1,0 +1,43 @@
+"""The ``surrogacy`` console script: one subcommand per pipeline stage.
+
+Each stage package keeps its own subcommands in a ``commands`` module with a ``register(subparsers)``
+function; this file only collects them. ``surrogacy <stage> --help`` documents each one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+STAGE_COMMANDS = ("geometry.commands", "nonlinear.commands")
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser with every available stage subcommand."""
+    root = argparse.ArgumentParser(prog="surrogacy", description=__doc__.splitlines()[0])
+    subparsers = root.add_subparsers(dest="command", required=True, metavar="STAGE")
+    for module_name in STAGE_COMMANDS:
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as error:
+            if error.name != module_name:
+                raise
+            continue
+        module.register(subparsers)
+    return root
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one stage; errors in the inputs print one clear line and exit with status 2."""
+    arguments = parser().parse_args(argv)
+    try:
+        arguments.run(arguments)
+    except ValueError as error:
+        print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
