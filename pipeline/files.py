@@ -40,6 +40,9 @@ def atomic_path(destination: Path):
     handle, temporary = tempfile.mkstemp(prefix=f".{destination.stem}-", suffix=destination.suffix,
                                          dir=destination.parent)
     os.close(handle)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o666 & ~umask)
     try:
         yield Path(temporary)
         os.replace(temporary, destination)
