@@ -1,0 +1,36 @@
+"""Jenkins element: a linear spring K_T in series with a Coulomb slider of strength F_S (paper section 4.3.1).
+
+All functions work on numpy arrays and broadcast over displacements and parameters. Displacements are the
+amplitude of the relative tangential motion of a patch pair (m), forces in N, stiffnesses in N/m, dissipation
+in J per cycle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nonlinear.parameters import check_jenkins
+
+
+def backbone(displacement, stiffness, slip_force):
+    """Backbone force f(u) of a Jenkins element, paper Eq. (14): K_T u up to F_S, then F_S.
+
+    Odd in u (the Masing backbone of a symmetric element).
+    """
+    check_jenkins(stiffness, slip_force)
+    u = np.asarray(displacement, dtype=float)
+    return np.sign(u) * np.minimum(stiffness * np.abs(u), slip_force)
+
+
+def tangent(displacement, stiffness, slip_force):
+    """Tangent stiffness df/du of the backbone (N/m): K_T while stuck, 0 once slipping."""
+    check_jenkins(stiffness, slip_force)
+    u = np.asarray(displacement, dtype=float)
+    return np.where(stiffness * np.abs(u) < slip_force, stiffness, 0.0)
+
+
+def dissipation(amplitude, stiffness, slip_force):
+    """Energy dissipated per steady cycle of amplitude u0 (J), paper Eq. (15): 4 F_S (u0 - F_S/K_T) once slipping."""
+    check_jenkins(stiffness, slip_force)
+    u0 = np.abs(np.asarray(amplitude, dtype=float))
+    return 4.0 * slip_force * np.maximum(u0 - slip_force / stiffness, 0.0)

@@ -1,0 +1,160 @@
+"""Friction elements: closed forms against Masing's rule and against discretised slider elements.
+
+Physics checked: the closed-form cycle dissipations (paper Eqs. 15, 19, 22) are Masing's Eq. (13) applied to
+the closed-form backbones (Eqs. 14, 18, 21); a many-slider element driven through a cycle traces the same
+backbone and loop; Iwan microslip dissipation is a power law of exponent chi + 3; theta = 1 is the
+four-parameter model; unphysical parameters are refused.
+"""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from nonlinear import iwan, jenkins
+from nonlinear.parameters import FrictionParameterError
+from nonlinear.sliders import initial_state, iwan_sliders, jenkins_sliders, slider_response
+
+# (F_S N, K_T N/m, chi, beta, theta) spanning Table 3: soft/strong, stiff/weak, chi near both ends.
+IWAN_CASES = [
+    (1.0e3, 1.0e7, -0.5, 0.1, 0.7),
+    (5.0e9, 3.0e2, -0.95, 1.0e3, 0.2),
+    (2.0e1, 1.0e13, -0.02, 1.0e-4, 1.0),
+    (7.0e5, 4.0e9, -0.3, 0.0, 0.5),
+]
+# Amplitudes in units of the macroslip displacement phi_max: deep microslip to macroslip.
+SCALED_AMPLITUDES = [0.05, 0.3, 0.9, 1.0 + 1e-3, 1.5, 4.0]
+
+
+def masing_dissipation(backbone, amplitude, kink):
+    """Paper Eq. (13): D(u0) = -4 f(u0) u0 + 8 int_0^u0 f(t) dt, integrated numerically (J)."""
+    points = [kink] if kink < amplitude else None
+    area, _ = quad(backbone, 0.0, amplitude, points=points, epsabs=0.0, epsrel=1e-13, limit=200)
+    return -4.0 * backbone(amplitude) * amplitude + 8.0 * area
+
+
+def drive_cycle(sliders, amplitude, steps=2000):
+    """Load a virgin element to +u0, then through -u0 back to +u0 (a full steady Masing loop).
+
+    Returns (u, f) of the initial loading and (u, f) of the closed loop.
+    """
+    ramp = np.linspace(0.0, amplitude, steps)
+    loop = np.concatenate([np.linspace(amplitude, -amplitude, 2 * steps), np.linspace(-amplitude, amplitude, 2 * steps)])
+    position, direction = initial_state(sliders)
+    forces = []
+    for u in np.concatenate([ramp, loop]):
+        force, _, position, direction = slider_response(u, position, direction, sliders)
+        forces.append(float(force))
+    forces = np.array(forces)
+    return (ramp, forces[:steps]), (loop, forces[steps:])
+
+
+def loop_area(u, f):
+    """Energy dissipated around a closed loop, the integral of f du (J)."""
+    return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(u)))
+
+
+@pytest.mark.parametrize("slip_force, stiffness", [(1.0e3, 1.0e7), (3.0e10, 2.0e2), (10.0, 1.0e14)])
+@pytest.mark.parametrize("scaled_amplitude", [0.5, 1.2, 30.0])
+def test_jenkins_dissipation_is_masing_integral_of_backbone(slip_force, stiffness, scaled_amplitude):
+    u_slip = slip_force / stiffness
+    amplitude = scaled_amplitude * u_slip
+    numerical = masing_dissipation(lambda u: jenkins.backbone(u, stiffness, slip_force), amplitude, u_slip)
+    closed = jenkins.dissipation(amplitude, stiffness, slip_force)
+    assert closed == pytest.approx(numerical, rel=1e-8, abs=1e-12 * slip_force * u_slip)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+@pytest.mark.parametrize("scaled_amplitude", SCALED_AMPLITUDES)
+def test_iwan_dissipations_are_masing_integrals_of_backbones(case, scaled_amplitude):
+    slip_force, stiffness, chi, beta, theta = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    amplitude = scaled_amplitude * phi_max
+    four = masing_dissipation(lambda u: iwan.four_parameter_backbone(u, slip_force, stiffness, chi, beta),
+                              amplitude, phi_max)
+    five = masing_dissipation(lambda u: iwan.five_parameter_backbone(u, slip_force, stiffness, chi, beta, theta),
+                              amplitude, phi_max)
+    assert iwan.four_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta) == pytest.approx(four, rel=1e-8)
+    assert iwan.five_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta, theta) == pytest.approx(
+        five, rel=1e-8)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+def test_segalman_mapping_gives_macroslip_force_and_initial_stiffness(case):
+    slip_force, stiffness, chi, beta, _ = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    assert iwan.four_parameter_backbone(2.0 * phi_max, slip_force, stiffness, chi, beta) == pytest.approx(
+        slip_force, rel=1e-13)
+    assert iwan.four_parameter_tangent(0.0, slip_force, stiffness, chi, beta) == pytest.approx(stiffness, rel=1e-13)
+    # The tangent is the derivative of the backbone (central difference, relative step 1e-6).
+    u, h = 0.4 * phi_max, 1e-6 * phi_max
+    for backbone, tangent, extra in [(iwan.four_parameter_backbone, iwan.four_parameter_tangent, ()),
+                                     (iwan.five_parameter_backbone, iwan.five_parameter_tangent, (case[4],))]:
+        slope = (backbone(u + h, slip_force, stiffness, chi, beta, *extra)
+                 - backbone(u - h, slip_force, stiffness, chi, beta, *extra)) / (2 * h)
+        assert tangent(u, slip_force, stiffness, chi, beta, *extra) == pytest.approx(slope, rel=1e-6)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+def test_theta_one_is_the_four_parameter_model(case):
+    slip_force, stiffness, chi, beta, _ = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    u = phi_max * np.array([0.0, 1e-4, 0.2, 0.7, 0.999, 1.0, 1.5, 10.0])
+    args = (slip_force, stiffness, chi, beta)
+    np.testing.assert_allclose(iwan.five_parameter_backbone(u, *args, 1.0), iwan.four_parameter_backbone(u, *args),
+                               rtol=1e-14, atol=0)
+    np.testing.assert_allclose(iwan.five_parameter_tangent(u, *args, 1.0), iwan.four_parameter_tangent(u, *args),
+                               rtol=1e-14, atol=1e-14 * stiffness)
+    np.testing.assert_allclose(iwan.five_parameter_dissipation(u, *args, 1.0),
+                               iwan.four_parameter_dissipation(u, *args), rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("chi", [-0.9, -0.5, -0.05])
+def test_iwan_microslip_dissipation_is_power_law_of_exponent_chi_plus_3(chi):
+    """Log-slope of Masing's numerically integrated dissipation over two decades of deep microslip."""
+    slip_force, stiffness, beta, theta = 1.0e4, 1.0e8, 0.5, 0.6
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    amplitudes = phi_max * np.array([1e-4, 1e-3, 1e-2])
+    for backbone in [lambda u: iwan.four_parameter_backbone(u, slip_force, stiffness, chi, beta),
+                     lambda u: iwan.five_parameter_backbone(u, slip_force, stiffness, chi, beta, theta)]:
+        dissipation = [masing_dissipation(backbone, a, phi_max) for a in amplitudes]
+        slopes = np.diff(np.log(dissipation)) / np.diff(np.log(amplitudes))
+        np.testing.assert_allclose(slopes, chi + 3.0, rtol=1e-6)
+
+
+def test_single_slider_cycle_is_the_jenkins_element():
+    stiffness, slip_force = 2.0e6, 150.0
+    amplitude = 3.0 * slip_force / stiffness
+    (u, f), (u_loop, f_loop) = drive_cycle(jenkins_sliders(stiffness, slip_force), amplitude, steps=3000)
+    np.testing.assert_allclose(f, jenkins.backbone(u, stiffness, slip_force), rtol=1e-12, atol=1e-9 * slip_force)
+    # Piecewise-linear loop: the trapezoid rule is exact except for the two steps containing a kink.
+    assert loop_area(u_loop, f_loop) == pytest.approx(jenkins.dissipation(amplitude, stiffness, slip_force), rel=1e-3)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+@pytest.mark.parametrize("scaled_amplitude", [0.3, 0.8, 2.0])
+def test_many_slider_iwan_reproduces_backbone_and_loop_area(case, scaled_amplitude):
+    """About 2,500 sliders: backbone within 0.5 % above 2 % of the amplitude, loop area within 0.5 %."""
+    slip_force, stiffness, chi, beta, theta = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    amplitude = scaled_amplitude * phi_max
+    sliders = iwan_sliders(slip_force, stiffness, chi, beta, theta)
+    (u, f), (u_loop, f_loop) = drive_cycle(sliders, amplitude)
+    far_from_origin = u > 0.02 * amplitude
+    exact = iwan.five_parameter_backbone(u, slip_force, stiffness, chi, beta, theta)
+    np.testing.assert_allclose(f[far_from_origin], exact[far_from_origin], rtol=5e-3)
+    exact_loop = iwan.five_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta, theta)
+    assert loop_area(u_loop, f_loop) == pytest.approx(exact_loop, rel=5e-3)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (dict(chi=0.2), "chi"), (dict(chi=-1.0), "chi"), (dict(stiffness=-1.0e6), "K_T"),
+    (dict(slip_force=0.0), "F_S"), (dict(theta=1.2), "theta"), (dict(theta=-0.1), "theta"), (dict(beta=-1.0), "beta"),
+])
+def test_unphysical_parameters_are_refused(bad, message):
+    parameters = dict(slip_force=1.0e3, stiffness=1.0e7, chi=-0.5, beta=0.1, theta=0.5) | bad
+    with pytest.raises(FrictionParameterError, match=message):
+        iwan.five_parameter_backbone(1e-5, **parameters)
+    with pytest.raises(FrictionParameterError, match=message):
+        iwan_sliders(**parameters)
+    with pytest.raises(FrictionParameterError):
+        jenkins.dissipation(1e-4, stiffness=-5.0, slip_force=1.0)
