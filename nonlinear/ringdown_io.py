@@ -1,0 +1,301 @@
+"""Readers for measured ring-down (free-decay) records: CSV, MATLAB .mat and Universal File Format 58.
+
+Every reader returns a list of :class:`RingDown`, one per hit (impact), each holding a uniformly sampled time
+vector and one or more sensor channels converted to SI units. Units are read from the file and checked against
+a fixed table (:data:`SIGNAL_UNITS`, :data:`TIME_UNITS`); anything the table does not know is refused rather
+than guessed. Every problem with a file raises :class:`RingDownFileError` (a ``ValueError``) naming the file,
+the field and the problem.
+
+File layouts
+------------
+CSV
+    One header row ``time [s], <channel> [<unit>], ...`` (``#`` comment lines before it are skipped), an
+    optional integer column ``hit`` that groups rows into hits (each hit with its own time vector), and the
+    samples below, comma separated.
+MATLAB .mat
+    Either one struct (or struct array, one element per hit) or plain top-level variables, with a field
+    ``time``, a string ``units`` of the form ``"<time unit>, <signal unit>"`` (e.g. ``"s, m/s^2"``, the layout
+    of the Chen et al. 2022 ``HIdata`` struct), and one numeric field per channel: a vector of the time's length,
+    or a matrix (samples x hits) for several hits.
+UFF 58
+    Time-response records (function type 1). The abscissa and ordinate unit labels are required; the
+    ordinate specific data type (8 displacement, 11 velocity, 12 acceleration), when given, must agree with
+    the label. Records are grouped into hits by load case, and named by response node and direction.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+STANDARD_GRAVITY = 9.80665
+"""m/s^2, for accelerations recorded in g."""
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3}
+"""Time unit label -> factor to seconds."""
+
+SIGNAL_UNITS = {
+    "m": ("displacement", 1.0), "mm": ("displacement", 1e-3), "um": ("displacement", 1e-6),
+    "m/s": ("velocity", 1.0), "mm/s": ("velocity", 1e-3),
+    "m/s^2": ("acceleration", 1.0), "m/s2": ("acceleration", 1.0), "m/s**2": ("acceleration", 1.0),
+    "mm/s^2": ("acceleration", 1e-3), "g": ("acceleration", STANDARD_GRAVITY),
+}
+"""Signal unit label -> (measured quantity, factor to SI: m, m/s or m/s^2)."""
+
+SI_UNIT = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+
+UFF_SPECIFIC_DATA_TYPE = {8: "displacement", 11: "velocity", 12: "acceleration"}
+"""UFF 58 ordinate specific data type codes of the quantities a ring-down may hold."""
+
+UNIFORM_SAMPLING_TOLERANCE = 1e-6
+"""Largest relative deviation of a time step from the mean step: the Hilbert transform needs uniform sampling."""
+
+
+class RingDownFileError(ValueError):
+    """A ring-down file that cannot be used: names the file, the field and the problem."""
+
+    def __init__(self, source: str | Path, field: str, problem: str):
+        self.source, self.field, self.problem = str(source), field, problem
+        super().__init__(f"{source}: field '{field}': {problem}")
+
+
+@dataclass(frozen=True)
+class RingDown:
+    """One hit of a free-decay measurement.
+
+    source: file the record came from (for messages). hit: hit label within the file.
+    time: (n_samples,) s, uniformly sampled, strictly increasing.
+    signals: (n_channels, n_samples) in SI units of ``quantity`` (m, m/s or m/s^2).
+    channels: n_channels sensor names. quantity: "displacement", "velocity" or "acceleration".
+    """
+
+    source: str
+    hit: str
+    time: np.ndarray
+    signals: np.ndarray
+    channels: tuple[str, ...]
+    quantity: str
+
+    @property
+    def sample_rate(self) -> float:
+        """Sampling frequency, Hz."""
+        return (len(self.time) - 1) / (self.time[-1] - self.time[0])
+
+
+def time_factor(source, field: str, label: str) -> float:
+    """Factor converting a time recorded in unit ``label`` to seconds."""
+    key = label.strip()
+    if key not in TIME_UNITS:
+        raise RingDownFileError(source, field, f"unit '{label}' is not a time unit (known: {sorted(TIME_UNITS)})")
+    return TIME_UNITS[key]
+
+
+def signal_quantity(source, field: str, label: str) -> tuple[str, float]:
+    """(quantity, factor to SI) of a signal recorded in unit ``label``."""
+    key = label.strip().replace(" ", "")
+    if key not in SIGNAL_UNITS:
+        raise RingDownFileError(source, field,
+                                f"unit '{label}' is not a displacement, velocity or acceleration unit "
+                                f"(known: {sorted(SIGNAL_UNITS)})")
+    return SIGNAL_UNITS[key]
+
+
+def checked_time(source, field: str, time) -> np.ndarray:
+    """The time vector as float (n,), s, after checking it is finite, strictly increasing and uniform."""
+    time = np.asarray(time, dtype=float)
+    if time.ndim != 1 or time.size < 3:
+        raise RingDownFileError(source, field, f"expected a vector of at least 3 samples, got shape {time.shape}")
+    if not np.all(np.isfinite(time)):
+        raise RingDownFileError(source, field, f"{np.count_nonzero(~np.isfinite(time))} samples are NaN or infinite")
+    step = np.diff(time)
+    if np.any(step <= 0):
+        first = int(np.flatnonzero(step <= 0)[0])
+        raise RingDownFileError(source, field, f"not strictly increasing: sample {first + 1} at {time[first + 1]!r} "
+                                               f"follows {time[first]!r}")
+    mean_step = (time[-1] - time[0]) / (time.size - 1)
+    deviation = np.max(np.abs(step - mean_step)) / mean_step
+    if deviation > UNIFORM_SAMPLING_TOLERANCE:
+        raise RingDownFileError(source, field, f"not uniformly sampled: time steps deviate from the mean step by "
+                                               f"up to {deviation:.2e} of it")
+    return time
+
+
+def checked_signal(source, field: str, values, n_samples: int) -> np.ndarray:
+    """The channel samples as float (n_samples,) after checking length and finiteness."""
+    values = np.asarray(values, dtype=float)
+    if values.shape != (n_samples,):
+        raise RingDownFileError(source, field, f"expected {n_samples} samples like the time vector, got shape "
+                                               f"{values.shape}")
+    bad = ~np.isfinite(values)
+    if np.any(bad):
+        raise RingDownFileError(source, field, f"{np.count_nonzero(bad)} samples are NaN or infinite "
+                                               f"(first at index {int(np.flatnonzero(bad)[0])})")
+    return values
+
+
+def ring_down(source, hit: str, time, time_unit: str, channels: dict, signal_units: dict) -> RingDown:
+    """Assemble one checked hit in SI units.
+
+    channels: name -> samples; signal_units: name -> unit label. All channels must measure one quantity.
+    """
+    time_s = checked_time(source, "time", time) * time_factor(source, "time", time_unit)
+    quantities = {name: signal_quantity(source, name, signal_units[name]) for name in channels}
+    kinds = {quantity for quantity, _ in quantities.values()}
+    if len(kinds) != 1:
+        raise RingDownFileError(source, ", ".join(channels), f"channels mix quantities {sorted(kinds)}; "
+                                                             "one ring-down must hold one quantity")
+    signals = np.array([checked_signal(source, name, values, time_s.size) * quantities[name][1]
+                        for name, values in channels.items()])
+    return RingDown(str(source), hit, time_s, signals, tuple(channels), kinds.pop())
+
+
+def split_label(source, header: str) -> tuple[str, str]:
+    """A CSV column header ``name [unit]`` split into (name, unit)."""
+    name, bracket, rest = header.partition("[")
+    if not bracket or not rest.rstrip().endswith("]"):
+        raise RingDownFileError(source, header.strip(), "column header must read 'name [unit]'")
+    return name.strip(), rest.rstrip()[:-1].strip()
+
+
+def read_csv(path: Path) -> list[RingDown]:
+    """Ring-down hits from a CSV file (layout in the module docstring)."""
+    path = Path(path)
+    with open(path, newline="") as stream:
+        lines = [line for line in stream if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise RingDownFileError(path, "header", "file holds no header row")
+    headers = [column.strip() for column in next(csv.reader(lines[:1]))]
+    try:
+        table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
+    except ValueError as error:
+        raise RingDownFileError(path, "samples", f"not a table of numbers: {error}") from error
+    if table.shape[1] != len(headers):
+        raise RingDownFileError(path, "header", f"{len(headers)} headers for {table.shape[1]} columns")
+    hit_column = headers.index("hit") if "hit" in headers else None
+    labelled = [(index, *split_label(path, header)) for index, header in enumerate(headers) if index != hit_column]
+    time_columns = [entry for entry in labelled if entry[1] == "time"]
+    if len(time_columns) != 1:
+        raise RingDownFileError(path, "time", "expected exactly one column 'time [unit]'")
+    time_index, _, time_unit = time_columns[0]
+    channel_columns = [entry for entry in labelled if entry[1] != "time"]
+    if not channel_columns:
+        raise RingDownFileError(path, "header", "no signal channel besides time")
+    hit_ids = table[:, hit_column] if hit_column is not None else np.zeros(len(table))
+    records = []
+    for hit in np.unique(hit_ids):
+        rows = table[hit_ids == hit]
+        channels = {name: rows[:, index] for index, name, _ in channel_columns}
+        units = {name: unit for _, name, unit in channel_columns}
+        records.append(ring_down(path, f"{hit:g}", rows[:, time_index], time_unit, channels, units))
+    return records
+
+
+def mat_fields(container) -> dict:
+    """Public fields of a loaded MATLAB struct or of the top-level variables of a .mat file."""
+    if isinstance(container, dict):
+        return {key: value for key, value in container.items() if not key.startswith("__")}
+    return {name: getattr(container, name) for name in container._fieldnames}
+
+
+def mat_hits(path: Path, fields: dict, hit_label: str) -> list[RingDown]:
+    """Hits of one MATLAB struct element (or the top-level variables): ``time``, ``units`` and channels."""
+    if "time" not in fields:
+        raise RingDownFileError(path, "time", "missing (a field named 'time' holds the sample times)")
+    if "units" not in fields or not isinstance(fields["units"], str) or fields["units"].count(",") != 1:
+        raise RingDownFileError(path, "units", "missing or malformed: expected a string '<time unit>, <signal unit>'"
+                                               ", e.g. 's, m/s^2'")
+    time_unit, signal_unit = (part.strip() for part in fields["units"].split(","))
+    time = np.asarray(fields["time"], dtype=float)
+    columns = {name: value.reshape(value.shape[0], -1) for name, value in fields.items()
+               if name not in ("time", "units") and isinstance(value, np.ndarray) and value.ndim in (1, 2)
+               and value.dtype.kind in "fiu"}
+    if not columns:
+        raise RingDownFileError(path, "channels", "no numeric vector or matrix besides 'time'")
+    n_hits = {matrix.shape[1] for matrix in columns.values()}
+    if len(n_hits) != 1:
+        raise RingDownFileError(path, ", ".join(columns), "channels hold different numbers of hits (columns)")
+    n_hits = n_hits.pop()
+    labels = [f"{hit_label} hit {hit + 1}" for hit in range(n_hits)] if n_hits > 1 else [hit_label]
+    return [ring_down(path, label, time, time_unit, {name: matrix[:, hit] for name, matrix in columns.items()},
+                      dict.fromkeys(columns, signal_unit))
+            for hit, label in enumerate(labels)]
+
+
+def read_mat(path: Path) -> list[RingDown]:
+    """Ring-down hits from a MATLAB .mat file (layout in the module docstring)."""
+    path = Path(path)
+    try:
+        contents = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+    except (ValueError, OSError) as error:
+        raise RingDownFileError(path, "file", f"not a readable MATLAB file: {error}") from error
+    variables = mat_fields(contents)
+    structs = {name: value for name, value in variables.items()
+               if isinstance(value, scipy.io.matlab.mat_struct)
+               or (isinstance(value, np.ndarray) and value.dtype == object and value.size
+                   and all(isinstance(item, scipy.io.matlab.mat_struct) for item in value.flat))}
+    if not structs:
+        return mat_hits(path, variables, "variables")
+    if len(structs) > 1:
+        raise RingDownFileError(path, ", ".join(structs), "several structs; expected one holding the ring-down")
+    name, value = next(iter(structs.items()))
+    elements = [value] if isinstance(value, scipy.io.matlab.mat_struct) else list(value.flat)
+    return [record for index, element in enumerate(elements)
+            for record in mat_hits(path, mat_fields(element), f"{name}({index + 1})" if len(elements) > 1 else name)]
+
+
+def read_uff58(path: Path) -> list[RingDown]:
+    """Ring-down hits from Universal File Format 58 time-response records (layout in the module docstring)."""
+    import pyuff
+
+    path = Path(path)
+    try:
+        datasets = pyuff.UFF(str(path)).read_sets()
+    except Exception as error:  # pyuff raises bare Exceptions for malformed files
+        raise RingDownFileError(path, "file", f"not a readable universal file: {error}") from error
+    datasets = [datasets] if isinstance(datasets, dict) else datasets
+    records = [record for record in datasets if record.get("type") == 58 and record.get("func_type") == 1]
+    if not records:
+        raise RingDownFileError(path, "dataset 58", "no time-response record (dataset 58, function type 1)")
+    hits = {}
+    for record in records:
+        channel = f"node {record['rsp_node']} dir {record['rsp_dir']}"
+        unit = record.get("ordinate_axis_units_lab", "NONE").strip()
+        if unit in ("", "NONE"):
+            raise RingDownFileError(path, channel, "ordinate units label missing")
+        quantity, _ = signal_quantity(path, channel, unit)
+        coded = UFF_SPECIFIC_DATA_TYPE.get(record.get("ordinate_spec_data_type"))
+        if coded is not None and coded != quantity:
+            raise RingDownFileError(path, channel, f"units '{unit}' contradict the ordinate specific data type "
+                                                   f"{record['ordinate_spec_data_type']} ({coded})")
+        hits.setdefault(record.get("load_case_id", 0), []).append((channel, unit, record))
+    result = []
+    for hit, entries in hits.items():
+        time = entries[0][2]["x"]
+        time_unit = entries[0][2].get("abscissa_axis_units_lab", "NONE")
+        for channel, _, record in entries[1:]:
+            if record["x"].shape != time.shape or not np.array_equal(record["x"], time):
+                raise RingDownFileError(path, channel, f"time samples differ from the other channels of load case "
+                                                       f"{hit}")
+        result.append(ring_down(path, f"load case {hit}", time, time_unit,
+                                {channel: record["data"] for channel, _, record in entries},
+                                {channel: unit for channel, unit, _ in entries}))
+    return result
+
+
+READERS = {".csv": read_csv, ".mat": read_mat, ".uff": read_uff58, ".unv": read_uff58}
+"""File suffix -> reader."""
+
+
+def read_ringdown(path: Path) -> list[RingDown]:
+    """Ring-down hits from a file, the reader chosen by suffix (.csv, .mat, .uff/.unv)."""
+    path = Path(path)
+    if not path.is_file():
+        raise RingDownFileError(path, "file", "does not exist")
+    reader = READERS.get(path.suffix.lower())
+    if reader is None:
+        raise RingDownFileError(path, "file", f"unknown suffix '{path.suffix}' (known: {sorted(READERS)})")
+    return reader(path)
