@@ -20,7 +20,7 @@ beams: $(STAMP)
 	$(BIN)/surrogacy beams --out build/beams
 
 bench: $(STAMP)
-	$(BIN)/surrogacy bench
+	$(BIN)/python -m benchmarks
 
 # Debian libraries that the gmsh wheel and off-screen PyVista load at import time.
 system-packages:

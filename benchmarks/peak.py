@@ -1,0 +1,31 @@
+"""Wall time and peak resident memory of one benchmark step, each measured in a fresh process."""
+
+from __future__ import annotations
+
+import multiprocessing
+import resource
+import time
+
+
+def _child(function, arguments, queue) -> None:
+    start = time.perf_counter()
+    result = function(*arguments)
+    seconds = time.perf_counter() - start
+    queue.put((seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, result))
+
+
+def measure(function, *arguments):
+    """Run ``function(*arguments)`` in a new (spawned) process.
+
+    Returns (wall seconds of the call, peak resident memory of the process in MiB, the function's result).
+    The function and its result must be picklable (a module-level function, plain values).
+    """
+    context = multiprocessing.get_context("spawn")
+    queue = context.Queue()
+    process = context.Process(target=_child, args=(function, arguments, queue))
+    process.start()
+    outcome = queue.get()
+    process.join()
+    if process.exitcode != 0:
+        raise RuntimeError(f"benchmark step {function.__name__} failed (exit code {process.exitcode})")
+    return outcome
