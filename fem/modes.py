@@ -1,0 +1,73 @@
+"""Linear modes of the two-half beams with the lap interface tied (DESIGN section 3).
+
+Tying identifies every upper interface quadratic node (vertex or edge midpoint) with its lower partner at the
+same position: u = T q, where T keeps every DOF except the tied upper ones, whose rows copy their lower
+partner's column. The tied problem T^T K T q = omega^2 T^T M T q has no penalty and no multipliers; its
+frequencies are the upper bound of the low-amplitude frequencies of the jointed beam.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import MeshTet
+
+from .solver import natural_modes
+
+
+def interface_quadratic_pairs(mesh: MeshTet, lower_vertices: np.ndarray,
+                              upper_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Extend interface vertex pairs to all quadratic interface nodes (vertices and edge midpoints).
+
+    lower_vertices, upper_vertices: (n_pairs,) partner vertex indices (``geometry.beam_mesh.interface_partners``).
+    An edge whose two ends are lower interface vertices lies in the interface plane; its partner is the upper
+    edge joining the two partner vertices. Returns (lower, upper) quadratic node indices (vertices, then
+    n_vertices + edge index), equal length. Raises ValueError when an interface edge has no upper partner.
+    """
+    n_vertices = mesh.p.shape[1]
+    partner = np.full(n_vertices, -1, dtype=np.int64)
+    partner[lower_vertices] = upper_vertices
+    edges = np.sort(mesh.edges, axis=0)
+    on_lower = (partner[edges[0]] >= 0) & (partner[edges[1]] >= 0)
+    lower_edges = np.flatnonzero(on_lower)
+    mapped = np.sort(partner[edges[:, lower_edges]], axis=0)
+    keys = edges[0] * n_vertices + edges[1]
+    order = np.argsort(keys)
+    wanted = mapped[0] * n_vertices + mapped[1]
+    position = np.searchsorted(keys, wanted, sorter=order).clip(max=len(keys) - 1)
+    upper_edges = order[position]
+    if np.any(keys[upper_edges] != wanted):
+        raise ValueError("interface not conforming: a lower interface edge has no upper partner edge")
+    return (np.concatenate([lower_vertices, n_vertices + lower_edges]),
+            np.concatenate([upper_vertices, n_vertices + upper_edges]))
+
+
+def node_dofs(nodes: np.ndarray) -> np.ndarray:
+    """DOFs (n_nodes, 3) of quadratic nodes: 3 p + k for components k = x, y, z."""
+    return 3 * np.asarray(nodes)[:, None] + np.arange(3)
+
+
+def tie_transformation(n_dof: int, lower_nodes: np.ndarray, upper_nodes: np.ndarray) -> sp.csr_matrix:
+    """The map u = T q from the tied DOFs q to all DOFs u, (n_dof, n_dof - 3 n_pairs), entries 0/1.
+
+    Each upper node's displacement equals its lower partner's.
+    """
+    slave, master = node_dofs(upper_nodes).ravel(), node_dofs(lower_nodes).ravel()
+    kept = np.ones(n_dof, dtype=bool)
+    kept[slave] = False
+    column = np.full(n_dof, -1, dtype=np.int64)
+    column[kept] = np.arange(kept.sum())
+    column[slave] = column[master]
+    return sp.csr_matrix((np.ones(n_dof), (np.arange(n_dof), column)), shape=(n_dof, int(kept.sum())))
+
+
+def tied_modes(stiffness: sp.spmatrix, mass: sp.spmatrix, tie: sp.spmatrix, n_modes: int,
+               method: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest free-free modes with the interface tied.
+
+    stiffness, mass: (n_dof, n_dof) of the two halves; tie: (n_dof, n_tied) from ``tie_transformation``.
+    Returns (frequencies (n_modes,) Hz including the six rigid-body modes, shapes (n_dof, n_modes) mass-normalised).
+    """
+    frequencies, shapes = natural_modes((tie.T @ stiffness @ tie).tocsr(), (tie.T @ mass @ tie).tocsr(),
+                                        n_modes, method=method)
+    return frequencies, tie @ shapes
