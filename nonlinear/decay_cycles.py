@@ -11,7 +11,7 @@ Over a window of ``cycles`` whole cycles:
 
 the same quasi-linear oscillator as paper Eq. 2. The amplitude is the geometric mean of the peaks in the window,
 converted to displacement by dividing by omega^k (k = 0, 1, 2 for displacement, velocity, acceleration).
-Windows advance by one cycle.
+Windows advance by one cycle, so ``cycles`` consecutive estimates share data.
 """
 
 from __future__ import annotations
@@ -70,4 +70,4 @@ def decay_cycles(time: np.ndarray, signal: np.ndarray, *, quantity: str = "displ
     amplitude = np.array([np.exp(np.mean(np.log(peak_values[k:k + half]))) for k in starts])
     return InstantaneousBackbone(0.5 * (crossings[starts] + crossings[starts + half]),
                                  amplitude / natural ** DISPLACEMENT_ORDER[quantity],
-                                 natural / (2 * np.pi), rates / natural)
+                                 natural / (2 * np.pi), rates / natural, correlated_samples=cycles)

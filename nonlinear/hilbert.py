@@ -42,13 +42,15 @@ class InstantaneousBackbone:
 
     time: (n,) s. amplitude: (n,) displacement amplitude, unit of the displacement the signal stands for
     (m for a sensor in SI units; modal amplitude for a modal coordinate). natural_frequency_hz: (n,) Hz.
-    damping_ratio: (n,) fraction of critical.
+    damping_ratio: (n,) fraction of critical. correlated_samples: how many consecutive estimates share data
+    (the smoothing window), so that n / correlated_samples of them are independent.
     """
 
     time: np.ndarray
     amplitude: np.ndarray
     natural_frequency_hz: np.ndarray
     damping_ratio: np.ndarray
+    correlated_samples: int = 1
 
 
 @dataclass(frozen=True)
@@ -56,16 +58,31 @@ class Backbone:
     """Natural frequency and damping on an amplitude grid, averaged over records (hits or channels).
 
     amplitude: (n_grid,) grid amplitudes. natural_frequency_hz, damping_ratio: (n_grid,) means over the records
-    that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations over the
-    records (NaN where fewer than two). n_records: (n_grid,) number of records contributing.
+    that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations of the
+    records' bin means (NaN where fewer than two): the hit-to-hit (or sensor-to-sensor) variation.
+    *_standard_error: (n_grid,) standard error of the bin mean from the scatter of all instantaneous estimates
+    in the bin, pooled over the records, with the number of independent estimates (each record's count divided
+    by its correlated_samples): the estimator's own noise. n_records: (n_grid,) records contributing.
     """
 
     amplitude: np.ndarray
     natural_frequency_hz: np.ndarray
     natural_frequency_spread_hz: np.ndarray
+    natural_frequency_standard_error_hz: np.ndarray
     damping_ratio: np.ndarray
     damping_ratio_spread: np.ndarray
+    damping_ratio_standard_error: np.ndarray
     n_records: np.ndarray
+
+    @property
+    def natural_frequency_uncertainty_hz(self) -> np.ndarray:
+        """Standard uncertainty (n_grid,), Hz: spread and standard error in quadrature (no spread counts as 0)."""
+        return np.hypot(np.nan_to_num(self.natural_frequency_spread_hz), self.natural_frequency_standard_error_hz)
+
+    @property
+    def damping_ratio_uncertainty(self) -> np.ndarray:
+        """Standard uncertainty (n_grid,) of the damping ratio: spread and standard error in quadrature."""
+        return np.hypot(np.nan_to_num(self.damping_ratio_spread), self.damping_ratio_standard_error)
 
 
 def samples_per_period(sample_rate: float, frequency_hz: float) -> float:
@@ -199,7 +216,7 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
         damping = -log_rate / natural
     kept = slice(trim, stop - start - trim)
     return InstantaneousBackbone(time[start:stop][kept], envelope[kept], natural[kept] / (2 * np.pi),
-                                 damping[kept])
+                                 damping[kept], correlated_samples=window)
 
 
 def feldman_properties(envelope: np.ndarray, omega: np.ndarray, step: float, window: int):
@@ -231,18 +248,38 @@ def binned_means(amplitude: np.ndarray, values: np.ndarray, grid: np.ndarray) ->
     return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
 
 
+def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent: np.ndarray,
+                          grid: np.ndarray) -> np.ndarray:
+    """Standard error of the mean of ``values`` (n,) within each grid bin of ``amplitude`` (n,); NaN if empty.
+
+    independent: (n,) weight of each estimate as an independent one (1 / correlated_samples of its record); the
+    bin's scatter is divided by the square root of the summed weights (at least one).
+    """
+    mean = binned_means(amplitude, values, grid)
+    index = np.clip(np.digitize(amplitude, amplitude_bins(grid)) - 1, 0, grid.size - 1)
+    scatter = np.sqrt(binned_means(amplitude, (values - mean[index]) ** 2, grid))
+    inside = (amplitude >= amplitude_bins(grid)[0]) & (amplitude < amplitude_bins(grid)[-1])
+    n_independent = np.bincount(index[inside], weights=independent[inside], minlength=grid.size)
+    return scatter / np.sqrt(np.maximum(n_independent, 1.0))
+
+
 def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray) -> Backbone:
     """Backbone on an amplitude grid (n_grid,), averaged over records (paper Fig. 3: seven hammer hits).
 
     Each record is first averaged within the grid's bins (geometric midpoints), then the records are averaged
-    with the sample standard deviation as spread.
+    with the sample standard deviation as spread; the standard error pools all instantaneous estimates of a bin.
     """
     grid = np.asarray(grid, dtype=float)
+    amplitude, frequency_hz, damping_ratio = (np.concatenate([getattr(r, name) for r in records])
+                                              for name in ("amplitude", "natural_frequency_hz", "damping_ratio"))
+    independent = np.concatenate([np.full(r.amplitude.size, 1 / r.correlated_samples) for r in records])
     frequency, frequency_spread, count = record_statistics(
         np.array([binned_means(r.amplitude, r.natural_frequency_hz, grid) for r in records]))
     damping, damping_spread, _ = record_statistics(
         np.array([binned_means(r.amplitude, r.damping_ratio, grid) for r in records]))
-    return Backbone(grid, frequency, frequency_spread, damping, damping_spread, count)
+    return Backbone(grid, frequency, frequency_spread,
+                    binned_standard_error(amplitude, frequency_hz, independent, grid), damping, damping_spread,
+                    binned_standard_error(amplitude, damping_ratio, independent, grid), count)
 
 
 def record_statistics(values: np.ndarray):

@@ -19,7 +19,8 @@ from nonlinear.decay_cycles import decay_cycles
 from nonlinear.hilbert import (Backbone, InstantaneousBackbone, RingDownSignalError, amplitude_grid,
                                average_backbones, freevib)
 from nonlinear.modal_filter import band_pass, dominant_shape, modal_coordinates
-from nonlinear.ringdown_io import SI_UNIT, RingDown, RingDownFileError, read_ringdown
+from nonlinear.ringdown_io import RingDown, RingDownFileError, read_ringdown
+from pipeline.files import atomic_path
 
 
 @dataclass(frozen=True)
@@ -129,20 +130,26 @@ CSV_COLUMNS = (
     ("records", "-", lambda b: b.hilbert.n_records),
     ("natural_frequency_hilbert", "Hz", lambda b: b.hilbert.natural_frequency_hz),
     ("natural_frequency_hilbert_spread", "Hz", lambda b: b.hilbert.natural_frequency_spread_hz),
+    ("natural_frequency_hilbert_uncertainty", "Hz", lambda b: b.hilbert.natural_frequency_uncertainty_hz),
     ("damping_ratio_hilbert", "-", lambda b: b.hilbert.damping_ratio),
     ("damping_ratio_hilbert_spread", "-", lambda b: b.hilbert.damping_ratio_spread),
+    ("damping_ratio_hilbert_uncertainty", "-", lambda b: b.hilbert.damping_ratio_uncertainty),
     ("natural_frequency_cycles", "Hz", lambda b: b.cycles.natural_frequency_hz),
     ("natural_frequency_cycles_spread", "Hz", lambda b: b.cycles.natural_frequency_spread_hz),
+    ("natural_frequency_cycles_uncertainty", "Hz", lambda b: b.cycles.natural_frequency_uncertainty_hz),
     ("damping_ratio_cycles", "-", lambda b: b.cycles.damping_ratio),
     ("damping_ratio_cycles_spread", "-", lambda b: b.cycles.damping_ratio_spread),
+    ("damping_ratio_cycles_uncertainty", "-", lambda b: b.cycles.damping_ratio_uncertainty),
 )
 """Columns of the backbone CSV: name, unit, value."""
 
 
 def write_backbone_csv(backbone: MeasuredBackbone, destination: Path) -> None:
-    """Write the averaged backbones as CSV, header ``name [unit]``, spreads as sample standard deviations."""
-    from pipeline.files import atomic_path
+    """Write the averaged backbones as CSV, header ``name [unit]``.
 
+    spread: standard deviation over records (hits, channels); uncertainty: spread and the estimator's
+    standard error within the amplitude bin in quadrature (:class:`~nonlinear.hilbert.Backbone`).
+    """
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         writer = csv.writer(stream)
         writer.writerow([f"{name} [{unit.format(unit=backbone.amplitude_unit)}]" for name, unit, _ in CSV_COLUMNS])
@@ -162,8 +169,6 @@ def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from pipeline.files import atomic_path
-
     figure, (frequency_axis, damping_axis) = plt.subplots(2, 1, sharex=True, figsize=(6, 6))
     f0 = low_amplitude_reference(backbone.hilbert.natural_frequency_hz)
     z0 = low_amplitude_reference(backbone.hilbert.damping_ratio)
@@ -181,11 +186,11 @@ def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
         else:
             frequency_axis.errorbar(estimate.amplitude, frequency, frequency_spread, fmt=style, ms=3, label=name)
             damping_axis.errorbar(estimate.amplitude, damping, damping_spread, fmt=style, ms=3, label=name)
-    frequency_axis.set_ylabel(f"frequency deviation from {f0:.3f} Hz (%)")
-    damping_axis.set_ylabel(f"damping deviation from {z0:.2e} (-)")
+    frequency_axis.set_ylabel("frequency deviation (%)")
+    damping_axis.set_ylabel("damping deviation (-)")
     damping_axis.set_xlabel(f"amplitude ({backbone.amplitude_unit})")
     damping_axis.set_xscale("log")
-    frequency_axis.set_title(f"{Path(backbone.source).name}: mode near {backbone.mode_frequency_hz:g} Hz")
+    frequency_axis.set_title(f"{Path(backbone.source).name}: low-amplitude {f0:.3f} Hz, damping {z0:.2e}")
     frequency_axis.legend()
     figure.tight_layout()
     with atomic_path(destination) as temporary:

@@ -46,8 +46,6 @@ SIGNAL_UNITS = {
 }
 """Signal unit label -> (measured quantity, factor to SI: m, m/s or m/s^2)."""
 
-SI_UNIT = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
-
 UFF_SPECIFIC_DATA_TYPE = {8: "displacement", 11: "velocity", 12: "acceleration"}
 """UFF 58 ordinate specific data type codes of the quantities a ring-down may hold."""
 

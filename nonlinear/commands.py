@@ -1,0 +1,83 @@
+"""Subcommands of the nonlinear stage for the ``surrogacy`` console script.
+
+``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
+measured ring-down (paper section 3.1, Fig. 3), written as a CSV with units, a PNG plot and a JSON sidecar with
+the resolved settings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+from pathlib import Path
+
+import numpy as np
+
+from nonlinear.hilbert import freevib
+from nonlinear.measured_backbone import measured_backbone, plot_backbone, write_backbone_csv
+from nonlinear.ringdown_io import RingDownFileError
+from pipeline.files import sha256_file, write_json
+
+
+def keyword_defaults(function) -> dict:
+    """Defaults of a function's keyword arguments: the single source of the command-line defaults."""
+    return {name: parameter.default for name, parameter in inspect.signature(function).parameters.items()
+            if parameter.default is not inspect.Parameter.empty}
+
+
+def read_mode_shapes(path: Path) -> np.ndarray:
+    """Mode shapes at the sensors from a CSV of n_channels rows and n_modes columns (``#`` comments allowed)."""
+    try:
+        return np.loadtxt(path, delimiter=",", ndmin=2, comments="#")
+    except (OSError, ValueError) as error:
+        raise RingDownFileError(path, "mode shapes", f"not a readable table of numbers: {error}") from error
+
+
+def run_freevib(arguments: argparse.Namespace) -> None:
+    """Extract, write and plot the backbone of one mode of a ring-down file."""
+    source = Path(arguments.file)
+    backbone = measured_backbone(
+        source, arguments.mode_hz, band_hz=tuple(arguments.band) if arguments.band else None,
+        mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
+        mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
+        grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
+        trim_periods=arguments.trim_periods, feldman=arguments.feldman)
+    out = Path(arguments.out)
+    stem = f"{source.stem}_mode_{arguments.mode_hz:g}Hz"
+    write_backbone_csv(backbone, out / f"{stem}.csv")
+    plot_backbone(backbone, out / f"{stem}.png")
+    settings = {key: value for key, value in vars(arguments).items() if key != "run"}
+    write_json(out / f"{stem}.json", {
+        "source": str(source), "source_sha256": sha256_file(source), "settings": settings,
+        "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
+        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}})
+    print(f"wrote {out / stem}.csv, .png, .json ({len(backbone.records)} records)")
+
+
+def register(subparsers) -> None:
+    """Add the nonlinear stage's subcommands to the ``surrogacy`` argument parser."""
+    defaults = keyword_defaults(freevib) | keyword_defaults(measured_backbone)
+    command = subparsers.add_parser(
+        "freevib", help="amplitude-dependent frequency and damping from a ring-down (Hilbert / FreeVib)",
+        description=__doc__.splitlines()[2].strip())
+    command.add_argument("file", help="ring-down file: .csv, .mat or .uff/.unv (dataset 58)")
+    command.add_argument("--mode-hz", type=float, required=True, help="guess of the mode's natural frequency, Hz")
+    command.add_argument("--band", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                         help="band-pass edges, Hz (default 0.7 and 1.3 times --mode-hz)")
+    command.add_argument("--mode-shapes", help="CSV of mode shapes at the channels (rows) for modal filtering; "
+                                               "default: estimate the mode's shape from the band-passed channels")
+    command.add_argument("--mode-index", type=int, default=1, help="column of --mode-shapes to keep (1-based)")
+    command.add_argument("--per-channel", action="store_true",
+                         help="treat each channel (scaled by its shape entry) as a record instead of combining them")
+    command.add_argument("--channels", nargs="+", help="channels to use (default all)")
+    command.add_argument("--grid-points", type=int, default=defaults["grid_points"],
+                         help="points of the log amplitude grid")
+    command.add_argument("--cycles", type=int, default=defaults["cycles"],
+                         help="cycles per window of the cycle estimator")
+    command.add_argument("--smoothing-periods", type=float, default=defaults["smoothing_periods"],
+                         help="derivative smoothing window, periods")
+    command.add_argument("--trim-periods", type=float, default=defaults["trim_periods"],
+                         help="periods trimmed at each end of a decay")
+    command.add_argument("--feldman", action="store_true", help="use Feldman's FreeVib corrections")
+    command.add_argument("--out", default="results/freevib", help="output folder")
+    command.set_defaults(run=run_freevib)
