@@ -182,13 +182,13 @@ def read_csv(path: Path) -> list[RingDown]:
     channel_columns = [entry for entry in labelled if entry[1] != "time"]
     if not channel_columns:
         raise RingDownFileError(path, "header", "no signal channel besides time")
-    hit_ids = table[:, hit_column] if hit_column is not None else np.zeros(len(table))
+    hit_ids = table[:, hit_column] if hit_column is not None else np.ones(len(table))
     records = []
     for hit in np.unique(hit_ids):
         rows = table[hit_ids == hit]
         channels = {name: rows[:, index] for index, name, _ in channel_columns}
         units = {name: unit for _, name, unit in channel_columns}
-        records.append(ring_down(path, f"{hit:g}", rows[:, time_index], time_unit, channels, units))
+        records.append(ring_down(path, f"hit {hit:g}", rows[:, time_index], time_unit, channels, units))
     return records
 
 

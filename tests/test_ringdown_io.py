@@ -1,0 +1,171 @@
+"""Ring-down readers and the ``surrogacy freevib`` command: units, layouts, and clear errors on bad input.
+
+Physics checked: the same decay written as CSV (mm), MATLAB (g) and UFF 58 (m/s^2) reads back in SI units and
+gives one backbone; several hits average; every bad input (NaN samples, time running backwards, a unit that
+is not a motion, a record shorter than the mode needs, a signal that does not decay) is refused with a
+ValueError naming the file, the field and the problem, and the command prints it on one line with status 2.
+"""
+
+import csv
+
+import numpy as np
+import pyuff
+import pytest
+import scipy.io
+
+from nonlinear.measured_backbone import measured_backbone
+from nonlinear.ringdown_io import STANDARD_GRAVITY, RingDownFileError, read_ringdown
+from pipeline.cli import main
+
+SAMPLE_RATE = 2000.0  # Hz
+FREQUENCY_HZ, DAMPING_RATIO = 50.0, 2e-3
+
+
+def acceleration_decay(time, level=1.0):
+    """Acceleration (m/s^2) of a linear decay of the 50 Hz mode, unit displacement amplitude times level."""
+    omega = 2 * np.pi * FREQUENCY_HZ
+    return -level * omega**2 * np.exp(-DAMPING_RATIO * omega * time) * np.cos(omega * time)
+
+
+def write_csv(path, columns, rows):
+    with open(path, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(columns)
+        writer.writerows(rows)
+    return path
+
+
+@pytest.fixture
+def time():
+    return np.arange(0, 2.0, 1 / SAMPLE_RATE)
+
+
+def test_csv_with_hits_and_units_reads_in_si(tmp_path, time):
+    rows = [(hit, t, 1e3 * a, 1e3 * 0.5 * a) for hit, level in ((1, 1.0), (2, 0.6))
+            for t, a in zip(time, acceleration_decay(time, level))]
+    path = write_csv(tmp_path / "hits.csv", ["hit", "time [s]", "tip [mm/s^2]", "mid [mm/s^2]"], rows)
+    hits = read_ringdown(path)
+    assert [hit.hit for hit in hits] == ["hit 1", "hit 2"]
+    assert hits[0].channels == ("tip", "mid") and hits[0].quantity == "acceleration"
+    np.testing.assert_allclose(hits[1].signals[0], acceleration_decay(time, 0.6), rtol=1e-12)
+    assert hits[0].sample_rate == pytest.approx(SAMPLE_RATE)
+
+
+def test_mat_struct_in_g_with_hit_columns(tmp_path, time):
+    hits = np.column_stack([acceleration_decay(time), acceleration_decay(time, 0.5)]) / STANDARD_GRAVITY
+    path = tmp_path / "hammer.mat"
+    scipy.io.savemat(path, {"HIdata": {"time": time, "acc1": hits, "units": "s, g"}})
+    records = read_ringdown(path)
+    assert len(records) == 2 and records[0].channels == ("acc1",)
+    np.testing.assert_allclose(records[1].signals[0], acceleration_decay(time, 0.5), rtol=1e-12)
+
+
+def test_uff58_load_cases_are_hits(tmp_path, time):
+    datasets = [pyuff.prepare_58(func_type=1, load_case_id=hit, rsp_node=node, rsp_dir=3, ref_node=1, ref_dir=3,
+                                 x=time, data=acceleration_decay(time, level) * node, id1=f"hit {hit}",
+                                 abscissa_spacing=1, abscissa_spec_data_type=17, abscissa_axis_units_lab="s",
+                                 ordinate_spec_data_type=12, ordinate_axis_units_lab="m/s^2",
+                                 orddenom_spec_data_type=0, z_axis_spec_data_type=0, binary=0)
+                for hit, level in ((1, 1.0), (2, 0.8)) for node in (1, 2)]
+    path = tmp_path / "ringdown.uff"
+    pyuff.UFF(str(path)).write_sets(datasets, mode="overwrite")
+    records = read_ringdown(path)
+    assert len(records) == 2 and records[0].channels == ("node 1 dir 3", "node 2 dir 3")
+    np.testing.assert_allclose(records[1].signals[1], 2 * acceleration_decay(time, 0.8), rtol=1e-6)
+
+
+def test_backbone_of_several_hits_is_the_linear_mode(tmp_path, time):
+    rows = [(hit, t, a) for hit, level in ((1, 1.0), (2, 0.8), (3, 0.65))
+            for t, a in zip(time, acceleration_decay(time, level))]
+    path = write_csv(tmp_path / "hits.csv", ["hit", "time [s]", "tip [m/s^2]"], rows)
+    backbone = measured_backbone(path, FREQUENCY_HZ, grid_points=12)
+    seen = backbone.hilbert.n_records == 3
+    assert np.count_nonzero(seen) >= 3
+    assert np.max(np.abs(backbone.hilbert.natural_frequency_hz[seen] / FREQUENCY_HZ - 1)) < 1e-3
+    assert np.max(np.abs(backbone.hilbert.damping_ratio[seen] / DAMPING_RATIO - 1)) < 0.02
+    # displacement amplitude: acceleration / omega^2, so the top of the grid is below the unit release amplitude
+    assert backbone.hilbert.amplitude[-1] < 1.0 and backbone.amplitude_unit == "m"
+
+
+def assert_names(error, path, field, problem):
+    message = str(error.value)
+    assert isinstance(error.value, ValueError)
+    assert path.name in message and f"'{field}'" in message and problem in message
+
+
+def test_nan_samples_are_refused(tmp_path, time):
+    signal = acceleration_decay(time)
+    signal[100] = np.nan
+    path = write_csv(tmp_path / "nan.csv", ["time [s]", "tip [m/s^2]"], zip(time, signal))
+    with pytest.raises(RingDownFileError) as error:
+        read_ringdown(path)
+    assert_names(error, path, "tip", "NaN")
+
+
+def test_time_running_backwards_is_refused(tmp_path, time):
+    backwards = time.copy()
+    backwards[[50, 51]] = backwards[[51, 50]]
+    path = tmp_path / "backwards.mat"
+    scipy.io.savemat(path, {"time": backwards, "acc": acceleration_decay(time), "units": "s, m/s^2"})
+    with pytest.raises(RingDownFileError) as error:
+        read_ringdown(path)
+    assert_names(error, path, "time", "not strictly increasing")
+
+
+@pytest.mark.parametrize("unit", ["N", "V", "m/s^3"])
+def test_unit_that_is_not_a_motion_is_refused(tmp_path, time, unit):
+    path = write_csv(tmp_path / "force.csv", ["time [s]", f"tip [{unit}]"], zip(time, acceleration_decay(time)))
+    with pytest.raises(RingDownFileError) as error:
+        read_ringdown(path)
+    assert_names(error, path, "tip", f"unit '{unit}'")
+
+
+def test_uff_units_contradicting_the_data_type_are_refused(tmp_path, time):
+    dataset = pyuff.prepare_58(func_type=1, load_case_id=1, rsp_node=4, rsp_dir=3, ref_node=1, ref_dir=3, x=time,
+                               data=acceleration_decay(time), abscissa_spacing=1, abscissa_spec_data_type=17,
+                               abscissa_axis_units_lab="s", ordinate_spec_data_type=12,
+                               ordinate_axis_units_lab="mm", orddenom_spec_data_type=0, z_axis_spec_data_type=0,
+                               binary=0)
+    path = tmp_path / "mislabelled.uff"
+    pyuff.UFF(str(path)).write_sets([dataset], mode="overwrite")
+    with pytest.raises(RingDownFileError) as error:
+        read_ringdown(path)
+    assert_names(error, path, "node 4 dir 3", "contradict")
+
+
+def test_record_too_short_for_the_mode_is_refused(tmp_path):
+    short = np.arange(0, 0.3, 1 / SAMPLE_RATE)  # 15 periods of the 50 Hz mode
+    path = write_csv(tmp_path / "short.csv", ["time [s]", "tip [m/s^2]"], zip(short, acceleration_decay(short)))
+    with pytest.raises(RingDownFileError) as error:
+        measured_backbone(path, FREQUENCY_HZ)
+    assert_names(error, path, "hit 1: modal", "too short")
+
+
+def test_signal_without_decay_is_refused(tmp_path, time):
+    steady = np.cos(2 * np.pi * FREQUENCY_HZ * time)
+    path = write_csv(tmp_path / "steady.csv", ["time [s]", "tip [m]"], zip(time, steady))
+    with pytest.raises(RingDownFileError) as error:
+        measured_backbone(path, FREQUENCY_HZ)
+    assert_names(error, path, "hit 1: modal", "no decay")
+
+
+def test_command_writes_csv_plot_and_sidecar(tmp_path, time):
+    path = write_csv(tmp_path / "hit.csv", ["time [s]", "tip [m/s^2]", "root [m/s^2]"],
+                     zip(time, acceleration_decay(time), 0.3 * acceleration_decay(time)))
+    out = tmp_path / "out"
+    assert main(["freevib", str(path), "--mode-hz", "50", "--per-channel", "--out", str(out)]) == 0
+    table = np.genfromtxt(out / "hit_mode_50Hz.csv", delimiter=",", names=True)
+    header = (out / "hit_mode_50Hz.csv").read_text().splitlines()[0]
+    assert "amplitude [m]" in header and "natural_frequency_hilbert [Hz]" in header
+    seen = table["records_"] == 2
+    assert np.max(np.abs(table["natural_frequency_hilbert_Hz"][seen] / FREQUENCY_HZ - 1)) < 1e-3
+    assert (out / "hit_mode_50Hz.png").read_bytes()[:4] == b"\x89PNG"
+    assert "source_sha256" in (out / "hit_mode_50Hz.json").read_text()
+
+
+def test_command_reports_bad_input_on_one_line(tmp_path, time, capsys):
+    path = write_csv(tmp_path / "force.csv", ["time [s]", "tip [N]"], zip(time, acceleration_decay(time)))
+    assert main(["freevib", str(path), "--mode-hz", "50", "--out", str(tmp_path / "out")]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and "force.csv" in message and "'tip'" in message
+    assert not (tmp_path / "out").exists()
