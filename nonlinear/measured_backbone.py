@@ -18,7 +18,7 @@ import numpy as np
 from nonlinear.decay_cycles import decay_cycles
 from nonlinear.hilbert import (Backbone, InstantaneousBackbone, RingDownSignalError, amplitude_grid,
                                average_backbones, freevib)
-from nonlinear.modal_filter import band_pass, dominant_shape, modal_coordinates
+from nonlinear.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
 from nonlinear.ringdown_io import RingDown, RingDownFileError, read_ringdown
 from pipeline.files import atomic_path
 
@@ -99,30 +99,30 @@ def measured_backbone(path: Path, mode_frequency_hz: float, *, band_hz: tuple[fl
     :func:`~nonlinear.hilbert.freevib` (smoothing_periods, trim_periods, feldman, ...).
     """
     band_hz = band_hz or (0.7 * mode_frequency_hz, 1.3 * mode_frequency_hz)
-    hits = read_ringdown(path)
+    hits = [selected_channels(hit, channels) for hit in read_ringdown(path)] if channels else read_ringdown(path)
     records, shapes = [], []
     for hit in hits:
-        if channels:
-            missing = sorted(set(channels) - set(hit.channels))
-            if missing:
-                raise RingDownFileError(path, ", ".join(missing), f"no such channel (file has {hit.channels})")
-            rows = [hit.channels.index(name) for name in channels]
-            hit = RingDown(hit.source, hit.hit, hit.time, hit.signals[rows], tuple(channels), hit.quantity)
         try:
             signals, shape = mode_signals(hit, mode_frequency_hz, band_hz, mode_shapes, mode_index, per_channel)
-        except ValueError as error:
-            if isinstance(error, RingDownFileError):
-                raise
+        except ModalFilterError as error:
             raise RingDownFileError(path, "band / mode shapes", str(error)) from error
         shapes.append(shape)
         records += [estimate_record(str(path), label, hit.time, signal, mode_frequency_hz, hit.quantity, cycles,
                                     freevib_options) for label, signal in signals]
     grid = amplitude_grid([record.hilbert for record in records], grid_points)
-    unit = "m" if mode_shapes is None else "m / shape unit"
-    return MeasuredBackbone(str(path), mode_frequency_hz, unit, dict(zip(hits[0].channels if not channels
-                                                                         else channels, np.mean(shapes, axis=0))),
-                            records, average_backbones([r.hilbert for r in records], grid),
-                            average_backbones([r.cycles for r in records], grid))
+    return MeasuredBackbone(str(path), mode_frequency_hz, "m" if mode_shapes is None else "m / shape unit",
+                            dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
+                            average_backbones([record.hilbert for record in records], grid),
+                            average_backbones([record.cycles for record in records], grid))
+
+
+def selected_channels(hit: RingDown, channels: list[str]) -> RingDown:
+    """The hit restricted to the named channels, in that order."""
+    missing = sorted(set(channels) - set(hit.channels))
+    if missing:
+        raise RingDownFileError(hit.source, ", ".join(missing), f"no such channel (the file has {hit.channels})")
+    rows = [hit.channels.index(name) for name in channels]
+    return RingDown(hit.source, hit.hit, hit.time, hit.signals[rows], tuple(channels), hit.quantity)
 
 
 CSV_COLUMNS = (

@@ -13,6 +13,10 @@ import numpy as np
 import scipy.signal
 
 
+class ModalFilterError(ValueError):
+    """Mode shapes or a band that cannot isolate the mode."""
+
+
 def modal_coordinates(signals: np.ndarray, mode_shapes: np.ndarray) -> np.ndarray:
     """Modal coordinates q = Phi^+ y of sensor signals.
 
@@ -23,9 +27,9 @@ def modal_coordinates(signals: np.ndarray, mode_shapes: np.ndarray) -> np.ndarra
     if mode_shapes.ndim == 1:
         mode_shapes = mode_shapes[:, None]
     if mode_shapes.shape[0] != signals.shape[0]:
-        raise ValueError(f"mode shapes have {mode_shapes.shape[0]} sensor rows for {signals.shape[0]} signals")
+        raise ModalFilterError(f"mode shapes have {mode_shapes.shape[0]} sensor rows for {signals.shape[0]} signals")
     if np.linalg.matrix_rank(mode_shapes) < mode_shapes.shape[1]:
-        raise ValueError("mode shapes at the sensors are linearly dependent: the modes cannot be separated")
+        raise ModalFilterError("mode shapes at the sensors are linearly dependent: the modes cannot be separated")
     return np.linalg.pinv(mode_shapes) @ signals
 
 
@@ -38,7 +42,7 @@ def band_pass(signal: np.ndarray, sample_rate: float, low_hz: float, high_hz: fl
     lower band edge, which suppresses the start-up transients. Returns the same shape and unit.
     """
     if not 0 < low_hz < high_hz < sample_rate / 2:
-        raise ValueError(f"band {low_hz:g}-{high_hz:g} Hz does not fit below the Nyquist frequency "
+        raise ModalFilterError(f"band {low_hz:g}-{high_hz:g} Hz does not fit below the Nyquist frequency "
                          f"{sample_rate / 2:g} Hz")
     sections = scipy.signal.butter(order, [low_hz, high_hz], btype="bandpass", fs=sample_rate, output="sos")
     pad = min(int(3 * sample_rate / low_hz), np.shape(signal)[-1] - 1)

@@ -169,3 +169,26 @@ def test_command_reports_bad_input_on_one_line(tmp_path, time, capsys):
     message = capsys.readouterr().err.strip()
     assert "\n" not in message and "force.csv" in message and "'tip'" in message
     assert not (tmp_path / "out").exists()
+
+
+def test_command_separates_close_modes_with_given_shapes(tmp_path, time):
+    """Two sensors, modes at 50 and 52 Hz: --mode-shapes with --mode-index 2 extracts the 52 Hz mode."""
+    omega = 2 * np.pi * np.array([50.0, 52.0])
+    modal = np.exp(-3e-3 * omega[:, None] * time) * np.cos(omega[:, None] * time + np.array([[0.0], [1.3]]))
+    shapes = np.array([[1.0, 0.7], [0.5, -1.0]])
+    path = write_csv(tmp_path / "two_modes.csv", ["time [s]", "a [m]", "b [m]"], zip(time, *(shapes @ modal)))
+    np.savetxt(tmp_path / "shapes.csv", shapes, delimiter=",")
+    out = tmp_path / "out"
+    assert main(["freevib", str(path), "--mode-hz", "52", "--mode-shapes", str(tmp_path / "shapes.csv"),
+                 "--mode-index", "2", "--out", str(out)]) == 0
+    table = np.genfromtxt(out / "two_modes_mode_52Hz.csv", delimiter=",", names=True)
+    seen = np.isfinite(table["natural_frequency_hilbert_Hz"])
+    assert np.max(np.abs(table["natural_frequency_hilbert_Hz"][seen] / 52.0 - 1)) < 1e-3
+    assert np.max(np.abs(table["damping_ratio_hilbert_"][seen] / 3e-3 - 1)) < 0.02
+
+
+def test_unknown_channel_is_refused(tmp_path, time):
+    path = write_csv(tmp_path / "hit.csv", ["time [s]", "tip [m/s^2]"], zip(time, acceleration_decay(time)))
+    with pytest.raises(RingDownFileError) as error:
+        measured_backbone(path, FREQUENCY_HZ, channels=["root"])
+    assert_names(error, path, "root", "no such channel")
