@@ -187,6 +187,8 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
     too short or too coarsely sampled for the mode, or does not decay.
     """
     time, signal = np.asarray(time, dtype=float), np.asarray(signal, dtype=float)
+    if time.ndim != 1 or signal.shape != time.shape:
+        raise RingDownSignalError(f"time {time.shape} and signal {signal.shape} must be vectors of one length")
     if quantity not in DISPLACEMENT_ORDER:
         raise RingDownSignalError(f"quantity '{quantity}' is not one of {sorted(DISPLACEMENT_ORDER)}")
     step = (time[-1] - time[0]) / (time.size - 1)
@@ -198,7 +200,8 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
     if time.size < needed * period:
         raise RingDownSignalError(f"{time.size / period:.1f} periods of the {mode_frequency_hz:g} Hz mode; at least "
                                   f"{needed:g} are needed (record too short for this mode)")
-    window, trim, block = odd_window(smoothing_periods * period), int(trim_periods * period), int(block_periods * period)
+    window = odd_window(smoothing_periods * period)
+    trim, block = int(trim_periods * period), int(block_periods * period)
     start, stop = decay_interval(np.abs(scipy.signal.hilbert(signal)), int(needed * period), block,
                                  noise_floor_factor)
     if stop - start < 2 * block + 2 * trim:

@@ -61,9 +61,8 @@ def mode_signals(record: RingDown, mode_frequency_hz: float, band_hz: tuple[floa
     """
     low, high = band_hz
     if mode_shapes is not None:
-        if mode_shapes.shape[0] != len(record.channels):
-            raise RingDownFileError(record.source, "mode shapes", f"{mode_shapes.shape[0]} rows for "
-                                                                  f"{len(record.channels)} channels")
+        if not 0 <= mode_index < mode_shapes.shape[1]:
+            raise ModalFilterError(f"mode {mode_index + 1} requested of {mode_shapes.shape[1]} mode shapes")
         modal = modal_coordinates(record.signals, mode_shapes)[mode_index]
         shape = mode_shapes[:, mode_index]
         return [(f"{record.hit}: mode {mode_index + 1}", band_pass(modal, record.sample_rate, low, high))], shape
