@@ -60,6 +60,18 @@ def quadratic_node_coordinates(mesh: MeshTet) -> np.ndarray:
     return np.hstack([mesh.p, midpoints]).T
 
 
+def edge_indices(mesh: MeshTet, first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Indices into ``mesh.edges`` of the edges joining vertices first[i] and second[i] (either order); -1 where
+    the mesh has no such edge. Shapes: first, second (n,) -> (n,)."""
+    n_vertices = mesh.p.shape[1]
+    edges = np.sort(mesh.edges, axis=0)
+    keys = edges[0] * n_vertices + edges[1]
+    order = np.argsort(keys)
+    wanted = np.minimum(first, second) * n_vertices + np.maximum(first, second)
+    found = order[np.searchsorted(keys, wanted, sorter=order).clip(max=len(keys) - 1)]
+    return np.where(keys[found] == wanted, found, -1)
+
+
 def assemble(mesh: MeshTet, form: BilinearForm, intorder: int,
              fields: Callable[[CellBasis], dict] | None = None,
              chunk_elements: int = CHUNK_ELEMENTS) -> sp.csr_matrix:

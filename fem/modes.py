@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import MeshTet
 
+from .elasticity import edge_indices
 from .solver import natural_modes
 
 
@@ -27,16 +28,9 @@ def interface_quadratic_pairs(mesh: MeshTet, lower_vertices: np.ndarray,
     n_vertices = mesh.p.shape[1]
     partner = np.full(n_vertices, -1, dtype=np.int64)
     partner[lower_vertices] = upper_vertices
-    edges = np.sort(mesh.edges, axis=0)
-    on_lower = (partner[edges[0]] >= 0) & (partner[edges[1]] >= 0)
-    lower_edges = np.flatnonzero(on_lower)
-    mapped = np.sort(partner[edges[:, lower_edges]], axis=0)
-    keys = edges[0] * n_vertices + edges[1]
-    order = np.argsort(keys)
-    wanted = mapped[0] * n_vertices + mapped[1]
-    position = np.searchsorted(keys, wanted, sorter=order).clip(max=len(keys) - 1)
-    upper_edges = order[position]
-    if np.any(keys[upper_edges] != wanted):
+    lower_edges = np.flatnonzero((partner[mesh.edges[0]] >= 0) & (partner[mesh.edges[1]] >= 0))
+    upper_edges = edge_indices(mesh, partner[mesh.edges[0, lower_edges]], partner[mesh.edges[1, lower_edges]])
+    if np.any(upper_edges < 0):
         raise ValueError("interface not conforming: a lower interface edge has no upper partner edge")
     return (np.concatenate([lower_vertices, n_vertices + lower_edges]),
             np.concatenate([upper_vertices, n_vertices + upper_edges]))
