@@ -30,7 +30,9 @@ $(STAMP): pyproject.toml
 	@$(MAKE) --no-print-directory system-packages
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -e '.[test,cholmod]' || { \
+	  echo "note: scikit-sparse (CHOLMOD) did not build; the FE solves fall back to SciPy's SuperLU"; \
+	  $(BIN)/python -m pip install -q -e '.[test]'; }
 	touch $(STAMP)
 
 clean:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install the Debian libraries that gmsh's wheel (OpenGL, X cursor/fonts) and off-screen PyVista (EGL) load,
-# when any of them is missing. Uses sudo where not root. Prints what it does.
+# and the SuiteSparse headers that scikit-sparse (CHOLMOD) builds against, when any is missing.
+# Uses sudo where not root. Prints what it does.
 set -euo pipefail
 libraries=(libGLU.so.1 libGL.so.1 libXcursor.so.1 libXinerama.so.1 libXft.so.2 libEGL.so.1)
 packages=(libglu1-mesa libgl1 libxcursor1 libxinerama1 libxft2 libegl1)
@@ -8,6 +9,7 @@ missing=()
 for i in "${!libraries[@]}"; do
   ldconfig -p | grep -q "${libraries[$i]}" || missing+=("${packages[$i]}")
 done
+[ -f /usr/include/suitesparse/cholmod.h ] || missing+=(libsuitesparse-dev)
 [ ${#missing[@]} -eq 0 ] && exit 0
 echo "installing Debian packages: ${missing[*]}"
 sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
