@@ -59,7 +59,7 @@ def register(subparsers) -> None:
     defaults = keyword_defaults(freevib) | keyword_defaults(measured_backbone)
     command = subparsers.add_parser(
         "freevib", help="amplitude-dependent frequency and damping from a ring-down (Hilbert / FreeVib)",
-        description=__doc__.splitlines()[2].strip())
+        description=run_freevib.__doc__ + " Writes <stem>_mode_<F>Hz.csv (with units), .png and .json to --out.")
     command.add_argument("file", help="ring-down file: .csv, .mat or .uff/.unv (dataset 58)")
     command.add_argument("--mode-hz", type=float, required=True, help="guess of the mode's natural frequency, Hz")
     command.add_argument("--band", type=float, nargs=2, metavar=("LOW", "HIGH"),
