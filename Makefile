@@ -6,9 +6,12 @@ STAMP := $(VENV)/.installed
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test test-slow beams bench clean system-packages
+RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
+MODE_HZ ?= 80.5
 
-demo: beams
+.PHONY: demo test test-slow beams freevib bench clean system-packages
+
+demo: beams freevib
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -18,6 +21,12 @@ test-slow: $(STAMP)
 
 beams: $(STAMP)
 	$(BIN)/surrogacy beams --out build/beams
+
+# Amplitude-dependent frequency and damping of one mode from a measured ring-down (Hilbert / FreeVib).
+freevib: $(STAMP)
+	@if [ -f "$(RINGDOWN)" ]; then \
+	  $(BIN)/surrogacy freevib $(RINGDOWN) --mode-hz $(MODE_HZ) --per-channel --out results/freevib; \
+	else echo "freevib: $(RINGDOWN) not found, skipped (set RINGDOWN=file)"; fi
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -189,7 +189,8 @@ def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
     damping_axis.set_ylabel("damping deviation (-)")
     damping_axis.set_xlabel(f"amplitude ({backbone.amplitude_unit})")
     damping_axis.set_xscale("log")
-    frequency_axis.set_title(f"{Path(backbone.source).name}: low-amplitude {f0:.3f} Hz, damping {z0:.2e}")
+    frequency_axis.set_title(f"{Path(backbone.source).name}\nlow-amplitude {f0:.3f} Hz, damping ratio {z0:.2e}",
+                             fontsize=10)
     frequency_axis.legend()
     figure.tight_layout()
     with atomic_path(destination) as temporary:
