@@ -73,6 +73,28 @@ def four_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta):
     return np.where(x < 1.0, microslip, macroslip)
 
 
+def four_parameter_slip_deficit(displacement, slip_force, stiffness, chi, beta):
+    """Force lost to slip, K_T u - f(u) (N), odd in u; microslip: R u^(chi+2) / ((chi+1)(chi+2)).
+
+    The closed form avoids the cancellation of K_T u against f(u) at small amplitude, where QSMA needs it.
+    """
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    u = np.asarray(displacement, dtype=float)
+    x = np.abs(u) / phi_max
+    xm = np.minimum(x, 1.0)
+    microslip = r * xm ** (chi + 2.0) / ((chi + 1.0) * (chi + 2.0))
+    macroslip = (s + r / (chi + 1.0)) * x - (s + r / (chi + 2.0))
+    return np.sign(u) * np.where(x < 1.0, microslip, macroslip)
+
+
+def four_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi, beta):
+    """Derivative of the four-parameter slip deficit (N/m): R u^(chi+1) / (chi+1) in microslip, K_T beyond."""
+    phi_max, r, _ = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
+    microslip = r * np.minimum(x, 1.0) ** (chi + 1.0) / ((chi + 1.0) * phi_max)
+    return np.where(x < 1.0, microslip, stiffness)
+
+
 def five_parameter_backbone(displacement, slip_force, stiffness, chi, beta, theta):
     """Backbone f(u) of the five-parameter (stiction) Iwan element (N), paper Eq. (21), odd in u.
 
@@ -96,6 +118,27 @@ def five_parameter_tangent(displacement, slip_force, stiffness, chi, beta, theta
     xm = np.minimum(x, 1.0)
     microslip = (s + r / (chi + 1.0) + r * xm ** (chi + 1.0) * (theta - (chi + 2.0) / (chi + 1.0))) / phi_max
     return np.where(x < 1.0, microslip, 0.0)
+
+
+def five_parameter_slip_deficit(displacement, slip_force, stiffness, chi, beta, theta):
+    """Force lost to slip, K_T u - f(u) (N), odd in u; microslip: R u^(chi+2) (1/(chi+1) - theta/(chi+2))."""
+    check_iwan(slip_force, stiffness, chi, beta, theta)
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    u = np.asarray(displacement, dtype=float)
+    x = np.abs(u) / phi_max
+    xm = np.minimum(x, 1.0)
+    microslip = r * xm ** (chi + 2.0) * (1.0 / (chi + 1.0) - theta / (chi + 2.0))
+    macroslip = (s + r / (chi + 1.0)) * x - theta * (s + r / (chi + 2.0))
+    return np.sign(u) * np.where(x < 1.0, microslip, macroslip)
+
+
+def five_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi, beta, theta):
+    """Derivative of the five-parameter slip deficit (N/m): R u^(chi+1) ((chi+2)/(chi+1) - theta) in microslip."""
+    check_iwan(slip_force, stiffness, chi, beta, theta)
+    phi_max, r, _ = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
+    microslip = r * np.minimum(x, 1.0) ** (chi + 1.0) * ((chi + 2.0) / (chi + 1.0) - theta) / phi_max
+    return np.where(x < 1.0, microslip, stiffness)
 
 
 def five_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta, theta):

@@ -29,6 +29,21 @@ def tangent(displacement, stiffness, slip_force):
     return np.where(stiffness * np.abs(u) < slip_force, stiffness, 0.0)
 
 
+def slip_deficit(displacement, stiffness, slip_force):
+    """Force lost to slip, K_T u - f(u) (N): zero while stuck, K_T u - F_S once slipping.
+
+    Written without the subtraction of two large numbers where possible, since QSMA needs it at every level.
+    """
+    check_jenkins(stiffness, slip_force)
+    u = np.asarray(displacement, dtype=float)
+    return np.sign(u) * np.maximum(stiffness * np.abs(u) - slip_force, 0.0)
+
+
+def slip_deficit_tangent(displacement, stiffness, slip_force):
+    """Derivative of the slip deficit (N/m): 0 while stuck, K_T once slipping."""
+    return stiffness - tangent(displacement, stiffness, slip_force)
+
+
 def dissipation(amplitude, stiffness, slip_force):
     """Energy dissipated per steady cycle of amplitude u0 (J), paper Eq. (15): 4 F_S (u0 - F_S/K_T) once slipping."""
     check_jenkins(stiffness, slip_force)

@@ -158,3 +158,26 @@ def test_unphysical_parameters_are_refused(bad, message):
         iwan_sliders(**parameters)
     with pytest.raises(FrictionParameterError):
         jenkins.dissipation(1e-4, stiffness=-5.0, slip_force=1.0)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+def test_slip_deficit_is_stuck_force_minus_backbone(case):
+    """K_T u - f(u) from its cancellation-free closed form, and its derivative K_T - f'(u)."""
+    slip_force, stiffness, chi, beta, theta = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    u = phi_max * np.array([-3.0, -0.4, 0.3, 0.9, 1.7])
+    args = (slip_force, stiffness, chi, beta)
+    scale = slip_force * 1e-12
+    np.testing.assert_allclose(iwan.four_parameter_slip_deficit(u, *args),
+                               stiffness * u - iwan.four_parameter_backbone(u, *args), rtol=1e-10, atol=scale)
+    np.testing.assert_allclose(iwan.five_parameter_slip_deficit(u, *args, theta),
+                               stiffness * u - iwan.five_parameter_backbone(u, *args, theta), rtol=1e-10, atol=scale)
+    np.testing.assert_allclose(iwan.four_parameter_slip_deficit_tangent(u, *args),
+                               stiffness - iwan.four_parameter_tangent(u, *args), rtol=1e-10, atol=1e-12 * stiffness)
+    np.testing.assert_allclose(iwan.five_parameter_slip_deficit_tangent(u, *args, theta),
+                               stiffness - iwan.five_parameter_tangent(u, *args, theta), rtol=1e-10,
+                               atol=1e-12 * stiffness)
+    u_jenkins = np.array([-3.0, 0.5, 2.0]) * slip_force / stiffness
+    np.testing.assert_allclose(jenkins.slip_deficit(u_jenkins, stiffness, slip_force),
+                               stiffness * u_jenkins - jenkins.backbone(u_jenkins, stiffness, slip_force),
+                               rtol=1e-12, atol=scale)

@@ -1,0 +1,134 @@
+"""The superelement seen from the joint: unjoined modes, stuck modes and the exact joint-space compliance.
+
+Joint stiffnesses span 1e2 to 1e14 N/m next to modal stiffnesses near 1e5 (DESIGN.md section 5.1), so the
+joined structure is never formed in the superelement's own coordinates. Instead:
+
+1. Once per structure, the modes of the two unjoined halves, K psi = lambda M psi, mass-normalised. Modes
+   below ``rigid_frequency`` are rigid-body modes; combinations of them that do not move the joint (rigid
+   motion of the whole assembly, or a relative rotation about the line through collinear patch centres) are
+   removed, so that any positive joint stiffness makes the structure positive definite. In these coordinates eta (u = Psi eta) the mass is the identity, the
+   stiffness diag(lambda), and the relative joint translations are r = Phi eta with Phi = B Psi
+   (3 n_patches x n_modes).
+2. Per design, with the stuck joint tangents k (3 n_patches), the stuck stiffness
+   A = diag(lambda) + Phi^T diag(k) Phi is a symmetric standard eigenproblem (identity mass): no Cholesky of
+   an ill-conditioned mass matrix, backward error eps ||A||.
+3. The joint-space compliance of the stuck structure, C = B (K + B^T K_d B)^+ B^T = (H + K_d)^-1, is the
+   sum of positive semi-definite terms w w^T / mu over the stuck modes (w = Phi v): no cancellation.
+
+The target mode is chosen by shape, not index: the stuck mode with the largest modal assurance criterion
+(mass-weighted) against a reference mode, by default the first elastic mode with all relative patch
+translations tied (DESIGN.md 5.1: a third of Table 3's designs have a rigid rocking of the halves first).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg
+
+from reduction.superelement import Superelement
+
+RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
+# Above 0.5 only one mode can match the reference (the MACs of M-orthonormal modes against it sum to 1);
+# below, the reference shape is shared by veering modes and the target is ambiguous.
+UNAMBIGUOUS_MAC = 0.5
+
+
+class JointSpace(NamedTuple):
+    """Modal data of an unjoined superelement, reduced to what the joint needs.
+
+    eigenvalues: (n_modes,) lambda of the unjoined halves, rad^2/s^2 (rigid-body modes exactly 0).
+    modes: (n, n_modes) mass-normalised mode shapes Psi in the superelement's coordinates.
+    joint_modes: (3 n_patches, n_modes) Phi = B Psi, relative translations (m) per unit modal coordinate.
+    reference: (n_modes,) unit reference mode shape for the target-mode MAC.
+    superelement: the model it came from (patch layout, sensors).
+    """
+
+    eigenvalues: np.ndarray
+    modes: np.ndarray
+    joint_modes: np.ndarray
+    reference: np.ndarray
+    superelement: Superelement
+
+
+def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = None,
+                rigid_frequency: float = RIGID_FREQUENCY) -> JointSpace:
+    """Unjoined modes of ``superelement`` without the joint-free rigid-body modes, and the reference mode.
+
+    reference_mode: (n,) shape in the superelement's coordinates to track; default the first elastic mode
+    of the structure with all relative patch translations tied.
+    """
+    eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
+    joint = superelement.relative_translation
+    rigid = eigenvalues < (2.0 * np.pi * rigid_frequency) ** 2
+    rigid_modes = modes[:, rigid]
+    _, singular_values, rotation = np.linalg.svd(joint @ rigid_modes, full_matrices=True)
+    moves_joint = np.zeros(rigid.sum(), dtype=bool)
+    moves_joint[: len(singular_values)] = singular_values > 1e-9 * np.linalg.norm(joint @ modes, axis=0).max()
+    if not moves_joint.all():  # some rigid-body motion leaves the joint unstrained: drop it
+        rigid_modes = rigid_modes @ rotation.T[:, moves_joint]
+        modes = np.hstack([rigid_modes, modes[:, ~rigid]])
+        eigenvalues = np.concatenate([np.zeros(moves_joint.sum()), eigenvalues[~rigid]])
+    joint_modes = joint @ modes
+    if reference_mode is None:
+        reference = tied_mode(eigenvalues, joint_modes, rigid_frequency)
+    else:
+        reference = modes.T @ superelement.mass @ np.asarray(reference_mode, dtype=float)
+    return JointSpace(eigenvalues, modes, joint_modes, reference / np.linalg.norm(reference), superelement)
+
+
+def tied_mode(eigenvalues, joint_modes, rigid_frequency: float = RIGID_FREQUENCY, index: int = 0) -> np.ndarray:
+    """Mode ``index`` above ``rigid_frequency`` with all relative patch translations held at zero, in modal
+    coordinates (unit norm): the upper-bound (rigid-joint) mode shape."""
+    null_basis = scipy.linalg.null_space(joint_modes)
+    tied_eigenvalues, tied_shapes = np.linalg.eigh(null_basis.T @ (eigenvalues[:, None] * null_basis))
+    elastic = np.flatnonzero(tied_eigenvalues > (2.0 * np.pi * rigid_frequency) ** 2)
+    return null_basis @ tied_shapes[:, elastic[index]]
+
+
+def stuck_stiffness_matrix(space: JointSpace, joint_stiffness) -> np.ndarray:
+    """A = diag(lambda) + Phi^T diag(k) Phi, (..., n_modes, n_modes) N/m per unit modal mass, for joint
+    tangents k of shape (..., 3 n_patches)."""
+    k = np.asarray(joint_stiffness, dtype=float)
+    phi = space.joint_modes
+    return np.diag(space.eigenvalues) + np.einsum("im,...i,in->...mn", phi, k, phi)
+
+
+def modal_assurance(shapes, reference) -> np.ndarray:
+    """Mass-weighted MAC of each column of ``shapes`` (..., n_modes, k) against ``reference`` (n_modes,)
+    in mass-normalised modal coordinates: (psi . ref)^2 / (|psi|^2 |ref|^2)."""
+    projection = np.einsum("...mk,m->...k", shapes, reference)
+    return projection ** 2 / (np.sum(shapes ** 2, axis=-2) * (reference @ reference))
+
+
+class StuckModes(NamedTuple):
+    """Low-amplitude (stuck-joint) data per design, arrays with a leading design axis.
+
+    eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
+    positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
+    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2.
+    """
+
+    eigenvalue: np.ndarray
+    shape: np.ndarray
+    joint_shape: np.ndarray
+    mac: np.ndarray
+    compliance: np.ndarray
+
+
+def stuck_modes(space: JointSpace, joint_stiffness) -> StuckModes:
+    """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches).
+
+    A is positive definite for positive tangents: ``joint_space`` removed every rigid-body motion that leaves
+    the joint unstrained (the whole assembly's, and any relative one the translational joint cannot resist).
+    """
+    mu, vectors = np.linalg.eigh(stuck_stiffness_matrix(space, np.atleast_2d(joint_stiffness)))
+    mac = modal_assurance(vectors, space.reference)
+    target = np.argmax(mac, axis=-1)
+    designs = np.arange(len(target))
+    shape = vectors[designs, :, target]
+    shape *= np.sign(shape @ space.reference)[:, None]
+    w = np.einsum("im,dmk->dik", space.joint_modes, vectors)
+    compliance = np.einsum("dik,dk,djk->dij", w, 1.0 / mu, w)
+    return StuckModes(mu[designs, target], shape, shape @ space.joint_modes.T, mac[designs, target], compliance)

@@ -1,0 +1,154 @@
+"""Quasi-Static Modal Analysis (paper sections 4.2 and 4.3.5): the single-design reference implementation.
+
+Plain and readable, in the relative joint coordinates; ``nonlinear.qsma_vectorised`` evaluates many designs
+per call and is tested against this one.
+
+The structure: superelement (M, K) with joint elements on the relative patch translations r = B u. The
+stuck joint tangents K_d give the low-amplitude mode (lambda_1 = omega_0^2, phi_0 mass-normalised, the mode
+tracked by shape, see ``nonlinear.condensation``). QSMA solves the static problem (paper Eq. 10)
+
+    K u + B^T f_J(B u) = alpha M phi_0.
+
+Write the joint force as f_J(r) = K_d r - g(r): g is the force lost to slip, nonzero only in the tangential
+elements. With the exact joint-space compliance C = B (K + B^T K_d B)^+ B^T and b = B phi_0 this is
+(DESIGN.md section 5.1)
+
+    r = (alpha / lambda_1) b + C g(r),     q = phi_0^T M u = (alpha + b^T g(r)) / lambda_1,
+
+with only the 2 n_patches tangential components of r unknown. Prescribing the modal amplitude q instead of
+alpha (amplitude control) eliminates alpha:
+
+    r_t = q b_t + (C_tt - b_t b_t^T / lambda_1) g(r_t),
+
+which has a solution at every amplitude, while force control has none above the macroslip force. Then
+(paper Eqs. 23-25) omega = sqrt(alpha / q), D = sum of element Masing dissipations + 2 pi q^2 omega^2 zeta_0
+and zeta = D / (2 pi q^2 omega^2).
+Units: q in m kg^0.5, alpha in N kg^-0.5 (= m kg^0.5 s^-2), omega in rad/s, r in m, D in J.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import scipy.optimize
+
+from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, modal_assurance, stuck_stiffness_matrix
+from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_dissipation,
+                             tangential_elements, tangential_rows, tangential_slip_deficit)
+
+CONVERGED = ""
+NOT_CONVERGED = "solver did not converge"
+MACROSLIP = "no equilibrium: force above the macroslip limit"
+AMBIGUOUS_MODE = "target mode ambiguous: MAC < 0.5 (veering modes)"
+
+
+class QSMAResult(NamedTuple):
+    """QSMA backbone at a list of levels (leading design axis in the vectorised version).
+
+    amplitude: modal amplitude q (m kg^0.5); force: modal force alpha (N kg^-0.5);
+    frequency: omega (rad/s); damping: zeta (fraction of critical);
+    joint_displacement: (levels, 2 n_patches) tangential relative translations r_t (m), (x, y) per patch;
+    slip_ratio: (levels, 2 n_patches) |r_t| / macroslip displacement (F_S/K_T or phi_max; >= 1: macroslip,
+        0 for stuck patches);
+    converged: (levels,) bool; reason: (levels,) '' when converged, else why not (solver failure, no
+        equilibrium above the macroslip force, or an ambiguous target mode);
+    stuck_frequency: omega_0 (rad/s) of the tracked mode; mac: its MAC against the reference mode.
+    """
+
+    amplitude: np.ndarray
+    force: np.ndarray
+    frequency: np.ndarray
+    damping: np.ndarray
+    joint_displacement: np.ndarray
+    slip_ratio: np.ndarray
+    converged: np.ndarray
+    reason: np.ndarray
+    stuck_frequency: np.ndarray
+    mac: np.ndarray
+
+
+def modal_frequency(force, amplitude):
+    """Secant natural frequency of the modal backbone, omega = sqrt(alpha / q) (rad/s), paper Eq. (23)."""
+    return np.sqrt(force / amplitude)
+
+
+def damping_factor(joint_dissipation, amplitude, frequency, linear_damping):
+    """zeta = D / (2 pi q^2 omega^2) with D = joint dissipation + 2 pi q^2 omega^2 zeta_0, paper Eqs. (24)-(25)."""
+    return joint_dissipation / (2.0 * np.pi * amplitude ** 2 * frequency ** 2) + linear_damping
+
+
+def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, forces=None,
+                   linear_damping: float = 0.0, stuck_group: int | None = None) -> QSMAResult:
+    """QSMA of one design at prescribed modal amplitudes q (amplitude control) or modal forces alpha (force
+    control); give exactly one of them, increasing (each level starts from the previous solution).
+
+    model, design: friction model and parameter vector (``nonlinear.joint``); linear_damping: zeta_0.
+    Tangential unknowns are scaled by each element's macroslip displacement so that 12 decades of parameters
+    look alike to the solver (MINPACK's hybrid Powell method, finite-difference Jacobian).
+    """
+    if (amplitudes is None) == (forces is None):
+        raise ValueError("give either amplitudes (amplitude control) or forces (force control)")
+    superelement = space.superelement
+    elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
+    tangential = tangential_elements(elements)
+    joint_stiffness = stuck_stiffness(elements)[0]
+
+    stiffness_matrix = stuck_stiffness_matrix(space, joint_stiffness)
+    eigenvalues, shapes = np.linalg.eigh(stiffness_matrix)
+    mac = modal_assurance(shapes, space.reference)
+    target = int(np.argmax(mac))
+    eigenvalue, shape = eigenvalues[target], shapes[:, target] * np.sign(shapes[:, target] @ space.reference)
+    compliance = space.joint_modes @ np.linalg.solve(stiffness_matrix, space.joint_modes.T)
+    rows = tangential_rows(superelement.n_patches)
+    b = (space.joint_modes @ shape)[rows]
+    compliance = compliance[np.ix_(rows, rows)]
+    amplitude_control = amplitudes is not None
+    if amplitude_control:
+        compliance = compliance - np.outer(b, b) / eigenvalue
+    levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
+
+    scale = np.where(tangential.stuck, 1.0, slip_displacement(tangential))[0]
+
+    def slip_deficit(r):
+        return tangential_slip_deficit(tangential, r[None, :])[0]
+
+    n_levels, n_unknowns = len(levels), len(rows)
+    r_levels = np.full((n_levels, n_unknowns), np.nan)
+    converged = np.zeros(n_levels, dtype=bool)
+    reason = np.full(n_levels, NOT_CONVERGED, dtype=object)
+    x = None
+    for level, value in enumerate(levels):
+        linear = value * b if amplitude_control else value / eigenvalue * b
+
+        def residual(x_scaled):
+            r = x_scaled * scale
+            return (r - linear - compliance @ slip_deficit(r)) / scale
+
+        start = linear / scale if x is None else x
+        solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
+        r = solution.x * scale
+        error = np.max(np.abs(solution.fun * scale))
+        if np.all(np.isfinite(r)) and error <= 1e-10 * np.max(np.abs(r)):
+            r_levels[level], converged[level], reason[level] = r, True, CONVERGED
+            x = solution.x
+        elif not amplitude_control and np.all(np.abs(r) >= scale):
+            reason[level] = MACROSLIP
+    if mac[target] < UNAMBIGUOUS_MAC:
+        converged[:], reason[:] = False, AMBIGUOUS_MODE
+    deficit = np.array([slip_deficit(r) for r in r_levels])
+    if amplitude_control:
+        amplitude = levels
+        force = eigenvalue * amplitude - deficit @ b
+    else:
+        force = levels
+        amplitude = (force + deficit @ b) / eigenvalue
+    frequency = modal_frequency(force, amplitude)
+    joint_dissipation = tangential_dissipation(tangential, np.abs(r_levels)).sum(axis=-1)
+    return QSMAResult(
+        amplitude=amplitude, force=force, frequency=frequency,
+        damping=damping_factor(joint_dissipation, amplitude, frequency, linear_damping),
+        joint_displacement=r_levels,
+        slip_ratio=np.where(tangential.stuck, 0.0, np.abs(r_levels) / scale),
+        converged=converged, reason=reason.astype(str),
+        stuck_frequency=np.sqrt(eigenvalue), mac=mac[target])

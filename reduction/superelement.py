@@ -1,0 +1,122 @@
+"""The superelement: the reduced linear model of two unjoined halves, as the nonlinear stage sees it.
+
+One interface for the project's own Hurty/Craig-Bampton superelements (DESIGN.md section 4) and for the
+external ASB models (``/work/shared/data/asb-reduced-models``, see its README). The joint acts on relative
+patch motions only, so the nonlinear stage needs: the mass and stiffness in the reduced coordinates, the map
+from reduced coordinates to the relative (top minus bottom) virtual-node motion of every patch, and the
+patch layout.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+DOFS_PER_PATCH = 6  # x, y, normal translations, then rotations about x, y, normal
+ASB_PRELOAD = 11580.0  # N per bolt, the studies' value (paper section 4.1)
+
+
+@dataclass(frozen=True)
+class Superelement:
+    """Reduced linear model of two halves that the joint elements connect.
+
+    mass, stiffness: (n, n) symmetric, kg and N/m in the reduced coordinates q (any mix of physical and modal
+        coordinates; rigid-body or relative rigid-body zero-energy modes are allowed).
+    patch_motion: (6 n_patches, n), the relative virtual-node motion of patch p (top minus bottom) is
+        patch_motion[6p:6p+6] @ q = (x, y, normal translations in m, rotations in rad). Joint forces act
+        through its transpose, so the joint stiffness is patch_motion.T @ K_joint @ patch_motion.
+    patch_areas: (n_patches,) m^2.
+    patch_groups: (n_patches,) symmetry group index of each patch (0-based); patches in one group share joint
+        parameters. The BRB's five patches are (0, 1, 2, 1, 0).
+    sensors: (n_sensors, n) recovery of the sensor displacements (m) from q.
+    preload: (n,) generalised force of the bolt preload (N), or None; the nonlinear stage with linear normal
+        springs does not use it.
+    name: label for reports.
+    """
+
+    mass: np.ndarray
+    stiffness: np.ndarray
+    patch_motion: np.ndarray
+    patch_areas: np.ndarray
+    patch_groups: tuple[int, ...]
+    sensors: np.ndarray
+    preload: np.ndarray | None = None
+    name: str = "superelement"
+
+    def __post_init__(self):
+        n = self.mass.shape[0]
+        if self.mass.shape != (n, n) or self.stiffness.shape != (n, n):
+            raise ValueError(f"mass {self.mass.shape} and stiffness {self.stiffness.shape} must both be (n, n)")
+        for matrix, label in [(self.mass, "mass"), (self.stiffness, "stiffness")]:
+            if not np.allclose(matrix, matrix.T, rtol=0.0, atol=1e-12 * np.abs(matrix).max()):
+                raise ValueError(f"{label} matrix is not symmetric")
+        n_patches = len(self.patch_areas)
+        if self.patch_motion.shape != (DOFS_PER_PATCH * n_patches, n):
+            raise ValueError(f"patch_motion must be ({DOFS_PER_PATCH * n_patches}, {n}) for {n_patches} patches; "
+                             f"got {self.patch_motion.shape}")
+        if len(self.patch_groups) != n_patches or min(self.patch_groups) != 0:
+            raise ValueError(f"patch_groups {self.patch_groups} must give a 0-based group for each of "
+                             f"{n_patches} patches")
+        if self.sensors.shape[1] != n:
+            raise ValueError(f"sensors must have {n} columns; got {self.sensors.shape}")
+
+    @property
+    def n_patches(self) -> int:
+        return len(self.patch_areas)
+
+    @property
+    def relative_translation(self) -> np.ndarray:
+        """(3 n_patches, n) map to the relative translations (x, y, normal per patch), where the joint acts."""
+        rows = np.arange(self.n_patches)[:, None] * DOFS_PER_PATCH + np.arange(3)
+        return self.patch_motion[rows.ravel()]
+
+
+def asb_data_folder() -> Path:
+    """Where the shared ASB reduced models live (outside the repository)."""
+    return Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-reduced-models"
+
+
+def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch_groups=None) -> Superelement:
+    """Read an ASB ``MAT_NULLRED_<conf>.mat`` (Hurty/Craig-Bampton, relative patch coordinates, rigid-body
+    modes removed by a null-space projection; source: Nidish96/Computational-Work-For-ASB-Project).
+
+    coupling: how the joint sees a patch.
+      "distributed" (default): patch motion = the area-weighted average of the relative interface-node
+        motion, ``LamT.T @ q``, and joint forces distributed over the patch nodes by ``LamT`` (its
+        transpose): symmetric and energy-consistent.
+      "virtual_node": the relative virtual-node DOFs, rows of ``L``. In these files the virtual nodes are
+        tied to the interface by a penalty (``cnum`` = 1e10 times the patch shape integrals) that is soft
+        compared with the structure: a joint spring on them acts in series with it, and even a rigid joint
+        leaves C1's first bending mode at 80.9 Hz, below the measured 93.7 Hz. (The authors' code measured
+        with ``L`` and loaded with ``LamT``, a non-symmetric pairing: 96.0 Hz rigid.)
+    patch_groups: default all patches in one group (the square patches of C1-C4a share parameters by the
+        symmetry of the bolted square; CD1's five patches in a row use the BRB layout (0, 1, 2, 1, 0)).
+    Sensors: ``R`` (6 accelerometer points); preload: 11,580 N times ``Fv``.
+    """
+    data = scipy.io.loadmat(str(path))
+    n_patches = int(np.asarray(data["Npatches"]).ravel()[0])
+    n_reduced_dofs = int(np.asarray(data["dofred"]).ravel()[0])
+    if n_reduced_dofs != DOFS_PER_PATCH:
+        raise ValueError(f"{path}: expected {DOFS_PER_PATCH} DOFs per patch, got {n_reduced_dofs}")
+    if coupling == "distributed":
+        patch_motion = data["LamT"].T
+    elif coupling == "virtual_node":
+        patch_motion = data["L"][: DOFS_PER_PATCH * n_patches]
+    else:
+        raise ValueError(f"coupling must be 'distributed' or 'virtual_node'; got {coupling!r}")
+    if patch_groups is None:
+        patch_groups = (0, 1, 2, 1, 0) if n_patches == 5 else (0,) * n_patches
+    mass, stiffness = data["M"], data["K"]
+    return Superelement(
+        mass=0.5 * (mass + mass.T),
+        stiffness=0.5 * (stiffness + stiffness.T),
+        patch_motion=np.ascontiguousarray(patch_motion),
+        patch_areas=np.asarray(data["PatchAreas"], dtype=float).ravel(),
+        patch_groups=tuple(int(g) for g in patch_groups),
+        sensors=np.asarray(data["R"], dtype=float),
+        preload=ASB_PRELOAD * np.asarray(data["Fv"], dtype=float).ravel(),
+        name=Path(path).stem.removeprefix("MAT_NULLRED_") + ("" if coupling == "distributed" else f" ({coupling})"),
+    )
