@@ -41,18 +41,22 @@ def node_dofs(nodes: np.ndarray) -> np.ndarray:
     return 3 * np.asarray(nodes)[:, None] + np.arange(3)
 
 
-def tie_transformation(n_dof: int, lower_nodes: np.ndarray, upper_nodes: np.ndarray) -> sp.csr_matrix:
-    """The map u = T q from the tied DOFs q to all DOFs u, (n_dof, n_dof - 3 n_pairs), entries 0/1.
+def identification(n_dof: int, master_dofs: np.ndarray, slave_dofs: np.ndarray) -> sp.csr_matrix:
+    """The map u = T q that makes each slave DOF equal to its master DOF, (n_dof, n_dof - n_slaves), entries 0/1.
 
-    Each upper node's displacement equals its lower partner's.
+    master_dofs, slave_dofs: (n,) DOF indices, disjoint; q holds the kept DOFs in increasing order.
     """
-    slave, master = node_dofs(upper_nodes).ravel(), node_dofs(lower_nodes).ravel()
     kept = np.ones(n_dof, dtype=bool)
-    kept[slave] = False
+    kept[slave_dofs] = False
     column = np.full(n_dof, -1, dtype=np.int64)
     column[kept] = np.arange(kept.sum())
-    column[slave] = column[master]
+    column[slave_dofs] = column[master_dofs]
     return sp.csr_matrix((np.ones(n_dof), (np.arange(n_dof), column)), shape=(n_dof, int(kept.sum())))
+
+
+def tie_transformation(n_dof: int, lower_nodes: np.ndarray, upper_nodes: np.ndarray) -> sp.csr_matrix:
+    """The tie u = T q: each upper node's three displacements equal its lower partner's (``identification``)."""
+    return identification(n_dof, node_dofs(lower_nodes).ravel(), node_dofs(upper_nodes).ravel())
 
 
 def tied_modes(stiffness: sp.spmatrix, mass: sp.spmatrix, tie: sp.spmatrix, n_modes: int,

@@ -1,0 +1,139 @@
+"""Bolts: an elastic shank joined to the washer footprints by distributing (RBE3-like) couplings (DESIGN section 3).
+
+Each washer footprint has a reference point on the bolt axis. Its six DOFs (translation t, rotation theta) are
+the area-weighted least-squares rigid motion of the footprint nodes, minimising
+sum_i w_i |u_i - t - theta x (x_i - c)|^2: a distributing coupling that averages and does not stiffen the
+footprint. A force F at the reference point reaches the nodes as R^T F (virtual work), i.e. as the consistent
+nodal forces of a uniform traction for a pure axial force.
+
+The shank is a two-node Timoshenko beam along z between the lower (z = -H/2) and upper (z = +H/2) reference
+points. Its bending and shear stiffness restrain sliding of one half on the other; its axial stiffness
+E A / L is left out of the preload step, in which the pretension acts as a force pair (an ABAQUS-style
+pretension section: the shank carries exactly the preload), and is present in the dynamic model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import MeshTet
+
+from .elasticity import edge_indices
+from .modes import node_dofs
+
+
+@dataclass(frozen=True)
+class Bolt:
+    """One bolt: shank area m^2, length in tension m, Young's modulus Pa, Poisson's ratio, preload N, and the
+    mass kg of bolt, nut and washers (kept half at each footprint)."""
+
+    area: float = 49.5e-6
+    length: float = 0.0254
+    youngs_modulus: float = 190e9
+    poissons_ratio: float = 0.29
+    preload: float = 11580.0
+    mass: float = 0.02864
+
+    @property
+    def axial_stiffness(self) -> float:
+        """E A / L, N/m."""
+        return self.youngs_modulus * self.area / self.length
+
+
+def footprint_nodes_and_weights(mesh: MeshTet, triangles: np.ndarray, points: np.ndarray
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """Quadratic nodes of a footprint and their consistent areas, m^2.
+
+    triangles: (n, >=3) vertex indices of the footprint (corners first). On a quadratic triangle the integral of
+    a vertex shape function is 0 and of a mid-side one A/3, so the weights sit on the edge midpoints only.
+    Returns (nodes (k,), weights (k,)) with weights summing to the footprint area.
+    """
+    corners = triangles[:, :3]
+    area = 0.5 * np.linalg.norm(np.cross(points[corners[:, 1]] - points[corners[:, 0]],
+                                         points[corners[:, 2]] - points[corners[:, 0]]), axis=1)
+    edges = np.concatenate([edge_indices(mesh, corners[:, a], corners[:, b]) for a, b in ((0, 1), (1, 2), (2, 0))])
+    if np.any(edges < 0):
+        raise ValueError("footprint triangle edge not found in the tetrahedral mesh")
+    nodes, inverse = np.unique(edges, return_inverse=True)
+    weights = np.bincount(inverse, weights=np.tile(area / 3, 3))
+    return mesh.p.shape[1] + nodes, weights
+
+
+def coupling_operator(n_dof: int, coordinates: np.ndarray, nodes: np.ndarray, weights: np.ndarray,
+                      reference: np.ndarray) -> sp.csr_matrix:
+    """Distributing coupling R, (6, n_dof): reference motion (t m, theta rad) = R u, about ``reference`` (3,) m.
+
+    coordinates: (n_nodes, 3) quadratic node coordinates; nodes, weights: the footprint (see above).
+    """
+    arm = coordinates[nodes] - reference
+    rigid = np.zeros((len(nodes), 3, 6))  # u_i = t + theta x arm_i = G_i [t; theta]
+    rigid[:, :, :3] = np.eye(3)
+    rigid[:, :, 3:] = np.einsum("ijk,nk->nij", _levi_civita(), arm)  # (theta x a)_i = e_ijk theta_j a_k
+    weighted = rigid * weights[:, None, None]
+    normal = np.einsum("nij,nik->jk", weighted, rigid)
+    rows = np.linalg.solve(normal, weighted.reshape(-1, 6).T)  # (6, 3 k)
+    columns = node_dofs(nodes).ravel()
+    return sp.csr_matrix((rows.ravel(), (np.repeat(np.arange(6), len(columns)), np.tile(columns, 6))),
+                         shape=(6, n_dof))
+
+
+def _levi_civita() -> np.ndarray:
+    epsilon = np.zeros((3, 3, 3))
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        epsilon[i, j, k], epsilon[i, k, j] = 1.0, -1.0
+    return epsilon
+
+
+def shank_stiffness(bolt: Bolt, axial: bool = True) -> np.ndarray:
+    """Two-node Timoshenko beam along +z, (12, 12) N/m, N/rad, DOFs (ux, uy, uz, rx, ry, rz) lower then upper.
+
+    Solid circular shank of the bolt's area; shear coefficient 6 (1 + nu) / (7 + 6 nu). ``axial=False`` leaves out
+    E A / L (the preload step, where the pretension is a force pair).
+    """
+    length, youngs = bolt.length, bolt.youngs_modulus
+    shear_modulus = youngs / (2 * (1 + bolt.poissons_ratio))
+    second_moment = bolt.area ** 2 / (4 * np.pi)  # pi d^4 / 64 with A = pi d^2 / 4
+    shear_coefficient = 6 * (1 + bolt.poissons_ratio) / (7 + 6 * bolt.poissons_ratio)
+    phi = 12 * youngs * second_moment / (shear_coefficient * shear_modulus * bolt.area * length ** 2)
+    bending = youngs * second_moment / ((1 + phi) * length ** 3) * np.array([
+        [12, 6 * length, -12, 6 * length],
+        [6 * length, (4 + phi) * length ** 2, -6 * length, (2 - phi) * length ** 2],
+        [-12, -6 * length, 12, -6 * length],
+        [6 * length, (2 - phi) * length ** 2, -6 * length, (4 + phi) * length ** 2]])
+    stiffness = np.zeros((12, 12))
+    # Deflection u_x has slope +r_y along z; deflection u_y has slope -r_x.
+    for deflection, rotation, sign in ((0, 4, 1.0), (1, 3, -1.0)):
+        dofs = np.array([deflection, rotation, 6 + deflection, 6 + rotation])
+        signs = np.array([1.0, sign, 1.0, sign])
+        stiffness[np.ix_(dofs, dofs)] += bending * np.outer(signs, signs)
+    bar = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    stiffness[np.ix_([5, 11], [5, 11])] += shear_modulus * 2 * second_moment / length * bar  # torsion, J = 2 I
+    if axial:
+        stiffness[np.ix_([2, 8], [2, 8])] += bolt.axial_stiffness * bar
+    return stiffness
+
+
+def bolts_stiffness(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt,
+                    axial: bool = True) -> sp.csr_matrix:
+    """Sum over bolts of R^T k_shank R with R = [R_lower; R_upper] (12, n_dof), N/m."""
+    shank = shank_stiffness(bolt, axial)
+    return sum((lambda r: (r.T @ sp.csr_matrix(shank) @ r))(sp.vstack([lower, upper]).tocsr())
+               for lower, upper in couplings).tocsr()
+
+
+def preload_forces(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt) -> np.ndarray:
+    """Nodal forces (n_dof,) N of the pretension: +P e_z on each lower footprint, -P e_z on each upper one.
+
+    Self-equilibrated: they sum to zero force and moment.
+    """
+    axial = np.zeros(6)
+    axial[2] = bolt.preload
+    return sum(lower.T @ axial - upper.T @ axial for lower, upper in couplings)
+
+
+def bolts_mass(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt) -> sp.csr_matrix:
+    """Bolt, nut and washer mass, half at each footprint reference point (translations only), kg."""
+    translations = [coupling[:3] for pair in couplings for coupling in pair]
+    return sum(0.5 * bolt.mass * (r.T @ r) for r in translations).tocsr()

@@ -1,0 +1,80 @@
+"""Bolt preload with frictionless contact on the coarse BRB mesh (about 15 s)."""
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np
+import pytest
+
+from fem.bolts import Bolt, bolts_stiffness, coupling_operator, footprint_nodes_and_weights, preload_forces
+from fem.contact import frictionless_contact, support_321
+from fem.elasticity import Material, quadratic_node_coordinates, rigid_body_modes, solid_mesh, stiffness_matrix
+from fem.modes import interface_quadratic_pairs
+from geometry.beam_mesh import interface_partners, read_beam_mesh
+from geometry.beams import make_beam
+from geometry.parameters import BEAMS, MeshParameters
+
+COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
+BEAM = BEAMS["BRB"]
+
+
+@pytest.fixture(scope="module")
+def preloaded(tmp_path_factory):
+    sidecar = make_beam(BEAM, COARSE, tmp_path_factory.mktemp("beams"), render=False)
+    beam_mesh = read_beam_mesh(sidecar.with_suffix(".msh"))
+    mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
+    coordinates = quadratic_node_coordinates(mesh)
+    stiffness = stiffness_matrix(mesh, Material())
+    couplings = [tuple(coupling_operator(stiffness.shape[0], coordinates,
+                                         *footprint_nodes_and_weights(mesh, beam_mesh.faces[f"{side}_washer_{b}"],
+                                                                      beam_mesh.points),
+                                         np.array([x, 0.0, z]))
+                       for side, z in (("lower", -BEAM.height / 2), ("upper", BEAM.height / 2)))
+                 for b, x in enumerate(BEAM.bolt_x, start=1)]
+    bolt = Bolt()
+    lower, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
+    supported = support_321(coordinates, np.unique(beam_mesh.volumes["lower_half"][:, :4]))
+    forces = preload_forces(couplings, bolt)
+    solution = frictionless_contact(stiffness + bolts_stiffness(couplings, bolt, axial=False), forces,
+                                    lower, upper, supported)
+    return coordinates, couplings, forces, lower, solution
+
+
+def test_coupling_returns_the_rigid_motion_of_its_footprint(preloaded):
+    coordinates, couplings, _, _, _ = preloaded
+    for lower, upper in couplings:
+        for coupling in (lower, upper):
+            reference = coupling[:3] @ rigid_body_modes(coordinates, np.zeros(3))[:, :3]
+            np.testing.assert_allclose(reference, np.eye(3), atol=1e-12)
+
+
+def test_preload_is_self_equilibrated_and_the_support_carries_nothing(preloaded):
+    coordinates, _, forces, _, solution = preloaded
+    resultant = rigid_body_modes(coordinates, np.zeros(3)).T @ forces  # forces N, moments N m
+    assert np.abs(resultant).max() < 1e-12 * Bolt().preload
+    assert np.abs(solution.reactions).max() < 1e-8 * Bolt().preload
+
+
+def test_contact_forces_sum_to_the_three_preloads_without_penetration_or_tension(preloaded):
+    _, _, _, _, solution = preloaded
+    # The shank carries exactly the pretension (force pair, no axial shank stiffness in this step), so normal
+    # equilibrium of the upper half makes the contact forces sum to it; only round-off remains.
+    np.testing.assert_allclose(solution.normal_force.sum(), 3 * Bolt().preload, rtol=1e-3)
+    assert solution.normal_force.min() >= 0.0
+    assert solution.gap.min() > -1e-12 * BEAM.height
+    assert np.all(solution.gap[solution.active] == 0.0)
+
+
+def test_contact_pressure_concentrates_around_the_bolts(preloaded):
+    """A 30 degree frustum from the washer edge through the 12.7 mm half thickness reaches 16.1 mm from the axis
+    at the interface: most of the clamp force lies inside those circles and the lap ends lift off."""
+    coordinates, _, _, lower, solution = preloaded
+    positions = coordinates[lower]
+    frustum = BEAM.washer_outer_diameter / 2 + BEAM.lap_thickness * np.tan(np.radians(30))
+    distance = np.min([np.hypot(positions[:, 0] - x, positions[:, 1]) for x in BEAM.bolt_x], axis=0)
+    inside = solution.normal_force[distance < frustum].sum() / solution.normal_force.sum()
+    assert inside > 0.9
+    lap_end = np.abs(positions[:, 0]) > BEAM.lap_length / 2 - 0.01
+    assert not solution.active[lap_end].any()
+    assert 0.4 < solution.active.mean() < 0.8
