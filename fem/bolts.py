@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import MeshTet
 
-from .elasticity import edge_indices
+from .elasticity import edge_indices, quadratic_node_coordinates
 from .modes import node_dofs
 
 
@@ -77,6 +77,25 @@ def coupling_operator(n_dof: int, coordinates: np.ndarray, nodes: np.ndarray, we
     columns = node_dofs(nodes).ravel()
     return sp.csr_matrix((rows.ravel(), (np.repeat(np.arange(6), len(columns)), np.tile(columns, 6))),
                          shape=(6, n_dof))
+
+
+def washer_couplings(mesh: MeshTet, beam_mesh, beam) -> list[tuple[sp.csr_matrix, sp.csr_matrix]]:
+    """(lower, upper) couplings of every bolt, reference points on the bolt axes (x = bolt_x, y = 0) at the
+    outer lap faces z = -H/2 and +H/2.
+
+    beam_mesh: ``geometry.beam_mesh.BeamMesh`` (faces ``{side}_washer_{b}`` numbered with increasing x);
+    beam: ``geometry.parameters.BeamParameters``.
+    """
+    coordinates = quadratic_node_coordinates(mesh)
+    n_dof = 3 * len(coordinates)
+
+    def coupling(side: str, number: int, x: float, z: float) -> sp.csr_matrix:
+        nodes, weights = footprint_nodes_and_weights(mesh, beam_mesh.faces[f"{side}_washer_{number}"],
+                                                     beam_mesh.points)
+        return coupling_operator(n_dof, coordinates, nodes, weights, np.array([x, 0.0, z]))
+
+    return [(coupling("lower", b, x, -beam.height / 2), coupling("upper", b, x, beam.height / 2))
+            for b, x in enumerate(beam.bolt_x, start=1)]
 
 
 def _levi_civita() -> np.ndarray:

@@ -7,7 +7,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 import pytest
 
-from fem.bolts import Bolt, bolts_stiffness, coupling_operator, footprint_nodes_and_weights, preload_forces
+from fem.bolts import Bolt, bolts_stiffness, preload_forces, washer_couplings
 from fem.contact import frictionless_contact, support_321
 from fem.elasticity import Material, quadratic_node_coordinates, rigid_body_modes, solid_mesh, stiffness_matrix
 from fem.modes import interface_quadratic_pairs
@@ -26,12 +26,7 @@ def preloaded(tmp_path_factory):
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     coordinates = quadratic_node_coordinates(mesh)
     stiffness = stiffness_matrix(mesh, Material())
-    couplings = [tuple(coupling_operator(stiffness.shape[0], coordinates,
-                                         *footprint_nodes_and_weights(mesh, beam_mesh.faces[f"{side}_washer_{b}"],
-                                                                      beam_mesh.points),
-                                         np.array([x, 0.0, z]))
-                       for side, z in (("lower", -BEAM.height / 2), ("upper", BEAM.height / 2)))
-                 for b, x in enumerate(BEAM.bolt_x, start=1)]
+    couplings = washer_couplings(mesh, beam_mesh, BEAM)
     bolt = Bolt()
     lower, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
     supported = support_321(coordinates, np.unique(beam_mesh.volumes["lower_half"][:, :4]))
