@@ -20,6 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import MeshTet
 
+from .coupling import coupling_matrix, nodal_areas
 from .elasticity import edge_indices, quadratic_node_coordinates
 from .modes import node_dofs
 
@@ -42,41 +43,16 @@ class Bolt:
         return self.youngs_modulus * self.area / self.length
 
 
-def footprint_nodes_and_weights(mesh: MeshTet, triangles: np.ndarray, points: np.ndarray
-                                ) -> tuple[np.ndarray, np.ndarray]:
-    """Quadratic nodes of a footprint and their consistent areas, m^2.
+def quadratic_triangles(mesh: MeshTet, triangles: np.ndarray) -> np.ndarray:
+    """Six-node triangles (corners, then mid-sides 01, 12, 20) in the quadratic node numbering of ``mesh``.
 
-    triangles: (n, >=3) vertex indices of the footprint (corners first). On a quadratic triangle the integral of
-    a vertex shape function is 0 and of a mid-side one A/3, so the weights sit on the edge midpoints only.
-    Returns (nodes (k,), weights (k,)) with weights summing to the footprint area.
+    triangles: (n, >=3) vertex indices of a face of the tetrahedral mesh (corners first).
     """
     corners = triangles[:, :3]
-    area = 0.5 * np.linalg.norm(np.cross(points[corners[:, 1]] - points[corners[:, 0]],
-                                         points[corners[:, 2]] - points[corners[:, 0]]), axis=1)
-    edges = np.concatenate([edge_indices(mesh, corners[:, a], corners[:, b]) for a, b in ((0, 1), (1, 2), (2, 0))])
+    edges = np.stack([edge_indices(mesh, corners[:, a], corners[:, b]) for a, b in ((0, 1), (1, 2), (2, 0))], axis=1)
     if np.any(edges < 0):
         raise ValueError("footprint triangle edge not found in the tetrahedral mesh")
-    nodes, inverse = np.unique(edges, return_inverse=True)
-    weights = np.bincount(inverse, weights=np.tile(area / 3, 3))
-    return mesh.p.shape[1] + nodes, weights
-
-
-def coupling_operator(n_dof: int, coordinates: np.ndarray, nodes: np.ndarray, weights: np.ndarray,
-                      reference: np.ndarray) -> sp.csr_matrix:
-    """Distributing coupling R, (6, n_dof): reference motion (t m, theta rad) = R u, about ``reference`` (3,) m.
-
-    coordinates: (n_nodes, 3) quadratic node coordinates; nodes, weights: the footprint (see above).
-    """
-    arm = coordinates[nodes] - reference
-    rigid = np.zeros((len(nodes), 3, 6))  # u_i = t + theta x arm_i = G_i [t; theta]
-    rigid[:, :, :3] = np.eye(3)
-    rigid[:, :, 3:] = np.einsum("ijk,nk->nij", _levi_civita(), arm)  # (theta x a)_i = e_ijk theta_j a_k
-    weighted = rigid * weights[:, None, None]
-    normal = np.einsum("nij,nik->jk", weighted, rigid)
-    rows = np.linalg.solve(normal, weighted.reshape(-1, 6).T)  # (6, 3 k)
-    columns = node_dofs(nodes).ravel()
-    return sp.csr_matrix((rows.ravel(), (np.repeat(np.arange(6), len(columns)), np.tile(columns, 6))),
-                         shape=(6, n_dof))
+    return np.hstack([corners, mesh.p.shape[1] + edges])
 
 
 def washer_couplings(mesh: MeshTet, beam_mesh, beam) -> list[tuple[sp.csr_matrix, sp.csr_matrix]]:
@@ -90,19 +66,15 @@ def washer_couplings(mesh: MeshTet, beam_mesh, beam) -> list[tuple[sp.csr_matrix
     n_dof = 3 * len(coordinates)
 
     def coupling(side: str, number: int, x: float, z: float) -> sp.csr_matrix:
-        nodes, weights = footprint_nodes_and_weights(mesh, beam_mesh.faces[f"{side}_washer_{number}"],
-                                                     beam_mesh.points)
-        return coupling_operator(n_dof, coordinates, nodes, weights, np.array([x, 0.0, z]))
+        triangles = quadratic_triangles(mesh, beam_mesh.faces[f"{side}_washer_{number}"])
+        weights = nodal_areas(coordinates, triangles)
+        nodes = np.flatnonzero(weights)
+        _, matrix = coupling_matrix(coordinates, [(nodes, weights[nodes])], node_dofs(np.arange(len(coordinates))),
+                                    n_dof, references=np.array([[x, 0.0, z]]), names=[f"{side}_washer_{number}"])
+        return matrix
 
     return [(coupling("lower", b, x, -beam.height / 2), coupling("upper", b, x, beam.height / 2))
             for b, x in enumerate(beam.bolt_x, start=1)]
-
-
-def _levi_civita() -> np.ndarray:
-    epsilon = np.zeros((3, 3, 3))
-    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        epsilon[i, j, k], epsilon[i, k, j] = 1.0, -1.0
-    return epsilon
 
 
 def shank_stiffness(bolt: Bolt, axial: bool = True) -> np.ndarray:

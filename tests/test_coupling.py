@@ -1,4 +1,6 @@
-"""Whole-joint patches: the RBE3-like virtual node averages a patch's motion without stiffening it."""
+"""Distributing couplings: the RBE3-like reference node averages a node set's motion without stiffening it.
+
+Checked on the whole-joint interface patches of the BRB mesh, linear and quadratic faces."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import pytest
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BRB, MeshParameters
-from reduction.virtual_nodes import PatchError, nodal_areas, rigid_average, virtual_node_transformation
+from fem.coupling import CouplingError, coupling_matrix, nodal_areas, rigid_average
 
 PATCHES = [f"{side}_patch_{p}" for side in ("lower", "upper") for p in range(1, 6)]
 
@@ -28,7 +30,7 @@ def _transformation(mesh):
         nodes = mesh.face_nodes(name)
         patches.append((nodes, weights[nodes]))
     nodal_dofs = np.arange(3 * len(mesh.points)).reshape(-1, 3)
-    return virtual_node_transformation(mesh.points, patches, nodal_dofs, 3 * len(mesh.points), PATCHES)
+    return coupling_matrix(mesh.points, patches, nodal_dofs, 3 * len(mesh.points), names=PATCHES)
 
 
 def test_nodal_areas_sum_to_the_patch_areas(mesh):
@@ -50,6 +52,22 @@ def test_rigid_motion_of_each_half_is_reproduced_exactly(mesh):
     scale = np.abs(displacement).max()
     assert np.abs(virtual[:, :3] - expected_t).max() < 1e-12 * scale
     assert np.abs(virtual[:, 3:] - theta0).max() < 1e-12 * np.abs(theta0).max()
+
+
+def test_rigid_motion_about_a_reference_point(mesh):
+    """About a reference point a: t = t0 + theta0 x (a - x0), theta = theta0, for every patch."""
+    rng = np.random.default_rng(11)
+    t0, theta0, x0 = rng.normal(size=3) * 1e-3, rng.normal(size=3) * 1e-2, rng.normal(size=3) * 0.1
+    displacement = t0 + np.cross(theta0, mesh.points - x0)
+    for name in PATCHES:
+        nodes = mesh.face_nodes(name)
+        weights = nodal_areas(mesh.points, mesh.faces[name])[nodes]
+        reference = rng.normal(size=3) * 0.02
+        point, block = rigid_average(mesh.points[nodes], weights, reference, name)
+        motion = block @ displacement[nodes].ravel()
+        assert np.array_equal(point, reference)
+        assert np.abs(motion[:3] - t0 - np.cross(theta0, reference - x0)).max() < 1e-12 * np.abs(displacement).max()
+        assert np.abs(motion[3:] - theta0).max() < 1e-12 * np.abs(theta0).max()
 
 
 def test_centroids_are_the_area_centroids_of_the_patches(mesh):
@@ -75,7 +93,7 @@ def test_uniform_traction_maps_to_force_and_no_moment(mesh):
     for name in PATCHES:
         nodes = mesh.face_nodes(name)
         weights = nodal_areas(mesh.points, mesh.faces[name])[nodes]
-        centroid, block = rigid_average(mesh.points[nodes], weights, name)
+        centroid, block = rigid_average(mesh.points[nodes], weights, name=name)
         traction = np.array([2.0e5, -1.0e5, 3.0e6])  # Pa
         forces = weights[:, None] * traction
         r = mesh.points[nodes] - centroid
@@ -92,7 +110,7 @@ def test_average_does_not_see_deformation_orthogonal_to_rigid_motions(mesh):
     name = "lower_patch_3"
     nodes = mesh.face_nodes(name)
     weights = nodal_areas(mesh.points, mesh.faces[name])[nodes]
-    centroid, block = rigid_average(mesh.points[nodes], weights, name)
+    centroid, block = rigid_average(mesh.points[nodes], weights, name=name)
     r = mesh.points[nodes] - centroid
     rigid = np.hstack([np.tile(np.eye(3), (len(nodes), 1)),
                        np.vstack([np.cross(np.eye(3)[k], r).ravel() for k in range(3)]).T])
@@ -105,9 +123,9 @@ def test_average_does_not_see_deformation_orthogonal_to_rigid_motions(mesh):
 
 def test_patch_with_too_few_or_collinear_nodes_is_refused():
     points = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0], [0.0, 1.0, 0]])
-    with pytest.raises(PatchError, match="needs at least 3"):
-        rigid_average(points[:2], np.ones(2), "patch 1")
-    with pytest.raises(PatchError, match="one line"):
-        rigid_average(points[:3], np.ones(3), "patch 2")
-    with pytest.raises(PatchError, match="patch 3: 2 weighted"):
-        rigid_average(points, np.array([1.0, 0.0, 0.0, 1.0]), "patch 3")
+    with pytest.raises(CouplingError, match="needs at least 3"):
+        rigid_average(points[:2], np.ones(2), name="patch 1")
+    with pytest.raises(CouplingError, match="one line"):
+        rigid_average(points[:3], np.ones(3), name="patch 2")
+    with pytest.raises(CouplingError, match="patch 3: 2 weighted"):
+        rigid_average(points, np.array([1.0, 0.0, 0.0, 1.0]), name="patch 3")
