@@ -1,26 +1,18 @@
 """CalculiX cross-check of the tied-interface frequencies on the coarse BRB mesh (ccx about 6 s)."""
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 import numpy as np
 import pytest
 
 from fem.calculix import c3d10_connectivity, calculix_available, read_frequencies, run_calculix, tied_frequency_deck
 from fem.elasticity import DECK_MATERIAL, mass_matrix, quadratic_node_coordinates, solid_mesh, stiffness_matrix
 from fem.modes import interface_quadratic_pairs, tie_transformation, tied_modes
-from geometry.beam_mesh import interface_partners, read_beam_mesh
-from geometry.beams import make_beam
-from geometry.parameters import BEAMS, MeshParameters
+from geometry.beam_mesh import interface_partners
 
-COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
 
 
 @pytest.fixture(scope="module")
-def brb(tmp_path_factory):
-    sidecar = make_beam(BEAMS["BRB"], COARSE, tmp_path_factory.mktemp("beams"), render=False)
-    beam_mesh = read_beam_mesh(sidecar.with_suffix(".msh"))
+def brb(coarse_brb):
+    beam_mesh = coarse_brb
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     return mesh, interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
 

@@ -1,9 +1,5 @@
 """Bolt preload with frictionless contact on the coarse BRB mesh (about 15 s)."""
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 import numpy as np
 import pytest
 
@@ -11,18 +7,15 @@ from fem.bolts import Bolt, bolts_stiffness, preload_forces, washer_couplings
 from fem.contact import frictionless_contact, support_321
 from fem.elasticity import Material, quadratic_node_coordinates, rigid_body_modes, solid_mesh, stiffness_matrix
 from fem.modes import interface_quadratic_pairs
-from geometry.beam_mesh import interface_partners, read_beam_mesh
-from geometry.beams import make_beam
-from geometry.parameters import BEAMS, MeshParameters
+from geometry.beam_mesh import interface_partners
+from geometry.parameters import BEAMS
 
-COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
 BEAM = BEAMS["BRB"]
 
 
 @pytest.fixture(scope="module")
-def preloaded(tmp_path_factory):
-    sidecar = make_beam(BEAM, COARSE, tmp_path_factory.mktemp("beams"), render=False)
-    beam_mesh = read_beam_mesh(sidecar.with_suffix(".msh"))
+def preloaded(coarse_brb):
+    beam_mesh = coarse_brb
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     coordinates = quadratic_node_coordinates(mesh)
     stiffness = stiffness_matrix(mesh, Material())

@@ -1,0 +1,21 @@
+"""Shared test fixtures. BLAS runs single-threaded: numpy's and CHOLMOD's threads otherwise compete for the
+two cores of the CI machine."""
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import pytest  # noqa: E402
+
+from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
+from geometry.beams import make_beam  # noqa: E402
+from geometry.parameters import BEAMS, MeshParameters  # noqa: E402
+
+COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
+
+
+@pytest.fixture(scope="session")
+def coarse_brb(tmp_path_factory) -> BeamMesh:
+    """The BRB meshed at coarse sizes (about 26k quadratic DOF), once per test session."""
+    sidecar = make_beam(BEAMS["BRB"], COARSE, tmp_path_factory.mktemp("coarse"), render=False)
+    return read_beam_mesh(sidecar.with_suffix(".msh"))
