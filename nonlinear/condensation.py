@@ -115,6 +115,7 @@ class StuckModes(NamedTuple):
     joint_shape: np.ndarray
     mac: np.ndarray
     compliance: np.ndarray
+    residual_compliance: np.ndarray
 
 
 def stuck_modes(space: JointSpace, joint_stiffness) -> StuckModes:
@@ -130,5 +131,9 @@ def stuck_modes(space: JointSpace, joint_stiffness) -> StuckModes:
     shape = vectors[designs, :, target]
     shape *= np.sign(shape @ space.reference)[:, None]
     w = np.einsum("im,dmk->dik", space.joint_modes, vectors)
-    compliance = np.einsum("dik,dk,djk->dij", w, 1.0 / mu, w)
-    return StuckModes(mu[designs, target], shape, shape @ space.joint_modes.T, mac[designs, target], compliance)
+    others = np.arange(mu.shape[1])[None, :] != target[:, None]
+    residual_compliance = np.einsum("dik,dk,djk->dij", w, np.where(others, 1.0 / mu, 0.0), w)
+    joint_shape = shape @ space.joint_modes.T
+    eigenvalue = mu[designs, target]
+    compliance = residual_compliance + joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]
+    return StuckModes(eigenvalue, shape, joint_shape, mac[designs, target], compliance, residual_compliance)

@@ -95,6 +95,24 @@ def four_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi
     return np.where(x < 1.0, microslip, stiffness)
 
 
+def four_parameter_slip_deficit_potential(displacement, slip_force, stiffness, chi, beta):
+    """Integral of the four-parameter slip deficit from 0 to u (J); convex (its derivative, the deficit,
+    increases with |u|). Microslip: R u^(chi+3) / ((chi+1)(chi+2)(chi+3))."""
+    return _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, 1.0)
+
+
+def _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta):
+    """Integral of the five-parameter slip deficit (theta = 1: four-parameter) from 0 to u (J)."""
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
+    xm = np.minimum(x, 1.0)
+    micro_coefficient = r * (1.0 / (chi + 1.0) - theta / (chi + 2.0)) / (chi + 3.0)
+    microslip = micro_coefficient * xm ** (chi + 3.0)
+    beyond = np.maximum(x - 1.0, 0.0)
+    macroslip = (s + r / (chi + 1.0)) * (beyond ** 2 / 2.0 + beyond) - theta * (s + r / (chi + 2.0)) * beyond
+    return phi_max * (microslip + macroslip)
+
+
 def five_parameter_backbone(displacement, slip_force, stiffness, chi, beta, theta):
     """Backbone f(u) of the five-parameter (stiction) Iwan element (N), paper Eq. (21), odd in u.
 
@@ -139,6 +157,13 @@ def five_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi
     x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
     microslip = r * np.minimum(x, 1.0) ** (chi + 1.0) * ((chi + 2.0) / (chi + 1.0) - theta) / phi_max
     return np.where(x < 1.0, microslip, stiffness)
+
+
+def five_parameter_slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta):
+    """Integral of the five-parameter slip deficit from 0 to u (J). Not convex for theta < 1: the
+    stiction drop makes the deficit jump up at phi_max and the backbone can soften faster than K_T."""
+    check_iwan(slip_force, stiffness, chi, beta, theta)
+    return _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta)
 
 
 def five_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta, theta):

@@ -44,6 +44,13 @@ def slip_deficit_tangent(displacement, stiffness, slip_force):
     return stiffness - tangent(displacement, stiffness, slip_force)
 
 
+def slip_deficit_potential(displacement, stiffness, slip_force):
+    """Integral of the slip deficit from 0 to u (J): K_T (|u| - F_S/K_T)^2 / 2 once slipping. Convex."""
+    check_jenkins(stiffness, slip_force)
+    excess = np.maximum(np.abs(np.asarray(displacement, dtype=float)) - slip_force / stiffness, 0.0)
+    return 0.5 * stiffness * excess ** 2
+
+
 def dissipation(amplitude, stiffness, slip_force):
     """Energy dissipated per steady cycle of amplitude u0 (J), paper Eq. (15): 4 F_S (u0 - F_S/K_T) once slipping."""
     check_jenkins(stiffness, slip_force)

@@ -178,6 +178,21 @@ def tangential_slip_deficit_tangent(elements: PatchElements, displacement) -> np
     return np.where(e.stuck, 0.0, tangent)
 
 
+def tangential_slip_deficit_potential(elements: PatchElements, displacement) -> np.ndarray:
+    """Integral of the slip deficit from 0 to the displacement (J); zero for stuck patches. The static QSMA
+    problem minimises a quadratic form minus the sum of these (convex for Jenkins and four-parameter Iwan)."""
+    e = elements
+    if e.law == "jenkins":
+        potential = jenkins.slip_deficit_potential(displacement, e.stiffness, e.slip_force)
+    elif e.law == "iwan4":
+        potential = iwan.four_parameter_slip_deficit_potential(displacement, e.slip_force, e.stiffness, e.chi,
+                                                               e.beta)
+    else:
+        potential = iwan.five_parameter_slip_deficit_potential(displacement, e.slip_force, e.stiffness, e.chi,
+                                                               e.beta, e.theta)
+    return np.where(e.stuck, 0.0, potential)
+
+
 def tangential_dissipation(elements: PatchElements, amplitude) -> np.ndarray:
     """Masing cycle dissipation (J) of the tangential elements at amplitude (m) (paper Eqs. 15, 19, 22)."""
     e = elements

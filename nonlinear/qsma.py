@@ -125,30 +125,48 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
             r = x_scaled * scale
             return (r - linear - compliance @ slip_deficit(r)) / scale
 
-        start = linear / scale if x is None else x
-        solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
-        r = solution.x * scale
-        error = np.max(np.abs(solution.fun * scale))
-        if np.all(np.isfinite(r)) and error <= 1e-10 * np.max(np.abs(r)):
+        # Continuation from the last level; for the convex laws (unique equilibrium) also a fresh start. The
+        # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only.
+        starts = [linear / scale] if x is None else [x] if tangential.law == "iwan5" else [x, linear / scale]
+        for start in starts:
+            solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
+            r = solution.x * scale
+            # Round-off floor of the residual: machine precision times its largest term.
+            terms = np.max([np.abs(r), np.abs(linear), np.abs(compliance @ slip_deficit(r))])
+            if np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms:
+                break
+        if np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms:
             r_levels[level], converged[level], reason[level] = r, True, CONVERGED
             x = solution.x
-        elif not amplitude_control and np.all(np.abs(r) >= scale):
+        elif not amplitude_control and np.all(tangential.stuck[0] | (np.abs(r) >= scale)):
             reason[level] = MACROSLIP
     if mac[target] < UNAMBIGUOUS_MAC:
         converged[:], reason[:] = False, AMBIGUOUS_MODE
-    deficit = np.array([slip_deficit(r) for r in r_levels])
-    if amplitude_control:
-        amplitude = levels
-        force = eigenvalue * amplitude - deficit @ b
-    else:
-        force = levels
-        amplitude = (force + deficit @ b) / eigenvalue
-    frequency = modal_frequency(force, amplitude)
-    joint_dissipation = tangential_dissipation(tangential, np.abs(r_levels)).sum(axis=-1)
+    amplitude, force, frequency, damping = modal_backbone(tangential, r_levels, b, eigenvalue, levels,
+                                                          amplitude_control, linear_damping)
     return QSMAResult(
-        amplitude=amplitude, force=force, frequency=frequency,
-        damping=damping_factor(joint_dissipation, amplitude, frequency, linear_damping),
-        joint_displacement=r_levels,
+        amplitude=amplitude, force=force, frequency=frequency, damping=damping, joint_displacement=r_levels,
         slip_ratio=np.where(tangential.stuck, 0.0, np.abs(r_levels) / scale),
         converged=converged, reason=reason.astype(str),
         stuck_frequency=np.sqrt(eigenvalue), mac=mac[target])
+
+
+def modal_backbone(tangential, joint_displacement, joint_shape, eigenvalue, levels, amplitude_control: bool,
+                   linear_damping: float):
+    """Modal amplitude, force, frequency and damping from the solved tangential joint motion.
+
+    tangential: tangential elements broadcasting against joint_displacement (..., levels, 2 n_patches);
+    joint_shape: b_t (..., 1, 2 n_patches); eigenvalue: lambda_1 (..., 1); levels: the prescribed q
+    (amplitude control) or alpha (force control), (..., levels). alpha = lambda_1 q - b^T g, paper Eqs. 23-25.
+    """
+    deficit = tangential_slip_deficit(tangential, joint_displacement)
+    modal_deficit = np.sum(deficit * joint_shape, axis=-1)
+    if amplitude_control:
+        amplitude = levels
+        force = eigenvalue * amplitude - modal_deficit
+    else:
+        force = levels
+        amplitude = (force + modal_deficit) / eigenvalue
+    frequency = modal_frequency(force, amplitude)
+    joint_dissipation = tangential_dissipation(tangential, np.abs(joint_displacement)).sum(axis=-1)
+    return amplitude, force, frequency, damping_factor(joint_dissipation, amplitude, frequency, linear_damping)

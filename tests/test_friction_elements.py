@@ -181,3 +181,22 @@ def test_slip_deficit_is_stuck_force_minus_backbone(case):
     np.testing.assert_allclose(jenkins.slip_deficit(u_jenkins, stiffness, slip_force),
                                stiffness * u_jenkins - jenkins.backbone(u_jenkins, stiffness, slip_force),
                                rtol=1e-12, atol=scale)
+
+
+@pytest.mark.parametrize("case", IWAN_CASES)
+def test_slip_deficit_potential_is_integral_of_deficit(case):
+    """The potential's central difference is the deficit (micro- and macroslip), relative step 1e-6."""
+    slip_force, stiffness, chi, beta, theta = case
+    phi_max, _, _ = iwan.segalman_constants(slip_force, stiffness, chi, beta)
+    u, h = phi_max * np.array([0.05, 0.5, 0.95, 1.3, 4.0]), 1e-6 * phi_max
+    args = (slip_force, stiffness, chi, beta)
+    for potential, deficit in [(lambda v: iwan.four_parameter_slip_deficit_potential(v, *args),
+                                lambda v: iwan.four_parameter_slip_deficit(v, *args)),
+                               (lambda v: iwan.five_parameter_slip_deficit_potential(v, *args, theta),
+                                lambda v: iwan.five_parameter_slip_deficit(v, *args, theta))]:
+        np.testing.assert_allclose((potential(u + h) - potential(u - h)) / (2 * h), deficit(u), rtol=1e-6)
+    u_jenkins = np.array([0.5, 1.5, 7.0]) * slip_force / stiffness
+    h = 1e-6 * slip_force / stiffness
+    np.testing.assert_allclose((jenkins.slip_deficit_potential(u_jenkins + h, stiffness, slip_force)
+                                - jenkins.slip_deficit_potential(u_jenkins - h, stiffness, slip_force)) / (2 * h),
+                               jenkins.slip_deficit(u_jenkins, stiffness, slip_force), rtol=1e-6, atol=1e-9 * slip_force)
