@@ -106,12 +106,30 @@ def shank_stiffness(bolt: Bolt, axial: bool = True) -> np.ndarray:
     return stiffness
 
 
-def bolts_stiffness(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt,
-                    axial: bool = True) -> sp.csr_matrix:
-    """Sum over bolts of R^T k_shank R with R = [R_lower; R_upper] (12, n_dof), N/m."""
-    shank = shank_stiffness(bolt, axial)
+def shank_stress_stiffness(tension: float, length: float) -> np.ndarray:
+    """Stress stiffness of a shank along +z carrying the axial force ``tension`` N over ``length`` m, (12, 12) N/m,
+    DOFs as ``shank_stiffness``: a taut string, (N / L) [[I, -I], [-I, I]] on the lateral translations x, y.
+
+    A rigid rotation theta normal to the axis moves the ends apart laterally by theta L and stores N L theta^2:
+    this balances the solid's stress stiffness under the clamping pair (see ``fem.prestress``).
+    """
+    string = tension / length * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    stiffness = np.zeros((12, 12))
+    for lateral in (0, 1):
+        stiffness[np.ix_([lateral, 6 + lateral], [lateral, 6 + lateral])] = string
+    return stiffness
+
+
+def assemble_shanks(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], shank: np.ndarray) -> sp.csr_matrix:
+    """Sum over bolts of R^T k_shank R with R = [R_lower; R_upper] (12, n_dof); shank: (12, 12) element matrix."""
     return sum((lambda r: (r.T @ sp.csr_matrix(shank) @ r))(sp.vstack([lower, upper]).tocsr())
                for lower, upper in couplings).tocsr()
+
+
+def bolts_stiffness(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt,
+                    axial: bool = True) -> sp.csr_matrix:
+    """Elastic stiffness of the bolt shanks (``shank_stiffness``) on their washer couplings, (n_dof, n_dof) N/m."""
+    return assemble_shanks(couplings, shank_stiffness(bolt, axial))
 
 
 def preload_forces(couplings: list[tuple[sp.csr_matrix, sp.csr_matrix]], bolt: Bolt) -> np.ndarray:
