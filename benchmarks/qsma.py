@@ -1,0 +1,69 @@
+"""Benchmark of the vectorised QSMA: design evaluations per second per core for each friction model.
+
+Run as ``python -m benchmarks.qsma [--designs N] [--levels L] [--configuration CD1]``. Each design is
+evaluated at L modal amplitudes (amplitude control, log-spaced over the ASB's measured range) on one core
+(BLAS limited to one thread), and the table gives the CPU time, designs per CPU-second, and the share of
+designs with at least one level not converged, by reason.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from collections import Counter  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from nonlinear.condensation import joint_space  # noqa: E402
+from nonlinear.joint import FRICTION_MODELS, random_designs  # noqa: E402
+from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
+from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
+
+AMPLITUDE_RANGE = (7e-6, 1.1e-4)  # m kg^0.5, the measured ASB backbones
+CHUNK = 1000  # designs per vectorised call
+
+
+def benchmark(model: str, space, n_designs: int, n_levels: int, seed: int = 0) -> dict:
+    """Evaluate ``n_designs`` random Table 3 designs; return timing and non-convergence counts."""
+    n_groups = max(space.superelement.patch_groups) + 1
+    designs = random_designs(model, n_designs, n_groups, np.random.default_rng(seed))
+    amplitudes = np.geomspace(*AMPLITUDE_RANGE, n_levels)
+    reasons = Counter()
+    start = time.process_time()
+    for first in range(0, n_designs, CHUNK):
+        result = qsma_designs(space, model, designs[first:first + CHUNK], amplitudes=amplitudes,
+                              linear_damping=1e-3)
+        failed = ~result.converged.all(axis=1)
+        reasons.update(next(reason for reason in row if reason) for row in result.reason[failed])
+    seconds = time.process_time() - start
+    return {"model": model, "designs": n_designs, "seconds": seconds, "rate": n_designs / seconds,
+            "failed": sum(reasons.values()) / n_designs, "reasons": reasons}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=4000)
+    parser.add_argument("--levels", type=int, default=30)
+    parser.add_argument("--configuration", default="CD1", help="ASB reduced model (five patches: CD1)")
+    arguments = parser.parse_args(argv)
+    path = asb_data_folder() / f"MAT_NULLRED_{arguments.configuration}.mat"
+    if not path.exists():
+        raise SystemExit(f"benchmark needs the ASB reduced model {path}")
+    space = joint_space(read_asb_superelement(path))
+    print(f"QSMA benchmark: ASB {arguments.configuration} ({space.superelement.n_patches} patches, "
+          f"{len(space.eigenvalues)} modes), {arguments.levels} amplitude levels, one core")
+    print(f"{'model':<12} {'designs':>8} {'CPU s':>8} {'designs/s':>10} {'not converged':>14}  reasons")
+    for model in FRICTION_MODELS:
+        row = benchmark(model, space, arguments.designs, arguments.levels)
+        reasons = "; ".join(f"{reason}: {count}" for reason, count in row["reasons"].items()) or "-"
+        print(f"{model:<12} {row['designs']:>8} {row['seconds']:>8.2f} {row['rate']:>10.0f} "
+              f"{100 * row['failed']:>13.2f}%  {reasons}")
+
+
+if __name__ == "__main__":
+    main()
