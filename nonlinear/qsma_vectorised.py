@@ -140,7 +140,9 @@ def _newton(elements, compliance, linear, scale, x_start, compliance_inverse):
         sub, c, s, lin = _take(elements, active), compliance[active], scale[active], linear[active]
         c_inverse = compliance_inverse[active]
         xa, ra = x[active], residual[active]
-        slope = tangential_slip_deficit_tangent(sub, xa * s)
+        # Clipping the slope at K_T (a backbone tangent below zero, stiction law only, taken as zero) keeps
+        # the Newton matrix positive semi-definite, so its step descends the energy towards a stable state.
+        slope = np.minimum(tangential_slip_deficit_tangent(sub, xa * s), sub.stiffness)
         jacobian = identity - c * (slope * s)[:, None, :] / s[:, :, None]
         step, singular = _solve(jacobian, -ra)
         unrestrained[active[singular]] = True
