@@ -92,7 +92,7 @@ def stuck_stiffness_matrix(space: JointSpace, joint_stiffness) -> np.ndarray:
     tangents k of shape (..., 3 n_patches)."""
     k = np.asarray(joint_stiffness, dtype=float)
     phi = space.joint_modes
-    return np.diag(space.eigenvalues) + np.einsum("im,...i,in->...mn", phi, k, phi)
+    return np.diag(space.eigenvalues) + (phi.T * k[..., None, :]) @ phi
 
 
 def modal_assurance(shapes, reference) -> np.ndarray:
@@ -130,9 +130,9 @@ def stuck_modes(space: JointSpace, joint_stiffness) -> StuckModes:
     designs = np.arange(len(target))
     shape = vectors[designs, :, target]
     shape *= np.sign(shape @ space.reference)[:, None]
-    w = np.einsum("im,dmk->dik", space.joint_modes, vectors)
+    w = space.joint_modes @ vectors
     others = np.arange(mu.shape[1])[None, :] != target[:, None]
-    residual_compliance = np.einsum("dik,dk,djk->dij", w, np.where(others, 1.0 / mu, 0.0), w)
+    residual_compliance = (w * np.where(others, 1.0 / mu, 0.0)[:, None, :]) @ w.transpose(0, 2, 1)
     joint_shape = shape @ space.joint_modes.T
     eigenvalue = mu[designs, target]
     compliance = residual_compliance + joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nonlinear import slip_laws
 from nonlinear.parameters import check_iwan
 
 
@@ -79,38 +80,22 @@ def four_parameter_slip_deficit(displacement, slip_force, stiffness, chi, beta):
     The closed form avoids the cancellation of K_T u against f(u) at small amplitude, where QSMA needs it.
     """
     phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
-    u = np.asarray(displacement, dtype=float)
-    x = np.abs(u) / phi_max
-    xm = np.minimum(x, 1.0)
-    microslip = r * xm ** (chi + 2.0) / ((chi + 1.0) * (chi + 2.0))
-    macroslip = (s + r / (chi + 1.0)) * x - (s + r / (chi + 2.0))
-    return np.sign(u) * np.where(x < 1.0, microslip, macroslip)
+    return slip_laws.slip_deficit(np.asarray(displacement, dtype=float) / phi_max, r, s, chi, 1.0)
 
 
 def four_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi, beta):
     """Derivative of the four-parameter slip deficit (N/m): R u^(chi+1) / (chi+1) in microslip, K_T beyond."""
-    phi_max, r, _ = segalman_constants(slip_force, stiffness, chi, beta)
-    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
-    microslip = r * np.minimum(x, 1.0) ** (chi + 1.0) / ((chi + 1.0) * phi_max)
-    return np.where(x < 1.0, microslip, stiffness)
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.asarray(displacement, dtype=float) / phi_max
+    return slip_laws.slip_deficit_slope(x, r, s, chi, 1.0) / phi_max
 
 
 def four_parameter_slip_deficit_potential(displacement, slip_force, stiffness, chi, beta):
     """Integral of the four-parameter slip deficit from 0 to u (J); convex (its derivative, the deficit,
     increases with |u|). Microslip: R u^(chi+3) / ((chi+1)(chi+2)(chi+3))."""
-    return _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, 1.0)
-
-
-def _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta):
-    """Integral of the five-parameter slip deficit (theta = 1: four-parameter) from 0 to u (J)."""
     phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
-    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
-    xm = np.minimum(x, 1.0)
-    micro_coefficient = r * (1.0 / (chi + 1.0) - theta / (chi + 2.0)) / (chi + 3.0)
-    microslip = micro_coefficient * xm ** (chi + 3.0)
-    beyond = np.maximum(x - 1.0, 0.0)
-    macroslip = (s + r / (chi + 1.0)) * (beyond ** 2 / 2.0 + beyond) - theta * (s + r / (chi + 2.0)) * beyond
-    return phi_max * (microslip + macroslip)
+    x = np.asarray(displacement, dtype=float) / phi_max
+    return phi_max * slip_laws.slip_deficit_potential(x, r, s, chi, 1.0)
 
 
 def five_parameter_backbone(displacement, slip_force, stiffness, chi, beta, theta):
@@ -142,28 +127,24 @@ def five_parameter_slip_deficit(displacement, slip_force, stiffness, chi, beta, 
     """Force lost to slip, K_T u - f(u) (N), odd in u; microslip: R u^(chi+2) (1/(chi+1) - theta/(chi+2))."""
     check_iwan(slip_force, stiffness, chi, beta, theta)
     phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
-    u = np.asarray(displacement, dtype=float)
-    x = np.abs(u) / phi_max
-    xm = np.minimum(x, 1.0)
-    microslip = r * xm ** (chi + 2.0) * (1.0 / (chi + 1.0) - theta / (chi + 2.0))
-    macroslip = (s + r / (chi + 1.0)) * x - theta * (s + r / (chi + 2.0))
-    return np.sign(u) * np.where(x < 1.0, microslip, macroslip)
+    return slip_laws.slip_deficit(np.asarray(displacement, dtype=float) / phi_max, r, s, chi, theta)
 
 
 def five_parameter_slip_deficit_tangent(displacement, slip_force, stiffness, chi, beta, theta):
     """Derivative of the five-parameter slip deficit (N/m): R u^(chi+1) ((chi+2)/(chi+1) - theta) in microslip."""
     check_iwan(slip_force, stiffness, chi, beta, theta)
-    phi_max, r, _ = segalman_constants(slip_force, stiffness, chi, beta)
-    x = np.abs(np.asarray(displacement, dtype=float)) / phi_max
-    microslip = r * np.minimum(x, 1.0) ** (chi + 1.0) * ((chi + 2.0) / (chi + 1.0) - theta) / phi_max
-    return np.where(x < 1.0, microslip, stiffness)
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.asarray(displacement, dtype=float) / phi_max
+    return slip_laws.slip_deficit_slope(x, r, s, chi, theta) / phi_max
 
 
 def five_parameter_slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta):
     """Integral of the five-parameter slip deficit from 0 to u (J). Not convex for theta < 1: the
     stiction drop makes the deficit jump up at phi_max and the backbone can soften faster than K_T."""
     check_iwan(slip_force, stiffness, chi, beta, theta)
-    return _slip_deficit_potential(displacement, slip_force, stiffness, chi, beta, theta)
+    phi_max, r, s = segalman_constants(slip_force, stiffness, chi, beta)
+    x = np.asarray(displacement, dtype=float) / phi_max
+    return phi_max * slip_laws.slip_deficit_potential(x, r, s, chi, theta)
 
 
 def five_parameter_dissipation(amplitude, slip_force, stiffness, chi, beta, theta):

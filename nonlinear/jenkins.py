@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nonlinear import slip_laws
 from nonlinear.parameters import check_jenkins
 
 
@@ -30,25 +31,25 @@ def tangent(displacement, stiffness, slip_force):
 
 
 def slip_deficit(displacement, stiffness, slip_force):
-    """Force lost to slip, K_T u - f(u) (N): zero while stuck, K_T u - F_S once slipping.
-
-    Written without the subtraction of two large numbers where possible, since QSMA needs it at every level.
-    """
+    """Force lost to slip, K_T u - f(u) (N): zero while stuck, K_T u - F_S once slipping
+    (``nonlinear.slip_laws`` with r = 0, s = F_S, phi_max = F_S / K_T)."""
     check_jenkins(stiffness, slip_force)
-    u = np.asarray(displacement, dtype=float)
-    return np.sign(u) * np.maximum(stiffness * np.abs(u) - slip_force, 0.0)
+    x = np.asarray(displacement, dtype=float) * stiffness / slip_force
+    return slip_laws.slip_deficit(x, 0.0, slip_force, -0.5, 1.0)
 
 
 def slip_deficit_tangent(displacement, stiffness, slip_force):
     """Derivative of the slip deficit (N/m): 0 while stuck, K_T once slipping."""
-    return stiffness - tangent(displacement, stiffness, slip_force)
+    check_jenkins(stiffness, slip_force)
+    x = np.asarray(displacement, dtype=float) * stiffness / slip_force
+    return slip_laws.slip_deficit_slope(x, 0.0, slip_force, -0.5, 1.0) * stiffness / slip_force
 
 
 def slip_deficit_potential(displacement, stiffness, slip_force):
     """Integral of the slip deficit from 0 to u (J): K_T (|u| - F_S/K_T)^2 / 2 once slipping. Convex."""
     check_jenkins(stiffness, slip_force)
-    excess = np.maximum(np.abs(np.asarray(displacement, dtype=float)) - slip_force / stiffness, 0.0)
-    return 0.5 * stiffness * excess ** 2
+    x = np.asarray(displacement, dtype=float) * stiffness / slip_force
+    return slip_laws.slip_deficit_potential(x, 0.0, slip_force, -0.5, 1.0) * slip_force / stiffness
 
 
 def dissipation(amplitude, stiffness, slip_force):

@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nonlinear import iwan, jenkins
+from nonlinear import iwan, jenkins, slip_laws
 from nonlinear.parameters import FrictionParameterError, check_iwan, check_jenkins, check_positive
 
 GROUP_PARAMETERS = {
@@ -39,6 +39,17 @@ TABLE3_LIMITS = {
 }
 FRICTION_MODELS = tuple(GROUP_PARAMETERS)
 BRB_PATCH_GROUPS = (0, 1, 2, 1, 0)
+
+
+class ScaledLaw(NamedTuple):
+    """Element constants of the scaled slip law (``nonlinear.slip_laws``), arrays like the parameters:
+    phi_max (m, the scale of the slip; 1 for stuck patches), r and s (N), chi, theta."""
+
+    phi_max: np.ndarray
+    r: np.ndarray
+    s: np.ndarray
+    chi: np.ndarray
+    theta: np.ndarray
 
 
 class PatchElements(NamedTuple):
@@ -118,14 +129,22 @@ def patch_elements(model: str, designs, patch_groups=BRB_PATCH_GROUPS, stuck_gro
                                 ("F_S", "K_T", "chi", "beta", "theta", "K_z")), stuck)
 
 
+def scaled_law(elements: PatchElements) -> ScaledLaw:
+    """Constants of every element's slip law: Iwan by Segalman's mapping, Jenkins as r = 0, s = F_S,
+    phi_max = F_S / K_T, stuck patches r = s = 0 (no slip)."""
+    if elements.law == "jenkins":
+        phi_max, r, s = elements.slip_force / elements.stiffness, np.zeros_like(elements.slip_force), elements.slip_force
+    else:
+        phi_max, r, s = iwan.segalman_constants(elements.slip_force, elements.stiffness, elements.chi, elements.beta)
+    stuck = elements.stuck
+    return ScaledLaw(np.where(stuck, 1.0, phi_max), np.where(stuck, 0.0, r), np.where(stuck, 0.0, s),
+                     elements.chi, elements.theta)
+
+
 def slip_displacement(elements: PatchElements) -> np.ndarray:
     """Displacement at which an element reaches macroslip (m), (n_designs, n_patches): F_S / K_T for Jenkins,
-    phi_max for Iwan, +inf for stuck patches. It is the natural scale of the tangential unknowns."""
-    if elements.law == "jenkins":
-        scale = elements.slip_force / elements.stiffness
-    else:
-        scale, _, _ = iwan.segalman_constants(elements.slip_force, elements.stiffness, elements.chi, elements.beta)
-    return np.where(elements.stuck, np.inf, scale)
+    phi_max for Iwan, +inf for stuck patches."""
+    return np.where(elements.stuck, np.inf, scaled_law(elements).phi_max)
 
 
 def tangential_force(elements: PatchElements, displacement) -> np.ndarray:
@@ -155,42 +174,23 @@ def tangential_tangent(elements: PatchElements, displacement) -> np.ndarray:
 
 def tangential_slip_deficit(elements: PatchElements, displacement) -> np.ndarray:
     """Force lost to slip, K_T u - f(u) (N), of the tangential elements; zero for stuck patches."""
-    e = elements
-    if e.law == "jenkins":
-        deficit = jenkins.slip_deficit(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        deficit = iwan.four_parameter_slip_deficit(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        deficit = iwan.five_parameter_slip_deficit(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
-    return np.where(e.stuck, 0.0, deficit)
+    law = scaled_law(elements)
+    return slip_laws.slip_deficit(displacement / law.phi_max, law.r, law.s, law.chi, law.theta)
 
 
 def tangential_slip_deficit_tangent(elements: PatchElements, displacement) -> np.ndarray:
-    """Derivative of the slip deficit (N/m), between 0 (stuck) and K_T (macroslip)."""
-    e = elements
-    if e.law == "jenkins":
-        tangent = jenkins.slip_deficit_tangent(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        tangent = iwan.four_parameter_slip_deficit_tangent(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        tangent = iwan.five_parameter_slip_deficit_tangent(displacement, e.slip_force, e.stiffness, e.chi, e.beta,
-                                                           e.theta)
-    return np.where(e.stuck, 0.0, tangent)
+    """Derivative of the slip deficit (N/m), between 0 (stuck) and K_T (macroslip); above K_T where a
+    stiction backbone softens."""
+    law = scaled_law(elements)
+    return slip_laws.slip_deficit_slope(displacement / law.phi_max, law.r, law.s, law.chi, law.theta) / law.phi_max
 
 
 def tangential_slip_deficit_potential(elements: PatchElements, displacement) -> np.ndarray:
     """Integral of the slip deficit from 0 to the displacement (J); zero for stuck patches. The static QSMA
     problem minimises a quadratic form minus the sum of these (convex for Jenkins and four-parameter Iwan)."""
-    e = elements
-    if e.law == "jenkins":
-        potential = jenkins.slip_deficit_potential(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        potential = iwan.four_parameter_slip_deficit_potential(displacement, e.slip_force, e.stiffness, e.chi,
-                                                               e.beta)
-    else:
-        potential = iwan.five_parameter_slip_deficit_potential(displacement, e.slip_force, e.stiffness, e.chi,
-                                                               e.beta, e.theta)
-    return np.where(e.stuck, 0.0, potential)
+    law = scaled_law(elements)
+    return law.phi_max * slip_laws.slip_deficit_potential(displacement / law.phi_max, law.r, law.s, law.chi,
+                                                          law.theta)
 
 
 def tangential_dissipation(elements: PatchElements, amplitude) -> np.ndarray:

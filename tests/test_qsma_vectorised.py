@@ -2,7 +2,7 @@
 
 The two share the physics (joint-space condensation, element laws) but not the numerics: the oracle forms
 the compliance by a linear solve and uses MINPACK's hybrid method with finite differences, the vectorised
-version sums the compliance over modes and runs a batched damped Newton on the potential energy.
+version sums the compliance over modes and runs a compiled (numba) damped Newton on the potential energy.
 Agreement is required within 1e-6 in omega and 1e-5 in zeta where both converge. For the convex laws
 (Jenkins, four-parameter Iwan) the equilibrium is unique; the stiction law (five-parameter Iwan,
 theta < 1) can soften faster than the joint's stiffness, after which several equilibria exist, so it is
