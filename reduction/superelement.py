@@ -74,6 +74,24 @@ class Superelement:
         return self.patch_motion[rows.ravel()]
 
 
+def save_superelement(superelement: Superelement, path: Path | str) -> None:
+    """Write a superelement as ``.npz`` (no pickles): one array per field, ``preload`` empty when absent.
+    The reduction stage's file format (build/rom/<beam>.npz)."""
+    preload = np.empty(0) if superelement.preload is None else superelement.preload
+    np.savez(path, mass=superelement.mass, stiffness=superelement.stiffness, patch_motion=superelement.patch_motion,
+             patch_areas=superelement.patch_areas, patch_groups=np.asarray(superelement.patch_groups),
+             sensors=superelement.sensors, preload=preload, name=np.asarray(superelement.name))
+
+
+def load_superelement(path: Path | str) -> Superelement:
+    """Read a superelement written by :func:`save_superelement`."""
+    with np.load(path, allow_pickle=False) as data:
+        preload = data["preload"]
+        return Superelement(mass=data["mass"], stiffness=data["stiffness"], patch_motion=data["patch_motion"],
+                            patch_areas=data["patch_areas"], patch_groups=tuple(int(g) for g in data["patch_groups"]),
+                            sensors=data["sensors"], preload=preload if preload.size else None, name=str(data["name"]))
+
+
 def asb_data_folder() -> Path:
     """Where the shared ASB reduced models live (outside the repository)."""
     return Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-reduced-models"

@@ -8,7 +8,8 @@ import scipy.linalg
 
 from nonlinear import iwan, jenkins
 from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space, stuck_stiffness_matrix
-from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
+from nonlinear.joint import BRB_PATCH_GROUPS, parameter_names, patch_elements, random_designs, stuck_stiffness
+from nonlinear.parameters import FrictionParameterError
 from nonlinear.qsma import qsma_reference
 from reduction.superelement import Superelement, asb_data_folder, read_asb_superelement
 
@@ -140,3 +141,32 @@ def test_amplitude_and_force_control_give_the_same_backbone(model):
     np.testing.assert_allclose(by_force.amplitude, amplitudes[usable], rtol=1e-8)
     np.testing.assert_allclose(by_force.frequency, by_amplitude.frequency[usable], rtol=1e-9)
     np.testing.assert_allclose(by_force.damping, by_amplitude.damping[usable], rtol=1e-7)
+
+
+@pytest.mark.parametrize("model, count", [("jenkins", 9), ("iwan4", 15), ("iwan5", 18), ("iwan4_stuck", 12)])
+def test_brb_layout_has_the_papers_parameter_counts(model, count):
+    """Paper Table 2: 9, 15, 18 and 12 unknowns for three symmetry groups."""
+    assert len(parameter_names(model, 3)) == count
+    design = random_designs(model, 1, 3, np.random.default_rng(0))
+    elements = patch_elements(model, design, BRB_PATCH_GROUPS)
+    np.testing.assert_array_equal(elements.stiffness[0, [0, 1]], elements.stiffness[0, [4, 3]])  # symmetry
+    assert elements.stuck.tolist() == [False, False, model == "iwan4_stuck", False, False]
+
+
+@pytest.mark.parametrize("model, change, message", [
+    ("iwan4", {2: 0.3}, "chi"), ("iwan4", {1: -1e6}, "K_T"), ("iwan5", {4: 1.5}, "theta"),
+    ("jenkins", {2: -1e8}, "K_z"), ("iwan4", {}, "takes 15 parameters"),
+])
+def test_designs_outside_the_physical_range_are_refused(model, change, message):
+    design = random_designs(model, 1, 3, np.random.default_rng(1))[0]
+    for index, value in change.items():
+        design[index] = value
+    if not change:
+        design = design[:-1]
+    with pytest.raises(FrictionParameterError, match=message):
+        patch_elements(model, design, BRB_PATCH_GROUPS)
+
+
+def test_qsma_refuses_an_unphysical_design_with_a_clear_error():
+    with pytest.raises(FrictionParameterError, match="chi"):
+        qsma_reference(two_body_space(), "iwan4", [300.0, 2.0e6, 0.4, 0.2, 1.0e7], amplitudes=[1e-6])

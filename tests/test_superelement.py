@@ -12,7 +12,8 @@ import pytest
 import scipy.io
 
 from nonlinear.condensation import joint_space
-from reduction.superelement import Superelement, asb_data_folder, read_asb_superelement
+from reduction.superelement import (Superelement, asb_data_folder, load_superelement, read_asb_superelement,
+                                    save_superelement)
 
 MEASURED = Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-backbones"
 CONFIGURATIONS = ["C1", "C2", "C3", "C4", "C4a", "CD1"]
@@ -69,3 +70,12 @@ def test_superelement_refuses_inconsistent_shapes():
     with pytest.raises(ValueError, match="symmetric"):
         Superelement(mass=np.triu(np.ones((6, 6))), stiffness=np.zeros((6, 6)), patch_motion=np.zeros((6, 6)),
                      patch_areas=np.ones(1), patch_groups=(0,), sensors=np.eye(6))
+
+
+def test_superelement_file_round_trip_keeps_every_field(tmp_path):
+    superelement = read_asb_superelement(asb_path("CD1"))
+    save_superelement(superelement, tmp_path / "cd1.npz")
+    loaded = load_superelement(tmp_path / "cd1.npz")
+    for field in ("mass", "stiffness", "patch_motion", "patch_areas", "sensors", "preload"):
+        np.testing.assert_array_equal(getattr(loaded, field), getattr(superelement, field))
+    assert loaded.patch_groups == (0, 1, 2, 1, 0) and loaded.name == "CD1"
