@@ -9,7 +9,7 @@ export OMP_NUM_THREADS ?= 1
 RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
 MODE_HZ ?= 80.5
 
-.PHONY: demo test test-slow beams freevib bench clean system-packages
+.PHONY: demo test test-slow beams fe freevib bench clean system-packages
 
 demo: beams freevib
 
@@ -21,6 +21,10 @@ test-slow: $(STAMP)
 
 beams: $(STAMP)
 	$(BIN)/surrogacy beams --out build/beams
+
+# Stiffness, mass, bolt preload with frictionless contact, stress stiffness and tied modes of each beam.
+fe: beams
+	$(BIN)/surrogacy fe --beams build/beams --out build/fe
 
 # Amplitude-dependent frequency and damping of one mode from a measured ring-down (Hilbert / FreeVib).
 freevib: $(STAMP)
