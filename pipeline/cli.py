@@ -14,17 +14,11 @@ STAGE_COMMANDS = ("geometry.commands", "fem.commands", "nonlinear.commands")
 
 
 def parser() -> argparse.ArgumentParser:
-    """The argument parser with every available stage subcommand."""
+    """The argument parser with every stage subcommand."""
     root = argparse.ArgumentParser(prog="surrogacy", description=__doc__.splitlines()[0])
     subparsers = root.add_subparsers(dest="command", required=True, metavar="STAGE")
     for module_name in STAGE_COMMANDS:
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as error:
-            if error.name != module_name:
-                raise
-            continue
-        module.register(subparsers)
+        importlib.import_module(module_name).register(subparsers)
     return root
 
 
