@@ -71,7 +71,7 @@ def test_vectorised_qsma_equals_oracle_on_table3_designs(model):
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
 def test_vectorised_qsma_equals_oracle_on_1000_table3_designs(model):
-    """1,000 designs per model: 10 s (Jenkins) to 80 s (five-parameter Iwan) per model on one core."""
+    """1,000 designs per model: 15 s (Jenkins) to 55 s (four-parameter Iwan) per model on one core."""
     compare_with_oracle(model, 1000, seed=12)
 
 
