@@ -133,7 +133,8 @@ def scaled_law(elements: PatchElements) -> ScaledLaw:
     """Constants of every element's slip law: Iwan by Segalman's mapping, Jenkins as r = 0, s = F_S,
     phi_max = F_S / K_T, stuck patches r = s = 0 (no slip)."""
     if elements.law == "jenkins":
-        phi_max, r, s = elements.slip_force / elements.stiffness, np.zeros_like(elements.slip_force), elements.slip_force
+        phi_max, s = elements.slip_force / elements.stiffness, elements.slip_force
+        r = np.zeros_like(s)
     else:
         phi_max, r, s = iwan.segalman_constants(elements.slip_force, elements.stiffness, elements.chi, elements.beta)
     stuck = elements.stuck
@@ -145,19 +146,6 @@ def slip_displacement(elements: PatchElements) -> np.ndarray:
     """Displacement at which an element reaches macroslip (m), (n_designs, n_patches): F_S / K_T for Jenkins,
     phi_max for Iwan, +inf for stuck patches."""
     return np.where(elements.stuck, np.inf, scaled_law(elements).phi_max)
-
-
-def tangential_force(elements: PatchElements, displacement) -> np.ndarray:
-    """Backbone force (N) of the tangential elements at relative displacement (m), shape (..., n_patches)
-    broadcasting against the (n_designs, n_patches) parameters (paper Eqs. 14, 18, 21)."""
-    e = elements
-    if e.law == "jenkins":
-        force = jenkins.backbone(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        force = iwan.four_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        force = iwan.five_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
-    return np.where(e.stuck, e.stiffness * displacement, force)
 
 
 def tangential_tangent(elements: PatchElements, displacement) -> np.ndarray:

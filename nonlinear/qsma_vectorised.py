@@ -14,7 +14,8 @@ import numpy as np
 
 from nonlinear import qsma_kernel
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, stuck_modes
-from nonlinear.joint import PatchElements, patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
+from nonlinear.joint import (PatchElements, patch_elements, scaled_law, stuck_stiffness, tangential_elements,
+                             tangential_rows)
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, MACROSLIP, NOT_CONVERGED, QSMAResult, modal_backbone
 
 

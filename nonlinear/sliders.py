@@ -2,7 +2,8 @@
 
 A slider j is a spring k_j (N/m) in series with a Coulomb slider of static strength f_j (N) that carries
 theta f_j while sliding (stiction ratio, paper Eq. 20; theta = 1 is plain Coulomb). Its state is the slider
-position p_j (m) and the direction d_j in {-1, 0, +1} in which it last slid (0: never). The element force is sum_j k_j (u - p_j).
+position p_j (m) and the direction d_j in {-1, 0, +1} in which it last slid (0: never). The element force is
+sum_j k_j (u - p_j).
 
 - A Jenkins element (paper 4.3.1) is one slider.
 - An Iwan element (paper Eq. 16) is discretised into sliders that split the continuous part of the

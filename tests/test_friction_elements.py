@@ -38,7 +38,8 @@ def drive_cycle(sliders, amplitude, steps=2000):
     Returns (u, f) of the initial loading and (u, f) of the closed loop.
     """
     ramp = np.linspace(0.0, amplitude, steps)
-    loop = np.concatenate([np.linspace(amplitude, -amplitude, 2 * steps), np.linspace(-amplitude, amplitude, 2 * steps)])
+    loop = np.concatenate([np.linspace(amplitude, -amplitude, 2 * steps),
+                           np.linspace(-amplitude, amplitude, 2 * steps)])
     position, direction = initial_state(sliders)
     forces = []
     for u in np.concatenate([ramp, loop]):
@@ -181,6 +182,8 @@ def test_slip_deficit_is_stuck_force_minus_backbone(case):
     np.testing.assert_allclose(jenkins.slip_deficit(u_jenkins, stiffness, slip_force),
                                stiffness * u_jenkins - jenkins.backbone(u_jenkins, stiffness, slip_force),
                                rtol=1e-12, atol=scale)
+    np.testing.assert_allclose(jenkins.slip_deficit_tangent(u_jenkins, stiffness, slip_force),
+                               stiffness - jenkins.tangent(u_jenkins, stiffness, slip_force), rtol=1e-12)
 
 
 @pytest.mark.parametrize("case", IWAN_CASES)
@@ -199,4 +202,5 @@ def test_slip_deficit_potential_is_integral_of_deficit(case):
     h = 1e-6 * slip_force / stiffness
     np.testing.assert_allclose((jenkins.slip_deficit_potential(u_jenkins + h, stiffness, slip_force)
                                 - jenkins.slip_deficit_potential(u_jenkins - h, stiffness, slip_force)) / (2 * h),
-                               jenkins.slip_deficit(u_jenkins, stiffness, slip_force), rtol=1e-6, atol=1e-9 * slip_force)
+                               jenkins.slip_deficit(u_jenkins, stiffness, slip_force), rtol=1e-6,
+                               atol=1e-9 * slip_force)
