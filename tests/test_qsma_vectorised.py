@@ -91,3 +91,19 @@ def test_vectorised_force_control_flags_macroslip():
                                 * np.array([0.5, 2.0, 100.0]))
     assert by_amplitude.converged.all()
     np.testing.assert_allclose(by_amplitude.force[0, 1:], critical, rtol=1e-12)
+
+
+@pytest.mark.parametrize("model", ["jenkins", "iwan4"])
+def test_vectorised_force_control_retraces_amplitude_control(model):
+    """Each design loaded by the modal forces that amplitude control found returns the same amplitudes,
+    frequencies and damping (the convex laws have one equilibrium per force below macroslip)."""
+    space = cd1_space()
+    designs = random_designs(model, 40, 3, np.random.default_rng(5))
+    by_amplitude = qsma_designs(space, model, designs, amplitudes=AMPLITUDES, linear_damping=LINEAR_DAMPING)
+    assert by_amplitude.converged.mean() > 0.99
+    for design, forces, damping, usable in zip(designs, by_amplitude.force, by_amplitude.damping,
+                                               by_amplitude.converged):
+        by_force = qsma_designs(space, model, design[None, :], forces=forces[usable], linear_damping=LINEAR_DAMPING)
+        assert by_force.converged.all()
+        np.testing.assert_allclose(by_force.amplitude[0], AMPLITUDES[usable], rtol=1e-8)
+        np.testing.assert_allclose(by_force.damping[0], damping[usable], rtol=1e-7)
