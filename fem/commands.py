@@ -12,11 +12,17 @@ components data, indices, indptr, shape; bolts_* (shanks with axial stiffness, N
 preload_displacement (n_dof,) m; contact_force (n_pairs,) N on the upper nodes (+z); contact_active (n_pairs,)
 bool; frequencies, prestressed_frequencies (n_modes,) Hz and shapes, prestressed_shapes (n_dof, n_modes),
 mass-normalised tied modes of (K + K_bolts, M) and (K + K_bolts + K_sigma, M) (``fem.prestress``).
+
+Renders (``fem.render``, paper Figs. 7a and 8): ``<out>/<beam>_contact_pressure.png``, the lower interface
+coloured by the preload's contact pressure (Pa, colour range recorded in the sidecar as
+contact_pressure_range_pa), and ``<out>/<beam>_first_bending.png``, the prestressed first bending mode coloured by
+displacement magnitude. Their SHA-256 are in the sidecar (renders) and part of the cache check.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 from pathlib import Path
@@ -29,12 +35,15 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BEAMS, BeamParameters
 from pipeline.files import atomic_path, sha256_file, sha256_json, write_json
 
+from . import calibration, convergence
 from .bolts import Bolt
 from .elasticity import Material
 from .prestress import PrestressedBeam, prestressed_beam
+from .render import render_fe
 
 FORMAT_VERSION = 1
 N_MODES = 10
+RENDERS = ("contact_pressure", "first_bending")  # <beam>_<kind>.png
 
 
 class FeInputError(ValueError):
@@ -102,9 +111,10 @@ def _is_current(sidecar: Path, input_hash: str) -> bool:
     if not sidecar.is_file():
         return False
     record = json.loads(sidecar.read_text())
-    result = sidecar.parent / record.get("file", {}).get("name", "")
-    return (record.get("input_hash") == input_hash and result.is_file()
-            and sha256_file(result) == record["file"]["sha256"])
+    files = [record.get("file", {}), *record.get("renders", {}).values()]
+    return (record.get("input_hash") == input_hash and len(files) == 1 + len(RENDERS)
+            and all((sidecar.parent / entry.get("name", "")).is_file()
+                    and sha256_file(sidecar.parent / entry["name"]) == entry["sha256"] for entry in files))
 
 
 def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Material(), bolt: Bolt = Bolt(),
@@ -119,13 +129,22 @@ def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Ma
     sidecar, result = folder / f"{name}.json", folder / f"{name}.npz"
     if _is_current(sidecar, input_hash):
         return sidecar
-    model = prestressed_beam(read_beam_mesh(mesh_path), beam, material, bolt, n_modes)
-    with atomic_path(result) as temporary:
+    beam_mesh = read_beam_mesh(mesh_path)
+    model = prestressed_beam(beam_mesh, beam, material, bolt, n_modes)
+    renders = {kind: folder / f"{name}_{kind}.png" for kind in RENDERS}
+    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
+        temporary = stack.enter_context(atomic_path(result))
         with open(temporary, "wb") as stream:
             np.savez(stream, **fe_arrays(model))
         result_sha = sha256_file(temporary)
+        images = {kind: stack.enter_context(atomic_path(path)) for kind, path in renders.items()}
+        pressure_range = render_fe(beam_mesh, model, name, images["contact_pressure"], images["first_bending"])
+        image_shas = {kind: sha256_file(path) for kind, path in images.items()}
     write_json(sidecar, {"inputs": inputs, "input_hash": input_hash,
                          "file": {"name": result.name, "sha256": result_sha},
+                         "renders": {kind: {"name": path.name, "sha256": image_shas[kind]}
+                                     for kind, path in renders.items()},
+                         "contact_pressure_range_pa": list(pressure_range),
                          "first_bending_hz": {"tied": float(model.frequencies[6]),
                                               "tied_prestressed": float(model.prestressed_frequencies[6])}})
     return sidecar
@@ -138,7 +157,7 @@ def run(arguments: argparse.Namespace) -> None:
 
 
 def register(subparsers) -> None:
-    """Add the ``fe`` subcommand."""
+    """Add the ``fe`` subcommand and the FE studies (``fe-convergence``, ``calibrate``)."""
     defaults = Material()
     command = subparsers.add_parser(
         "fe", help="preload with contact, stress stiffness and tied modes of each beam: build/fe/<beam>.npz",
@@ -151,3 +170,5 @@ def register(subparsers) -> None:
     command.add_argument("--poissons-ratio", type=float, default=defaults.poissons_ratio)
     command.add_argument("--density", type=float, default=defaults.density, help="kg/m^3")
     command.set_defaults(run=run)
+    convergence.register(subparsers)
+    calibration.register(subparsers)

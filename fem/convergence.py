@@ -1,0 +1,164 @@
+"""Mesh-convergence study of the tied first out-of-plane bending frequency (DESIGN sections 2 and 3).
+
+The three element sizes of ``geometry.parameters.MeshParameters`` (far field, lap, holes) are scaled together by
+a factor s (s < 1 refines); each mesh is solved for the first out-of-plane bending frequency of the beam with the
+lap tied (``fem.modes``: the upper bound of the low-amplitude frequencies) on the dynamic model's mass, the solid
+plus the bolt, nut and washer masses (``fem.bolts.bolts_mass``; the bolts' stiffness is left out, it cannot act
+across a tied lap beyond what the tie already does). Quadratic tetrahedra converge from above: the discrete
+model is stiffer than the continuum, so the frequency decreases with refinement.
+
+The default mesh is the coarsest whose frequency changes by less than a tolerance (0.5 %) to the next finer
+mesh of the sequence, and every finer one likewise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import MeshTet
+from tqdm import tqdm
+
+from geometry.beam_mesh import BeamMesh, interface_partners, read_beam_mesh
+from geometry.beams import make_beam
+from geometry.parameters import BEAMS, BeamParameters, MeshParameters
+from pipeline.files import atomic_path, write_json
+
+from .bolts import Bolt, bolts_mass, washer_couplings
+from .elasticity import Material, mass_matrix, solid_mesh, stiffness_matrix
+from .modes import interface_quadratic_pairs, tie_transformation, tied_modes
+
+FACTORS = (2.0, 1.5, 1.2, 1.0, 0.8, 0.65)
+TOLERANCE = 0.005
+N_MODES = 10
+COLUMNS = ("factor", "size_m", "lap_size_m", "hole_size_m", "dof", "first_bending_hz", "change_to_finer",
+           "seconds")
+
+
+def scaled_sizes(sizes: MeshParameters, factor: float) -> MeshParameters:
+    """``sizes`` with the far-field, lap and hole element sizes all multiplied by ``factor`` (same order)."""
+    return dataclasses.replace(sizes, size=sizes.size * factor, lap_size=sizes.lap_size * factor,
+                               hole_size=sizes.hole_size * factor)
+
+
+def dynamic_matrices(beam_mesh: BeamMesh, beam: BeamParameters, material: Material = Material(),
+                     bolt: Bolt = Bolt()) -> tuple[MeshTet, sp.csr_matrix, sp.csr_matrix]:
+    """The solid mesh, its stiffness K (n_dof, n_dof) N/m and the mass M of the solid plus the bolt masses, kg."""
+    mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
+    mass = mass_matrix(mesh, material) + bolts_mass(washer_couplings(mesh, beam_mesh, beam), bolt)
+    return mesh, stiffness_matrix(mesh, material), mass.tocsr()
+
+
+def first_bending(frequencies: np.ndarray, shapes: np.ndarray, n_rigid: int = 6) -> int:
+    """Index of the first out-of-plane bending mode: the first elastic mode (after ``n_rigid``) whose z
+    displacements dominate, |u_z| > 3 |u_y| and |u_z| > |u_x| (norms over all nodes).
+
+    frequencies: (n_modes,) Hz ascending; shapes: (3 n_nodes, n_modes). Raises ValueError when none is found.
+    """
+    for index in range(n_rigid, len(frequencies)):
+        norms = np.linalg.norm(shapes[:, index].reshape(-1, 3), axis=0)
+        if norms[2] > 3 * norms[1] and norms[2] > norms[0]:
+            return index
+    raise ValueError(f"no out-of-plane bending mode among the {len(frequencies)} modes solved")
+
+
+def tied_first_bending(beam_mesh: BeamMesh, beam: BeamParameters, material: Material = Material(),
+                       bolt: Bolt = Bolt()) -> tuple[int, float]:
+    """(n_dof of the two halves, first out-of-plane bending frequency Hz) with the lap tied, bolt masses included."""
+    mesh, stiffness, mass = dynamic_matrices(beam_mesh, beam, material, bolt)
+    tie = tie_transformation(stiffness.shape[0], *interface_quadratic_pairs(mesh, *interface_partners(beam_mesh)))
+    frequencies, shapes = tied_modes(stiffness, mass, tie, N_MODES)
+    return stiffness.shape[0], float(frequencies[first_bending(frequencies, shapes)])
+
+
+def changes_to_finer(frequencies: np.ndarray) -> np.ndarray:
+    """Relative change f_i / f_(i+1) - 1 of each mesh to the next finer one; NaN for the finest. (n,) -> (n,)."""
+    frequencies = np.asarray(frequencies, dtype=float)
+    return np.append(frequencies[:-1] / frequencies[1:] - 1, np.nan)
+
+
+def converged_index(changes: np.ndarray, tolerance: float = TOLERANCE) -> int | None:
+    """Index of the coarsest mesh from which every change to the next finer mesh is below ``tolerance`` (a single
+    small step between two coarse meshes does not count as converged); None if not even the last pair is.
+
+    changes: (n,) from ``changes_to_finer``, coarse to fine, the last NaN.
+    """
+    above = np.flatnonzero(~(np.abs(changes[:-1]) < tolerance))
+    first = 0 if len(above) == 0 else int(above[-1]) + 1
+    return first if first < len(changes) - 1 else None
+
+
+def convergence_study(beam: BeamParameters, sizes: MeshParameters, factors, material: Material = Material(),
+                      bolt: Bolt = Bolt(), progress: bool = False) -> list[dict]:
+    """Mesh ``beam`` at ``sizes`` scaled by each factor (coarse to fine) and solve the tied first bending.
+
+    Returns one row per factor with the keys of ``COLUMNS``: sizes m, DOF, frequency Hz, relative change to the
+    next finer mesh, and the wall time s of meshing plus solving.
+    """
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="fe-convergence-") as folder:
+        for factor in tqdm(factors, desc=f"{beam.name} meshes", unit="mesh", disable=not progress):
+            start = time.perf_counter()
+            scaled = scaled_sizes(sizes, factor)
+            sidecar = make_beam(beam, scaled, Path(folder) / f"{factor:g}", render=False)
+            dof, frequency = tied_first_bending(read_beam_mesh(sidecar.with_suffix(".msh")), beam, material, bolt)
+            rows.append({"factor": factor, "size_m": scaled.size, "lap_size_m": scaled.lap_size,
+                         "hole_size_m": scaled.hole_size, "dof": dof, "first_bending_hz": frequency,
+                         "seconds": time.perf_counter() - start})
+            if progress:
+                tqdm.write(f"s = {factor:g}: {dof} DOF, {frequency:.3f} Hz, {rows[-1]['seconds']:.0f} s")
+    for row, change in zip(rows, changes_to_finer([row["first_bending_hz"] for row in rows])):
+        row["change_to_finer"] = change
+    return rows
+
+
+def write_table(rows: list[dict], path: Path) -> None:
+    """The study as CSV (``COLUMNS``; units in the names), atomically."""
+    with atomic_path(path) as temporary:
+        with open(temporary, "w", newline="") as stream:
+            writer = csv.DictWriter(stream, fieldnames=COLUMNS)
+            writer.writeheader()
+            writer.writerows(rows)
+
+
+def run(arguments: argparse.Namespace) -> None:
+    beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
+    material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
+    factors = sorted(arguments.factors, reverse=True)
+    rows = convergence_study(beam, sizes, factors, material, progress=True)
+    table = Path(arguments.out) / f"{beam.name}.csv"
+    write_table(rows, table)
+    chosen = converged_index(np.array([row["change_to_finer"] for row in rows]), arguments.tolerance)
+    write_json(table.with_suffix(".json"), {
+        "beam": dataclasses.asdict(beam), "base_mesh": dataclasses.asdict(sizes), "factors": factors,
+        "material": dataclasses.asdict(material), "bolt_mass_included": True, "tolerance": arguments.tolerance,
+        "table": table.name, "converged_factor": None if chosen is None else rows[chosen]["factor"],
+        "converged_mesh": None if chosen is None else dataclasses.asdict(scaled_sizes(sizes, rows[chosen]["factor"]))})
+    verdict = "none" if chosen is None else f"s = {rows[chosen]['factor']:g}, {rows[chosen]['dof']} DOF"
+    tqdm.write(f"{table}: coarsest mesh within {arguments.tolerance:g} of the next finer: {verdict}")
+
+
+def register(subparsers) -> None:
+    """Add the ``fe-convergence`` subcommand."""
+    sizes, material = MeshParameters(), Material()
+    command = subparsers.add_parser(
+        "fe-convergence", help="mesh-convergence study of the tied first bending: results/fe-convergence/<beam>.csv",
+        description=__doc__)
+    command.add_argument("--beam", choices=sorted(BEAMS), default="BRB")
+    command.add_argument("--factors", type=float, nargs="+", default=list(FACTORS),
+                         help="scale factors on the three element sizes (< 1 refines)")
+    command.add_argument("--size", type=float, default=sizes.size, help="base far-field element size, m")
+    command.add_argument("--lap-size", type=float, default=sizes.lap_size, help="base lap element size, m")
+    command.add_argument("--hole-size", type=float, default=sizes.hole_size, help="base hole element size, m")
+    command.add_argument("--tolerance", type=float, default=TOLERANCE, help="relative change to the next finer mesh")
+    command.add_argument("--youngs-modulus", type=float, default=material.youngs_modulus, help="Pa")
+    command.add_argument("--poissons-ratio", type=float, default=material.poissons_ratio)
+    command.add_argument("--density", type=float, default=material.density, help="kg/m^3")
+    command.add_argument("--out", type=Path, default=Path("results/fe-convergence"), help="output folder")
+    command.set_defaults(run=run)
