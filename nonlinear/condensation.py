@@ -28,12 +28,16 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
+from nonlinear.stuck_modes import stuck_designs
 from reduction.superelement import Superelement
 
 RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
 # Above 0.5 only one mode can match the reference (the MACs of M-orthonormal modes against it sum to 1);
 # below, the reference shape is shared by veering modes and the target is ambiguous.
 UNAMBIGUOUS_MAC = 0.5
+# The small stuck eigenproblem keeps the modes below CUTOFF_FACTOR times the reference's Rayleigh quotient
+# explicitly (``modal_split``); the target is then always among them.
+CUTOFF_FACTOR = 4.0
 
 
 class JointSpace(NamedTuple):
@@ -103,12 +107,45 @@ def modal_assurance(shapes, reference) -> np.ndarray:
     return projection ** 2 / (np.sum(shapes ** 2, axis=-2) * (reference @ reference))
 
 
+class ModalSplit(NamedTuple):
+    """Unjoined modes split for the small stuck eigenproblem (``nonlinear.stuck_modes``).
+
+    low, high: indices of the modes below and above the cutoff lambda_c (rad^2/s^2); outer:
+    (m (m+1) / 2, n_modes) products Phi[i, e] Phi[j, e] (i >= j, row-major lower triangle) of every mode's
+    joint translations, from which a flexibility sum_e Phi_e Phi_e^T w_e is one matrix-vector product.
+    """
+
+    low: np.ndarray
+    high: np.ndarray
+    cutoff: float
+    outer: np.ndarray
+
+
+def modal_split(space: JointSpace, cutoff_factor: float = CUTOFF_FACTOR) -> ModalSplit:
+    """Split at lambda_c = cutoff_factor tau, tau = ref^T Lambda ref the reference's Rayleigh quotient.
+
+    For the default (tied) reference Phi ref = 0, so ref^T (Lambda + Phi^T K Phi) ref = tau for every joint:
+    expanding ref over the stuck modes, a mode with MAC c has mu <= tau / c. An unambiguous target
+    (MAC > 0.5) therefore lies below 2 tau < lambda_c, and no mode above the cutoff can have a MAC above
+    1 / cutoff_factor.
+    """
+    tau = space.reference @ (space.eigenvalues * space.reference)
+    cutoff = cutoff_factor * tau
+    low = np.flatnonzero(space.eigenvalues <= cutoff)
+    high = np.flatnonzero(space.eigenvalues > cutoff)
+    rows, columns = np.tril_indices(space.joint_modes.shape[0])
+    phi = space.joint_modes
+    return ModalSplit(low, high, cutoff, np.ascontiguousarray(phi[rows] * phi[columns]))
+
+
 class StuckModes(NamedTuple):
     """Low-amplitude (stuck-joint) data per design, arrays with a leading design axis.
 
     eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
     positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
-    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2.
+    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2;
+    residual_compliance: C - b b^T / lambda_1, the compliance without the tracked mode; found: False where
+    no stuck mode was found below the split's cutoff (then the fields hold the best attempt).
     """
 
     eigenvalue: np.ndarray
@@ -117,24 +154,20 @@ class StuckModes(NamedTuple):
     mac: np.ndarray
     compliance: np.ndarray
     residual_compliance: np.ndarray
+    found: np.ndarray
 
 
-def stuck_modes(space: JointSpace, joint_stiffness) -> StuckModes:
-    """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches).
+def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None) -> StuckModes:
+    """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches),
+    N/m, by the small exact eigenproblem of ``nonlinear.stuck_modes`` (no n_modes x n_modes solve).
 
-    A is positive definite for positive tangents: ``joint_space`` removed every rigid-body motion that leaves
-    the joint unstrained (the whole assembly's, and any relative one the translational joint cannot resist).
+    The target is the stuck mode with the largest MAC against the reference among those below the cutoff
+    (every mode with MAC above 1 / CUTOFF_FACTOR is there, see ``modal_split``).
     """
-    mu, vectors = np.linalg.eigh(stuck_stiffness_matrix(space, np.atleast_2d(joint_stiffness)))
-    mac = modal_assurance(vectors, space.reference)
-    target = np.argmax(mac, axis=-1)
-    designs = np.arange(len(target))
-    shape = vectors[designs, :, target]
-    shape *= np.sign(shape @ space.reference)[:, None]
-    w = space.joint_modes @ vectors
-    others = np.arange(mu.shape[1])[None, :] != target[:, None]
-    residual_compliance = (w * np.where(others, 1.0 / mu, 0.0)[:, None, :]) @ w.transpose(0, 2, 1)
-    joint_shape = shape @ space.joint_modes.T
-    eigenvalue = mu[designs, target]
-    compliance = residual_compliance + joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]
-    return StuckModes(eigenvalue, shape, joint_shape, mac[designs, target], compliance, residual_compliance)
+    split = modal_split(space) if split is None else split
+    k = np.ascontiguousarray(np.atleast_2d(joint_stiffness), dtype=float)
+    eigenvalue, shape, joint_shape, mac, compliance, found = stuck_designs(
+        k, space.eigenvalues, np.ascontiguousarray(space.joint_modes), split.outer, space.reference, split.low,
+        split.high, UNAMBIGUOUS_MAC)
+    residual_compliance = compliance - joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]
+    return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, residual_compliance, found)

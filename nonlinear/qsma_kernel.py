@@ -19,8 +19,11 @@ import numba
 import numpy as np
 
 from nonlinear import slip_laws
+from nonlinear.stuck_modes import solve_dense
 
-CONVERGED, NOT_CONVERGED, UNRESTRAINED = 0, 1, 2  # status codes per design and level
+# Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
+# macroslip (or the Newton matrix is singular): the halves slide freely.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED = 0, 1, 2
 TARGET_TOLERANCE = 1e-14  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 MAX_ITERATIONS = 60
@@ -64,38 +67,6 @@ def _energy(x, linear, compliance_pinv, phi, r, s, chi, theta):
 
 
 @numba.njit(cache=True)
-def _solve(matrix, rhs):
-    """Gaussian elimination with partial pivoting of a small dense system; (solution, singular). Only an
-    exactly zero pivot counts as singular (a joint whose slipping elements leave the halves free); an
-    ill-conditioned but regular matrix is solved, and the line search judges the step."""
-    m = rhs.size
-    a = matrix.copy()
-    b = rhs.copy()
-    for k in range(m):
-        pivot = k
-        for i in range(k + 1, m):
-            if abs(a[i, k]) > abs(a[pivot, k]):
-                pivot = i
-        if a[pivot, k] == 0.0:
-            return b, True
-        if pivot != k:
-            for j in range(m):
-                a[k, j], a[pivot, j] = a[pivot, j], a[k, j]
-            b[k], b[pivot] = b[pivot], b[k]
-        for i in range(k + 1, m):
-            factor = a[i, k] / a[k, k]
-            for j in range(k, m):
-                a[i, j] -= factor * a[k, j]
-            b[i] -= factor * b[k]
-    for k in range(m - 1, -1, -1):
-        total = b[k]
-        for j in range(k + 1, m):
-            total -= a[k, j] * b[j]
-        b[k] = total / a[k, k]
-    return b, False
-
-
-@numba.njit(cache=True)
 def _newton(x, linear, compliance, compliance_pinv, phi, r, s, chi, theta):
     """Damped Newton for one design at one level from x; returns (x, status)."""
     m = x.size
@@ -112,7 +83,7 @@ def _newton(x, linear, compliance, compliance_pinv, phi, r, s, chi, theta):
             clipped = min(_slope(x[j], r[j], s[j], chi[j], theta[j]), s[j] + r[j] / (chi[j] + 1.0))
             for i in range(m):
                 jacobian[i, j] = (1.0 if i == j else 0.0) - compliance[i, j] * clipped / phi[i]
-        step, singular = _solve(jacobian, -residual)
+        step, singular = solve_dense(jacobian, -residual)
         if singular:
             break
         energy, energy_terms = _energy(x, linear, compliance_pinv, phi, r, s, chi, theta)
@@ -140,7 +111,11 @@ def _newton(x, linear, compliance, compliance_pinv, phi, r, s, chi, theta):
             break
     if error <= ACCEPT_TOLERANCE:
         return x, CONVERGED
-    return x, UNRESTRAINED if singular else NOT_CONVERGED
+    beyond_macroslip = True
+    for i in range(m):
+        if (r[i] > 0.0 or s[i] > 0.0) and linear[i] != 0.0 and abs(x[i]) < 1.0:
+            beyond_macroslip = False
+    return x, UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED
 
 
 @numba.njit(cache=True)
