@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.io
+import scipy.linalg
 
 DOFS_PER_PATCH = 6  # x, y, normal translations, then rotations about x, y, normal
 ASB_PRELOAD = 11580.0  # N per bolt, the studies' value (paper section 4.1)
@@ -74,13 +75,18 @@ class Superelement:
         return self.patch_motion[rows.ravel()]
 
 
-def save_superelement(superelement: Superelement, path: Path | str) -> None:
-    """Write a superelement as ``.npz`` (no pickles): one array per field, ``preload`` empty when absent.
-    The reduction stage's file format (build/rom/<beam>.npz)."""
+def superelement_arrays(superelement: Superelement) -> dict[str, np.ndarray]:
+    """One array per field, ``preload`` empty when absent: the content of the superelement ``.npz``."""
     preload = np.empty(0) if superelement.preload is None else superelement.preload
-    np.savez(path, mass=superelement.mass, stiffness=superelement.stiffness, patch_motion=superelement.patch_motion,
-             patch_areas=superelement.patch_areas, patch_groups=np.asarray(superelement.patch_groups),
-             sensors=superelement.sensors, preload=preload, name=np.asarray(superelement.name))
+    return dict(mass=superelement.mass, stiffness=superelement.stiffness, patch_motion=superelement.patch_motion,
+                patch_areas=superelement.patch_areas, patch_groups=np.asarray(superelement.patch_groups),
+                sensors=superelement.sensors, preload=preload, name=np.asarray(superelement.name))
+
+
+def save_superelement(superelement: Superelement, path: Path | str) -> None:
+    """Write a superelement as ``.npz`` (no pickles, ``superelement_arrays``). The reduction stage's file format
+    (build/rom/<beam>.npz, which holds further arrays beside these; ``load_superelement`` ignores them)."""
+    np.savez(path, **superelement_arrays(superelement))
 
 
 def load_superelement(path: Path | str) -> Superelement:
@@ -138,3 +144,18 @@ def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch
         preload=ASB_PRELOAD * np.asarray(data["Fv"], dtype=float).ravel(),
         name=Path(path).stem.removeprefix("MAT_NULLRED_") + ("" if coupling == "distributed" else f" ({coupling})"),
     )
+
+
+def stuck_joint_modes(superelement: Superelement, n_modes: int = 1,
+                      rigid_frequency: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest flexible modes with the joint stuck: every relative patch translation (where the joint elements
+    act) held at zero, the upper bound of any joint design's low-amplitude frequencies.
+
+    Returns (frequencies (n_modes,) Hz, shapes (n, n_modes) in the superelement's coordinates, mass-normalised);
+    modes below ``rigid_frequency`` Hz (rigid motions the stuck joint leaves free) are skipped.
+    """
+    held = scipy.linalg.null_space(superelement.relative_translation)
+    eigenvalues, shapes = scipy.linalg.eigh(held.T @ superelement.stiffness @ held,
+                                            held.T @ superelement.mass @ held)
+    flexible = np.flatnonzero(eigenvalues > (2 * np.pi * rigid_frequency) ** 2)[:n_modes]
+    return np.sqrt(eigenvalues[flexible]) / (2 * np.pi), held @ shapes[:, flexible]

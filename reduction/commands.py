@@ -1,0 +1,173 @@
+"""``surrogacy rom``: the reduction stage: whole-joint patches and the Hurty/Craig-Bampton superelement per beam.
+
+Reads ``<beams>/<beam>.msh`` (+ ``.json``, geometry stage) and ``<fe>/<beam>.npz`` (+ ``.json``, FE stage) and
+writes into ``<out>``: ``<beam>.npz`` (``np.load(..., allow_pickle=False)``; ``reduction.superelement.
+load_superelement`` reads it), the same arrays as MATLAB ``<beam>.mat``, ``<beam>_first_bending.png`` (the first
+flexible mode with the joint stuck, expanded to the mesh) and the sidecar ``<beam>.json`` last (inputs, input hash,
+files' SHA-256, frequencies). The input hash covers the mesh and FE results' hashes, the number of modes and the
+sensor layout: a rerun with unchanged inputs does nothing.
+
+Reduced coordinates q (n = 86): lower virtual nodes 1-5, upper virtual nodes 1-5 (u_x, u_y, u_z m; r_x, r_y, r_z
+rad, about the patch centroids) and 26 fixed-interface modal coordinates (``dof_labels``). Arrays:
+- mass (n, n) kg; stiffness (n, n) N/m: K_A = K + K_sigma of the clamped halves (prestressed);
+  stiffness_without_prestress (n, n) N/m; bolt_stress_stiffness (n, n) N/m, the preloaded shanks' string term,
+  which belongs to the joint and is not in ``stiffness`` (``reduction.whole_joint``);
+- patch_motion (30, n): relative virtual-node motion upper minus lower of patch p, rows 6 p .. 6 p + 5;
+  patch_areas (5,) m^2; patch_groups (5,) 0-based symmetry groups (0, 1, 2, 1, 0); patch_pairs (5, 2) indices of
+  the lower and upper virtual node of each pair (0-based; 1-based in the .mat); virtual_node_coordinates (10, 3) m;
+- sensors (10, n): u_z (m) at the accelerometers; sensor_points (10, 3) m (``reduction.sensors``); preload (n,)
+  N, generalised force of the bolt pretension; name;
+- interface_points (n_pairs, 3) m and interface_lower_recovery, interface_upper_recovery (3 n_pairs, n): the
+  displacement of every interface node pair (rows 3 i + k, component k), so patch slip can be drawn;
+- vertex_recovery (3 n_vertices, n) and tetrahedra (n_tetrahedra, 4) (0-based; 1-based in the .mat): the
+  displacement of every mesh vertex (``<beams>/<beam>.msh`` node order), for renders;
+- dof_labels (n,) str; fixed_interface_frequencies (26,) Hz.
+The .mat holds the same arrays, with ``M`` = mass, ``K`` = stiffness, ``K_without_prestress``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+from tqdm import tqdm
+
+from fem.bolts import Bolt
+from fem.commands import FeInputError, beam_inputs, read_csr
+from fem.elasticity import solid_mesh
+from fem.modes import interface_quadratic_pairs, node_dofs
+from geometry.beam_mesh import interface_partners, read_beam_mesh
+from geometry.parameters import BEAMS
+from pipeline.files import atomic_path, sha256_file, sha256_json, write_json
+
+from .craig_bampton import N_FIXED_INTERFACE_MODES, reduced_matrix, virtual_dof_labels
+from .render import render_mode
+from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, point_recovery
+from .superelement import Superelement, stuck_joint_modes, superelement_arrays
+from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
+
+FORMAT_VERSION = 1
+ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
+
+
+def fe_inputs(fe_folder: Path, name: str, mesh_sha: str) -> tuple[Path, dict]:
+    """The FE result of one beam and its sidecar record; FeInputError when missing, stale or for another mesh."""
+    sidecar = Path(fe_folder) / f"{name}.json"
+    if not sidecar.is_file():
+        raise FeInputError(f"{sidecar}: missing; run the FE stage first (make fe)")
+    record = json.loads(sidecar.read_text())
+    result = sidecar.parent / record["file"]["name"]
+    if not result.is_file() or sha256_file(result) != record["file"]["sha256"]:
+        raise FeInputError(f"{result}: missing or its SHA-256 differs from {sidecar}; rerun make fe")
+    if record["inputs"]["mesh_sha256"] != mesh_sha:
+        raise FeInputError(f"{sidecar}: FE result of another mesh than the current one; rerun make fe")
+    return result, record
+
+
+def rom_arrays(beam_mesh, beam, fe, bolt: Bolt, n_modes: int) -> tuple[Superelement, dict[str, np.ndarray]]:
+    """The superelement of one beam and every array of its .npz (module docstring).
+
+    beam_mesh: ``geometry.beam_mesh.BeamMesh``; beam: its ``BeamParameters``; fe: the loaded FE stage .npz;
+    bolt: the FE stage's ``Bolt``."""
+    mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
+    reduction = reduce_beam(mesh, beam_mesh, read_csr(fe, "stiffness"), read_csr(fe, "mass"), n_modes)
+    basis = reduction.hcb.basis
+    string = bolt_string_stiffness(mesh, beam_mesh, beam, bolt)
+    prestressed = reduction.hcb.stiffness + reduced_matrix(read_csr(fe, "stress_stiffness") - string, basis)
+    points = accelerometer_points(beam)
+    sensors = point_recovery(mesh, points)[SENSOR_DIRECTION::3] @ basis
+    superelement = whole_joint_superelement(reduction, prestressed, sensors,
+                                            preload_vector(mesh, beam_mesh, beam, bolt, basis), beam.name)
+    lower, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
+    n_patches = len(reduction.patch_areas)
+    return superelement, {**superelement_arrays(superelement),
+            "stiffness_without_prestress": reduction.hcb.stiffness,
+            "bolt_stress_stiffness": reduced_matrix(string, basis),
+            "patch_pairs": np.column_stack([np.arange(n_patches), n_patches + np.arange(n_patches)]),
+            "virtual_node_coordinates": np.vstack([reduction.references, reduction.references]),
+            "sensor_points": points,
+            "interface_points": fe["coordinates"][lower],
+            "interface_lower_recovery": basis[node_dofs(lower).ravel()],
+            "interface_upper_recovery": basis[node_dofs(upper).ravel()],
+            "vertex_recovery": basis[:3 * mesh.p.shape[1]],
+            "tetrahedra": mesh.t.T.copy(),
+            "dof_labels": np.array(virtual_dof_labels(n_patches, n_modes)),
+            "fixed_interface_frequencies": reduction.hcb.fixed_interface_frequencies}
+
+
+def matlab_arrays(arrays: dict[str, np.ndarray]) -> dict:
+    """The .mat content: M, K, K_without_prestress, 1-based index arrays, labels as a cell array of strings."""
+    renamed = {"mass": "M", "stiffness": "K", "stiffness_without_prestress": "K_without_prestress"}
+    content = {renamed.get(key, key): value + 1 if key in ONE_BASED else value for key, value in arrays.items()}
+    content["dof_labels"] = np.array(list(arrays["dof_labels"]), dtype=object)
+    return content
+
+
+def _is_current(sidecar: Path, input_hash: str) -> bool:
+    if not sidecar.is_file():
+        return False
+    record = json.loads(sidecar.read_text())
+    return record.get("input_hash") == input_hash and all(
+        (sidecar.parent / entry["name"]).is_file() and sha256_file(sidecar.parent / entry["name"]) == entry["sha256"]
+        for entry in record.get("files", {}).values())
+
+
+def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
+             n_modes: int = N_FIXED_INTERFACE_MODES, render: bool = True) -> Path:
+    """Run the reduction stage for one beam unless its sidecar is current; returns the sidecar path."""
+    if n_modes < 1:
+        raise FeInputError(f"n_modes = {n_modes}: expected at least 1 fixed-interface mode")
+    mesh_path, beam, mesh_sha = beam_inputs(beams_folder, name)
+    fe_path, fe_record = fe_inputs(fe_folder, name, mesh_sha)
+    inputs = {"format_version": FORMAT_VERSION, "mesh_sha256": mesh_sha, "fe_input_hash": fe_record["input_hash"],
+              "fe_sha256": fe_record["file"]["sha256"], "n_modes": n_modes, "render": render,
+              "sensor_body_fractions": list(BODY_FRACTIONS)}
+    input_hash = sha256_json(inputs)
+    folder = Path(folder)
+    sidecar = folder / f"{name}.json"
+    if _is_current(sidecar, input_hash):
+        return sidecar
+    beam_mesh = read_beam_mesh(mesh_path)
+    with np.load(fe_path, allow_pickle=False) as fe:
+        superelement, arrays = rom_arrays(beam_mesh, beam, fe, Bolt(**fe_record["inputs"]["bolt"]), n_modes)
+    frequencies, shapes = stuck_joint_modes(superelement, 4)
+    paths = {"npz": folder / f"{name}.npz", "mat": folder / f"{name}.mat"}
+    if render:
+        paths["png"] = folder / f"{name}_first_bending.png"
+    files = {}
+    for kind, path in paths.items():
+        with atomic_path(path) as temporary:
+            if kind == "npz":
+                with open(temporary, "wb") as stream:
+                    np.savez(stream, **arrays)
+            elif kind == "mat":
+                scipy.io.savemat(temporary, matlab_arrays(arrays), do_compression=True)
+            else:
+                render_mode(beam_mesh, (arrays["vertex_recovery"] @ shapes[:, 0]).reshape(-1, 3), temporary,
+                            f"{name}: first flexible mode, joint stuck, {frequencies[0]:.1f} Hz (superelement)")
+            files[kind] = {"name": path.name, "sha256": sha256_file(temporary)}
+    write_json(sidecar, {"inputs": inputs, "input_hash": input_hash, "files": files,
+                         "stuck_joint_frequencies_hz": frequencies.tolist(),
+                         "fixed_interface_frequencies_hz": arrays["fixed_interface_frequencies"].tolist()})
+    return sidecar
+
+
+def run(arguments: argparse.Namespace) -> None:
+    for name in tqdm(arguments.beam, desc="superelements", unit="beam"):
+        tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, arguments.modes)}")
+
+
+def register(subparsers) -> None:
+    """Add the ``rom`` subcommand."""
+    command = subparsers.add_parser(
+        "rom", help="whole-joint patches and Hurty/Craig-Bampton superelement of each beam: build/rom/<beam>.npz",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("--beam", nargs="+", choices=sorted(BEAMS), default=list(BEAMS), help="beams to reduce")
+    command.add_argument("--beams", type=Path, default=Path("build/beams"), help="geometry stage output folder")
+    command.add_argument("--fe", type=Path, default=Path("build/fe"), help="FE stage output folder")
+    command.add_argument("--out", type=Path, default=Path("build/rom"), help="output folder")
+    command.add_argument("--modes", type=int, default=N_FIXED_INTERFACE_MODES, help="fixed-interface modes")
+    command.set_defaults(run=run)

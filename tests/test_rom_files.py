@@ -1,0 +1,135 @@
+"""``surrogacy rom`` on the coarse BRB: files, cache, MATLAB round trip, recovery matrices and the prestressed
+superelement against the full prestressed model (about 45 s: the FE stage's preload solve, then the reduction)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.io
+import scipy.linalg
+
+from conftest import COARSE
+from fem.commands import FeInputError, make_fe, read_csr
+from fem.elasticity import quadratic_node_coordinates, rigid_body_modes, solid_mesh
+from fem.solver import natural_modes
+from fem.springs import joint_stiffness, patch_couplings
+from geometry.beam_mesh import read_beam_mesh
+from geometry.beams import make_beam
+from geometry.parameters import BEAMS
+from pipeline.cli import parser
+from reduction.craig_bampton import virtual_rigid_motion
+from reduction.sensors import accelerometer_points
+from reduction.superelement import load_superelement
+
+SPRINGS = np.array([1e9] * 3 + [1e9 * 0.01 ** 2] * 3)  # N/m and N m/rad, as test_craig_bampton
+
+
+@pytest.fixture(scope="module")
+def folders(tmp_path_factory):
+    beams, fe, rom = (tmp_path_factory.mktemp(kind) for kind in ("beams", "fe", "rom"))
+    make_beam(BEAMS["BRB"], COARSE, beams, render=False)
+    make_fe("BRB", beams, fe, n_modes=7)
+    arguments = parser().parse_args(["rom", "--beam", "BRB", "--beams", str(beams), "--fe", str(fe), "--out", str(rom)])
+    arguments.run(arguments)
+    return beams, fe, rom, arguments
+
+
+@pytest.fixture(scope="module")
+def arrays(folders):
+    with np.load(folders[2] / "BRB.npz", allow_pickle=False) as data:
+        return dict(data)
+
+
+def rigid_reduced(arrays) -> np.ndarray:
+    """Reduced coordinates (86, 6) of the rigid motions of the whole beam about the origin."""
+    references = arrays["virtual_node_coordinates"][:5]
+    virtual = np.vstack([virtual_rigid_motion(references)] * 2)
+    return np.vstack([virtual, np.zeros((arrays["mass"].shape[0] - 60, 6))])
+
+
+def test_rom_command_writes_every_file_and_a_rerun_does_nothing(folders):
+    _, _, rom, arguments = folders
+    files = [rom / name for name in ("BRB.npz", "BRB.mat", "BRB_first_bending.png", "BRB.json")]
+    stamps = [path.stat().st_mtime_ns for path in files]
+    arguments.run(arguments)
+    assert [path.stat().st_mtime_ns for path in files] == stamps
+    record = json.loads((rom / "BRB.json").read_text())
+    assert 150.0 < record["stuck_joint_frequencies_hz"][0] < 210.0  # below the 201.8 Hz tied lap (README)
+
+
+def test_superelement_file_is_the_nonlinear_stage_format(folders, arrays):
+    superelement = load_superelement(folders[2] / "BRB.npz")
+    assert superelement.mass.shape == (86, 86) and superelement.patch_groups == (0, 1, 2, 1, 0)
+    assert superelement.sensors.shape == (10, 86) and superelement.preload.shape == (86,)
+    assert len(arrays["dof_labels"]) == 86 and arrays["dof_labels"][0] == "lower_patch_1_ux"
+    assert arrays["dof_labels"][-1] == "fixed_interface_mode_26"
+    np.testing.assert_allclose(superelement.patch_areas.sum(), 0.12141 * 0.0254 - 3 * np.pi * 0.008433 ** 2 / 4,
+                               rtol=2e-2)  # the lap minus the holes, as meshed (polygonal holes)
+
+
+def test_mat_file_loads_in_scipy_and_round_trips(folders, arrays):
+    mat = scipy.io.loadmat(str(folders[2] / "BRB.mat"))
+    np.testing.assert_array_equal(mat["M"], arrays["mass"])
+    np.testing.assert_array_equal(mat["K"], arrays["stiffness"])
+    np.testing.assert_array_equal(mat["K_without_prestress"], arrays["stiffness_without_prestress"])
+    for key in ("patch_motion", "patch_areas", "virtual_node_coordinates", "sensors", "sensor_points",
+                "interface_lower_recovery", "vertex_recovery", "preload"):
+        np.testing.assert_array_equal(np.squeeze(mat[key]), np.squeeze(arrays[key]))
+    np.testing.assert_array_equal(mat["patch_pairs"] - 1, arrays["patch_pairs"])
+    np.testing.assert_array_equal(mat["tetrahedra"] - 1, arrays["tetrahedra"])
+    assert [str(label[0]) for label in mat["dof_labels"].ravel()] == list(arrays["dof_labels"])
+
+
+def test_recovery_matrices_reproduce_a_rigid_motion(folders, arrays):
+    """A rigid motion of the beam in reduced coordinates recovers as that motion at the accelerometers (u_z), every
+    interface node and every mesh vertex (relative 1e-12)."""
+    rng = np.random.default_rng(5)
+    amplitudes = rng.normal(size=6) * np.array([1e-3] * 3 + [1e-2] * 3)
+    q = rigid_reduced(arrays) @ amplitudes
+
+    def rigid_at(points):
+        return (rigid_body_modes(points, centre=np.zeros(3)) @ amplitudes).reshape(-1, 3)
+
+    scale = np.abs(rigid_at(arrays["sensor_points"])).max()
+    np.testing.assert_allclose(arrays["sensors"] @ q, rigid_at(arrays["sensor_points"])[:, 2], rtol=0,
+                               atol=1e-12 * scale)
+    for side in ("lower", "upper"):
+        np.testing.assert_allclose((arrays[f"interface_{side}_recovery"] @ q).reshape(-1, 3),
+                                   rigid_at(arrays["interface_points"]), rtol=0, atol=1e-12 * scale)
+    beam_mesh = read_beam_mesh(folders[0] / "BRB.msh")
+    vertices = beam_mesh.points[:arrays["vertex_recovery"].shape[0] // 3]
+    np.testing.assert_allclose((arrays["vertex_recovery"] @ q).reshape(-1, 3), rigid_at(vertices), rtol=0,
+                               atol=1e-12 * scale)
+    np.testing.assert_array_equal(arrays["sensor_points"], accelerometer_points(BEAMS["BRB"]))
+
+
+def test_prestressed_superelement_with_springs_matches_the_full_prestressed_model(folders, arrays):
+    """K_A reduced plus the bolts' string term (the joint's) plus springs against the full K + K_sigma + springs
+    (fem stage's K_sigma includes the strings): first four elastic modes within 0.5 %. Without the string term the
+    clamped halves keep a small negative rotational stiffness (reduction.whole_joint), four modes of the free
+    superelement below zero."""
+    beams, fe, _, _ = folders
+    beam_mesh = read_beam_mesh(beams / "BRB.msh")
+    with np.load(fe / "BRB.npz", allow_pickle=False) as data:
+        stiffness = read_csr(data, "stiffness") + read_csr(data, "stress_stiffness")
+        mass = read_csr(data, "mass")
+    _, lower, upper = patch_couplings(solid_mesh(beam_mesh.points, beam_mesh.tetrahedra), beam_mesh)
+    full, _ = natural_modes(stiffness + joint_stiffness(lower, upper, SPRINGS), mass, 10)
+    relative = arrays["patch_motion"]
+    joint = relative.T @ np.diag(np.tile(SPRINGS, 5)) @ relative
+    eigenvalues = scipy.linalg.eigh(arrays["stiffness"] + arrays["bolt_stress_stiffness"] + joint, arrays["mass"],
+                                    eigvals_only=True)
+    reduced = np.sqrt(np.abs(eigenvalues[6:10])) / (2 * np.pi)
+    assert np.all(np.abs(reduced / full[6:10] - 1) < 5e-3)
+    free = scipy.linalg.eigh(arrays["stiffness"], arrays["mass"], eigvals_only=True)
+    assert np.count_nonzero(free < -1.0) == 4  # rad^2/s^2: the clamp's dead-load rotations, about -(24 Hz)^2
+
+
+def test_missing_fe_result_is_a_clear_error(folders, tmp_path):
+    beams = folders[0]
+    arguments = parser().parse_args(["rom", "--beam", "BRB", "--beams", str(beams), "--fe", str(tmp_path),
+                                     "--out", str(tmp_path)])
+    with pytest.raises(FeInputError, match="BRB.json: missing; run the FE stage first"):
+        arguments.run(arguments)
