@@ -9,9 +9,12 @@ What the superelement holds (DESIGN 4: two free halves, 12 zero-energy modes unt
   tangential behaviour. Keeping the shanks would join the halves in parallel with every joint design.
 - With prestress, K_A = K + K_sigma,solid, the stress stiffness of the clamped halves. The shanks' own stress
   stiffness (a taut string, ``fem.bolts.shank_stress_stiffness``) joins the halves and belongs to the bolt, i.e.
-  to the joint. Without it the clamp's dead loads leave each half a small negative rotational stiffness about
-  x and y (-3 P H / 2 = -441 N m/rad on the BRB, ``fem.prestress``), which the bolts balance in the assembly:
-  ``bolt_stress_stiffness`` returns that string term reduced, for a downstream stage that wants it.
+  to the joint. Without it the clamp's dead loads leave each half a negative rotational stiffness about x and
+  y (-3 P H / 2 = -441 N m/rad on the BRB, ``fem.prestress``): the free prestressed superelement has four
+  unstable modes, the halves' rotations about x (246i Hz on the BRB: a half's rotary inertia about its axis is
+  only 2e-4 kg m^2) and about y (22i Hz). In the assembly the bolts' string term balances them for rigid motions
+  of the whole beam and for the relative twist, together with the joint's translations for the rest:
+  ``bolt_string_stiffness`` (reduced: ``bolt_stress_stiffness`` in the rom file) for a stage that adds it.
 
 Reduced coordinates (86): lower virtual nodes 1-5, upper virtual nodes 1-5 (6 DOFs each, about the patch
 centroids, which the two sides share), then 26 fixed-interface modal coordinates (``craig_bampton``).
