@@ -110,15 +110,15 @@ def modal_assurance(shapes, reference) -> np.ndarray:
 class ModalSplit(NamedTuple):
     """Unjoined modes split for the small stuck eigenproblem (``nonlinear.stuck_modes``).
 
-    low, high: indices of the modes below and above the cutoff lambda_c (rad^2/s^2); outer:
-    (m (m+1) / 2, n_modes) products Phi[i, e] Phi[j, e] (i >= j, row-major lower triangle) of every mode's
-    joint translations, from which a flexibility sum_e Phi_e Phi_e^T w_e is one matrix-vector product.
+    low, high: indices of the modes below and above the cutoff lambda_c (rad^2/s^2); high_outer:
+    (n_high, m (m+1) / 2) products Phi[i, e] Phi[j, e] (i >= j, row-major lower triangle) of the high modes'
+    joint translations, from which the flexibility F(mu) is one matrix-vector product.
     """
 
     low: np.ndarray
     high: np.ndarray
     cutoff: float
-    outer: np.ndarray
+    high_outer: np.ndarray
 
 
 def modal_split(space: JointSpace, cutoff_factor: float = CUTOFF_FACTOR) -> ModalSplit:
@@ -134,8 +134,8 @@ def modal_split(space: JointSpace, cutoff_factor: float = CUTOFF_FACTOR) -> Moda
     low = np.flatnonzero(space.eigenvalues <= cutoff)
     high = np.flatnonzero(space.eigenvalues > cutoff)
     rows, columns = np.tril_indices(space.joint_modes.shape[0])
-    phi = space.joint_modes
-    return ModalSplit(low, high, cutoff, np.ascontiguousarray(phi[rows] * phi[columns]))
+    phi = space.joint_modes[:, high]
+    return ModalSplit(low, high, cutoff, np.ascontiguousarray((phi[rows] * phi[columns]).T))
 
 
 class StuckModes(NamedTuple):
@@ -166,8 +166,12 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
     """
     split = modal_split(space) if split is None else split
     k = np.ascontiguousarray(np.atleast_2d(joint_stiffness), dtype=float)
-    eigenvalue, shape, joint_shape, mac, compliance, found = stuck_designs(
-        k, space.eigenvalues, np.ascontiguousarray(space.joint_modes), split.outer, space.reference, split.low,
-        split.high, UNAMBIGUOUS_MAC)
+    phi, eigenvalues, reference = space.joint_modes, space.eigenvalues, space.reference
+    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found = stuck_designs(
+        k, eigenvalues[split.low], np.ascontiguousarray(phi[:, split.low]), eigenvalues[split.high],
+        np.ascontiguousarray(phi[:, split.high]), split.high_outer, reference[split.low], reference[split.high],
+        UNAMBIGUOUS_MAC)
+    shape = np.empty((len(k), len(eigenvalues)))
+    shape[:, split.low], shape[:, split.high] = shape_low, shape_high
     residual_compliance = compliance - joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]
     return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, residual_compliance, found)

@@ -47,37 +47,67 @@ ESTIMATE_TOLERANCE = 1e-6
 ROOT_TOLERANCE = 1e-11
 MAX_NEWTON_ITERATIONS = 30
 MAX_POLISH_ITERATIONS = 6
-JACOBI_TOLERANCE = 1e-15  # off-diagonal over diagonal size at which a Jacobi sweep stops
+JACOBI_TOLERANCE = 1e-16  # off-diagonal entries below this times the matrix norm are left alone
+MAX_JACOBI_SWEEPS = 30
+
+
+@numba.njit(cache=True)
+def _matvec(a, x):
+    """a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
+    rows, columns = a.shape
+    out = np.zeros(rows)
+    for i in range(rows):
+        total = 0.0
+        for j in range(columns):
+            total += a[i, j] * x[j]
+        out[i] = total
+    return out
+
+
+@numba.njit(cache=True)
+def _rmatvec(a, x):
+    """a^T x for a small dense matrix."""
+    rows, columns = a.shape
+    out = np.zeros(columns)
+    for i in range(rows):
+        xi = x[i]
+        for j in range(columns):
+            out[j] += a[i, j] * xi
+    return out
 
 
 @numba.njit(cache=True)
 def _cholesky(a):
-    """Lower Cholesky factor of the symmetric positive definite ``a`` (its lower triangle is read)."""
+    """Lower Cholesky factor of the symmetric positive definite ``a`` (its lower triangle is read), column by
+    column with right-looking updates (independent, so the inner loop vectorises)."""
     n = a.shape[0]
     lower = np.zeros_like(a)
+    for i in range(n):
+        for j in range(i + 1):
+            lower[i, j] = a[i, j]
     for j in range(n):
-        diagonal = a[j, j]
-        for k in range(j):
-            diagonal -= lower[j, k] * lower[j, k]
-        lower[j, j] = np.sqrt(diagonal)
-        for i in range(j + 1, n):
-            total = a[i, j]
-            for k in range(j):
-                total -= lower[i, k] * lower[j, k]
-            lower[i, j] = total / lower[j, j]
+        pivot = np.sqrt(lower[j, j])
+        for i in range(j, n):
+            lower[i, j] /= pivot
+        for k in range(j + 1, n):
+            factor = lower[k, j]
+            for i in range(k, n):
+                lower[i, k] -= lower[i, j] * factor
     return lower
 
 
 @numba.njit(cache=True)
 def _forward(lower, b):
-    """L^-1 b for a lower triangular L and b (n, k), in place."""
+    """L^-1 b for a lower triangular L and b (n, k), in place (all right-hand sides in the inner loop)."""
     n, k = b.shape
-    for c in range(k):
-        for i in range(n):
-            total = b[i, c]
-            for j in range(i):
-                total -= lower[i, j] * b[j, c]
-            b[i, c] = total / lower[i, i]
+    for i in range(n):
+        for j in range(i):
+            factor = lower[i, j]
+            for c in range(k):
+                b[i, c] -= factor * b[j, c]
+        inverse = 1.0 / lower[i, i]
+        for c in range(k):
+            b[i, c] *= inverse
     return b
 
 
@@ -85,36 +115,35 @@ def _forward(lower, b):
 def _backward(lower, b):
     """L^-T b for a lower triangular L and b (n, k), in place."""
     n, k = b.shape
-    for c in range(k):
-        for i in range(n - 1, -1, -1):
-            total = b[i, c]
-            for j in range(i + 1, n):
-                total -= lower[j, i] * b[j, c]
-            b[i, c] = total / lower[i, i]
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            factor = lower[j, i]
+            for c in range(k):
+                b[i, c] -= factor * b[j, c]
+        inverse = 1.0 / lower[i, i]
+        for c in range(k):
+            b[i, c] *= inverse
     return b
 
 
 @numba.njit(cache=True)
 def symmetric_eigen(a):
     """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix by cyclic
-    Jacobi rotations (backward error of order eps times the matrix norm)."""
+    Jacobi rotations, until every off-diagonal entry is below JACOBI_TOLERANCE times the matrix norm
+    (backward error of order eps times the norm)."""
     n = a.shape[0]
     a = a.copy()
     vectors = np.eye(n)
-    for _ in range(50):
-        off, size = 0.0, 0.0
-        for i in range(n):
-            size += a[i, i] * a[i, i]
-            for j in range(i + 1, n):
-                off += a[i, j] * a[i, j]
-        if off <= JACOBI_TOLERANCE ** 2 * size or off == 0.0:
-            break
+    threshold = JACOBI_TOLERANCE * np.sqrt(np.sum(a * a))
+    for _ in range(MAX_JACOBI_SWEEPS):
+        rotated = False
         for p in range(n - 1):
             for q in range(p + 1, n):
-                if a[p, q] == 0.0:
+                if abs(a[p, q]) <= threshold:
                     continue
+                rotated = True
                 angle = (a[q, q] - a[p, p]) / (2.0 * a[p, q])
-                tangent = np.sign(angle) / (abs(angle) + np.sqrt(angle * angle + 1.0)) if angle != 0.0 else 1.0
+                tangent = (1.0 if angle >= 0.0 else -1.0) / (abs(angle) + np.sqrt(angle * angle + 1.0))
                 cosine = 1.0 / np.sqrt(tangent * tangent + 1.0)
                 sine = tangent * cosine
                 for k in range(n):
@@ -126,6 +155,9 @@ def symmetric_eigen(a):
                 for k in range(n):
                     vkp, vkq = vectors[k, p], vectors[k, q]
                     vectors[k, p], vectors[k, q] = cosine * vkp - sine * vkq, sine * vkp + cosine * vkq
+                a[p, q] = a[q, p] = 0.0
+        if not rotated:
+            break
     values = np.empty(n)
     for i in range(n):
         values[i] = a[i, i]
@@ -167,12 +199,12 @@ def solve_dense(matrix, rhs):
 
 @numba.njit(cache=True)
 def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_outer):
-    """Cholesky factor of X(mu), Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L).
+    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L).
 
-    high_outer: (m (m+1) / 2, n_E) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
+    high_outer: (n_E, m (m+1) / 2) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
     m, n_low = low_modes.shape
     weights = 1.0 / (high_eigenvalues - mu)
-    packed = high_outer @ weights
+    packed = _rmatvec(high_outer, weights)
     flexibility = np.empty((m, m))
     p = 0
     for i in range(m):
@@ -183,13 +215,19 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenva
         flexibility[i, i] += inverse_stiffness[i]
     lower = _cholesky(flexibility)
     z = _backward(lower, _forward(lower, low_modes.copy()))
-    s = low_modes.T @ z
+    s = np.empty((n_low, n_low))
+    for i in range(n_low):
+        for j in range(n_low):
+            total = 0.0
+            for k in range(m):
+                total += low_modes[k, i] * z[k, j]
+            s[i, j] = total
     for i in range(n_low):
         s[i, i] += low_eigenvalues[i] - mu
     for i in range(n_low):  # exact symmetry for the eigen-solve
         for j in range(i):
             s[i, j] = s[j, i] = 0.5 * (s[i, j] + s[j, i])
-    return lower, z, s
+    return flexibility, lower, z, s
 
 
 @numba.njit(cache=True)
@@ -202,12 +240,12 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     if not lower_bound < mu < upper_bound:
         mu = 0.5 * upper_bound if np.isfinite(upper_bound) else 1.0
     for _ in range(MAX_NEWTON_ITERATIONS):
-        _, z_all, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
+        _, _, z_all, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                                    high_outer)
         sigma, vectors = symmetric_eigen(s)
         w = vectors[:, branch]
-        z = z_all @ w
-        high = high_modes.T @ z
+        z = _matvec(z_all, w)
+        high = _rmatvec(high_modes, z)
         slope = 1.0 + np.sum((high / (high_eigenvalues - mu)) ** 2)
         step = sigma[branch] / slope
         if abs(step) <= ESTIMATE_TOLERANCE * mu:
@@ -223,64 +261,73 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
 
 
 @numba.njit(cache=True)
-def _polish(mu, force, inverse_stiffness, eigenvalues, modes, outer):
-    """Newton's method on the Rayleigh functional of T(mu) f = 0, T(mu) = K^-1 + Phi (Lambda - mu)^-1 Phi^T
-    (m x m, compliances only, so the stiff joint and the stiff modes of the halves add small numbers instead of
-    cancelling large ones): f <- T^-1 T' f (inverse iteration), mu <- mu - f^T T f / f^T T' f, with
-    T'(mu) = Phi (Lambda - mu)^-2 Phi^T. Quadratic from the S(mu) estimate. Returns (mu, f, converged)."""
-    m = force.size
+def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
+            high_outer):
+    """Newton's method on the Rayleigh functional of the bordered form B(mu) x = 0, x = (f, v_L),
+
+        B(mu) = [[X(mu), Phi_L], [Phi_L^T, mu - Lambda_L]],   dB/dmu = [[F'(mu), 0], [0, I]],
+
+    (m + n_L square; its Schur complement on v_L is -S(mu)): x <- B^-1 B' x (inverse iteration, solved through
+    the Cholesky factor of X and S), mu <- mu - x^T B x / x^T B' x. B holds only compliances and the low
+    modes' stiffness offsets lambda_L - mu: no joint stiffness and no 1 / (lambda - mu) near a pole, so
+    x^T B x has no cancellation beyond eps mu. Quadratic from the estimate. Returns (mu, f, v_L, converged)."""
+    m, n_low = low_modes.shape
     for _ in range(MAX_POLISH_ITERATIONS):
-        weights = 1.0 / (eigenvalues - mu)
-        packed = outer @ weights
-        compliance = np.empty((m, m))
-        p = 0
-        for i in range(m):
-            for j in range(i + 1):
-                compliance[i, j] = compliance[j, i] = packed[p]
-                p += 1
-            compliance[i, i] += inverse_stiffness[i]
-        modal = modes.T @ force
-        solution, singular = solve_dense(compliance, modes @ (modal * weights * weights))
-        if singular:  # mu is an eigenvalue to the last bit (e.g. a single-DOF joint): keep f
-            return mu, force, True
-        force = solution
-        force /= np.sqrt(np.sum(force ** 2))
-        modal = (modes.T @ force) * weights
-        step = (force @ (compliance @ force)) / np.sum(modal * modal)
+        flexibility, lower, z, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
+                                                high_eigenvalues, high_outer)
+        weights = 1.0 / (high_eigenvalues - mu)
+        high = _rmatvec(high_modes, force) * weights * weights
+        rhs = _matvec(high_modes, high)
+        right = _rmatvec(z, rhs) - v_low
+        solution_low, singular = solve_dense(s, right)
+        if singular:  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF joint): keep x
+            return mu, force, v_low, True
+        solution = _backward(lower, _forward(lower, rhs.reshape((m, 1)).copy()))[:, 0] - _matvec(z, solution_low)
+        norm = np.sqrt(np.sum(solution ** 2) + np.sum(solution_low ** 2))
+        force, v_low = solution / norm, solution_low / norm
+        modal = _rmatvec(high_modes, force) * weights
+        coupling = _matvec(low_modes, v_low)
+        value = np.sum(force * _matvec(flexibility, force)) + 2.0 * np.sum(force * coupling)
+        value += np.sum((mu - low_eigenvalues) * v_low * v_low)
+        step = value / (np.sum(modal * modal) + np.sum(v_low * v_low))
         mu -= step
         if abs(step) <= ROOT_TOLERANCE * mu:
-            return mu, force, True
-    return mu, force, False
+            return mu, force, v_low, True
+    return mu, force, v_low, False
 
 
 @numba.njit(cache=True)
-def _estimate_mac(mu, w, z, low_modes, high_eigenvalues, high_modes, reference_low, reference_high):
+def _estimate_mac(mu, w, z, high_eigenvalues, high_modes, reference_low, reference_high):
     """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w."""
-    v_high = -(high_modes.T @ z) / (high_eigenvalues - mu)
+    v_high = -_rmatvec(high_modes, z) / (high_eigenvalues - mu)
     projection = np.sum(w * reference_low) + np.sum(v_high * reference_high)
     return projection ** 2 / (np.sum(w ** 2) + np.sum(v_high ** 2))
 
 
 @numba.njit(cache=True)
-def _mode_shape(mu, force, inverse_stiffness, eigenvalues, modes, reference):
-    """Unit mode v = (Lambda - mu)^-1 Phi^T f with a positive projection on the (unit) reference, its MAC,
-    and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude, without cancellation)."""
-    shape = (modes.T @ force) / (eigenvalues - mu)
-    norm = np.sqrt(np.sum(shape ** 2))
-    projection = np.sum(shape * reference) / norm
+def _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues, high_modes, reference_low, reference_high):
+    """Unit mode (v_L, v_E = (Lambda_E - mu)^-1 Phi_E^T f) with a positive projection on the (unit) reference,
+    its MAC, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude, without
+    cancellation)."""
+    v_high = _rmatvec(high_modes, force) / (high_eigenvalues - mu)
+    norm = np.sqrt(np.sum(v_low ** 2) + np.sum(v_high ** 2))
+    projection = (np.sum(v_low * reference_low) + np.sum(v_high * reference_high)) / norm
     scale = (1.0 if projection >= 0.0 else -1.0) / norm
-    return shape * scale, projection ** 2, -inverse_stiffness * force * scale
+    return v_low * scale, v_high * scale, projection ** 2, -inverse_stiffness * force * scale
 
 
 @numba.njit(cache=True)
-def stuck_designs(joint_stiffness, eigenvalues, modes, outer, reference, low, high, unambiguous_mac):
+def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer,
+                  reference_low, reference_high, unambiguous_mac):
     """Tracked stuck mode and joint-space compliance for every design.
 
-    joint_stiffness: (n_designs, m) stuck tangents k (N/m); eigenvalues (n,) rad^2/s^2, modes Phi (m, n),
-    outer (m (m+1) / 2, n) as in ``_low_problem``, reference (n,) unit; low, high: indices of the modes below
-    and above the cutoff. Returns eigenvalue mu (n_designs,), unit shape v (n_designs, n), joint shape b
-    (n_designs, m), MAC (n_designs,), compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T (n_designs, m, m),
-    m/N, and found (n_designs,) bool (False where the root was not found to ROOT_TOLERANCE).
+    joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in
+    rad^2/s^2 and low_/high_modes Phi_L (m, n_L), Phi_E (m, n_E): the modal data split at the cutoff;
+    high_outer as in ``_low_problem``; reference_low/high: the unit reference mode split alike. Returns the
+    eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
+    joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
+    (n_designs, m, m), m/N, and found (n_designs,) bool (False where the root was not found to
+    ROOT_TOLERANCE).
 
     Compliance, from the static problem at mu = 0 (load p on r; Z0, S0, X0 at mu = 0; W = K^-1 Z0):
 
@@ -290,33 +337,28 @@ def stuck_designs(joint_stiffness, eigenvalues, modes, outer, reference, low, hi
     low modes' share), so the sum has no cancellation.
     """
     n_designs, m = joint_stiffness.shape
-    low_eigenvalues, high_eigenvalues = eigenvalues[low], eigenvalues[high]
-    low_modes, high_modes = np.ascontiguousarray(modes[:, low]), np.ascontiguousarray(modes[:, high])
-    high_outer = np.ascontiguousarray(outer[:, high])
-    reference_low, reference_high = reference[low], reference[high]
-    n_low = low.size
+    n_low, n_high = low_modes.shape[1], high_modes.shape[1]
     eigenvalue = np.empty(n_designs)
-    shape = np.empty((n_designs, eigenvalues.size))
+    shape_low = np.empty((n_designs, n_low))
+    shape_high = np.empty((n_designs, n_high))
     joint_shape = np.empty((n_designs, m))
     mac = np.empty(n_designs)
     compliance = np.empty((n_designs, m, m))
     found = np.empty(n_designs, dtype=np.bool_)
     static_flexibility = np.zeros((m, m))
     p = 0
-    packed = high_outer @ (1.0 / high_eigenvalues)
+    packed = _rmatvec(high_outer, 1.0 / high_eigenvalues)
     for i in range(m):
         for j in range(i + 1):
             static_flexibility[i, j] = static_flexibility[j, i] = packed[p]
             p += 1
     for d in range(n_designs):
         inverse_stiffness = 1.0 / joint_stiffness[d]
-        lower, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
-                                     high_outer)
+        _, lower, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
+                                        high_outer)
         # Compliance.
         series = _backward(lower, _forward(lower, static_flexibility.copy()))
-        w0 = z0 * inverse_stiffness[:, None].copy()
-        s0_lower = _cholesky(s0)
-        low_share = _forward(s0_lower, w0.T.copy())
+        low_share = _forward(_cholesky(s0), (z0 * inverse_stiffness.reshape((m, 1))).T.copy())
         for i in range(m):
             for j in range(i + 1):
                 value = 0.5 * (inverse_stiffness[i] * series[i, j] + inverse_stiffness[j] * series[j, i])
@@ -324,31 +366,39 @@ def stuck_designs(joint_stiffness, eigenvalues, modes, outer, reference, low, hi
                     value += low_share[k, i] * low_share[k, j]
                 compliance[d, i, j] = compliance[d, j, i] = value
         # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
-        high0 = (high_modes.T @ z0) / high_eigenvalues[:, None]
+        high0 = np.empty((n_high, n_low))
+        for k in range(n_low):
+            high0[:, k] = _rmatvec(high_modes, z0[:, k].copy()) / high_eigenvalues
         metric_lower = _cholesky(np.eye(n_low) + high0.T @ high0)
         projected = _forward(metric_lower, _forward(metric_lower, s0.copy()).T.copy())
-        projected = 0.5 * (projected + projected.T)
-        delta, vectors = symmetric_eigen(projected)
+        delta, vectors = symmetric_eigen(0.5 * (projected + projected.T))
         estimates = _backward(metric_lower, vectors.copy())
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
             w = estimates[:, i] / np.sqrt(np.sum(estimates[:, i] ** 2))
-            z = z0 @ w
-            candidate_mac = _estimate_mac(max(delta[i], 0.0), w, z, low_modes, high_eigenvalues, high_modes,
+            candidate_mac = _estimate_mac(max(delta[i], 0.0), w, _matvec(z0, w), high_eigenvalues, high_modes,
                                           reference_low, reference_high)
             if candidate_mac > best_mac:
                 best_branch, best_mac = i, candidate_mac
+        # The estimate is within about 1e-3: polish it directly. Only one stuck mode can have a MAC above 0.5,
+        # so if the polished mode does, it is the target whatever path led to it. Otherwise solve every branch
+        # safely (Newton on sigma_j in its bracket, then polish) and keep the best match.
         best_mac = -1.0
-        for attempt in range(n_low):  # the best estimate first; if ambiguous, every other branch too
-            branch = best_branch if attempt == 0 else attempt - 1 if attempt - 1 < best_branch else attempt
-            mu, _, z = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues,
-                                               low_modes, high_eigenvalues, high_modes, high_outer)
-            mu, force, converged = _polish(mu, -z, inverse_stiffness, eigenvalues, modes, outer)
-            v, candidate_mac, b = _mode_shape(mu, force, inverse_stiffness, eigenvalues, modes, reference)
+        for attempt in range(-1, n_low if n_low > 1 else 0):
+            branch = best_branch if attempt < 0 else attempt
+            w = estimates[:, branch] / np.sqrt(np.sum(estimates[:, branch] ** 2))
+            mu, z = delta[branch], _matvec(z0, w)
+            if attempt >= 0:
+                mu, w, z = _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes,
+                                        high_eigenvalues, high_modes, high_outer)
+            mu, force, v_low, converged = _polish(mu, -z, w.copy(), inverse_stiffness, low_eigenvalues, low_modes,
+                                                  high_eigenvalues, high_modes, high_outer)
+            v_low, v_high, candidate_mac, b = _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues,
+                                                          high_modes, reference_low, reference_high)
             if candidate_mac > best_mac:
                 best_mac = candidate_mac
-                eigenvalue[d], shape[d], joint_shape[d] = mu, v, b
+                eigenvalue[d], shape_low[d], shape_high[d], joint_shape[d] = mu, v_low, v_high, b
                 mac[d], found[d] = candidate_mac, converged
             if best_mac >= unambiguous_mac:
                 break
-    return eigenvalue, shape, joint_shape, mac, compliance, found
+    return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found
