@@ -9,9 +9,10 @@ sensor layout: a rerun with unchanged inputs does nothing.
 
 Reduced coordinates q (n = 86): lower virtual nodes 1-5, upper virtual nodes 1-5 (u_x, u_y, u_z m; r_x, r_y, r_z
 rad, about the patch centroids) and 26 fixed-interface modal coordinates (``dof_labels``). Arrays:
-- mass (n, n) kg; stiffness (n, n) N/m: K_A = K + K_sigma of the clamped halves (prestressed);
-  stiffness_without_prestress (n, n) N/m; bolt_stress_stiffness (n, n) N/m, the preloaded shanks' string term,
-  which belongs to the joint and is not in ``stiffness`` (``reduction.whole_joint``);
+- mass (n, n) kg; stiffness (n, n) N/m: K of the two halves (12 zero-energy modes); stiffness_prestressed (n, n)
+  N/m: K_A = K + K_sigma of the clamped halves (indefinite when free); bolt_stress_stiffness (n, n) N/m: the
+  preloaded shanks' string term, part of the joint; K_A + bolt_stress_stiffness + joint is the reduced full
+  prestressed model (``reduction.whole_joint``);
 - patch_motion (30, n): relative virtual-node motion upper minus lower of patch p, rows 6 p .. 6 p + 5;
   patch_areas (5,) m^2; patch_groups (5,) 0-based symmetry groups (0, 1, 2, 1, 0); patch_pairs (5, 2) indices of
   the lower and upper virtual node of each pair (0-based; 1-based in the .mat); virtual_node_coordinates (10, 3) m;
@@ -22,7 +23,7 @@ rad, about the patch centroids) and 26 fixed-interface modal coordinates (``dof_
 - vertex_recovery (3 n_vertices, n) and tetrahedra (n_tetrahedra, 4) (0-based; 1-based in the .mat): the
   displacement of every mesh vertex (``<beams>/<beam>.msh`` node order), for renders;
 - dof_labels (n,) str; fixed_interface_frequencies (26,) Hz.
-The .mat holds the same arrays, with ``M`` = mass, ``K`` = stiffness, ``K_without_prestress``.
+The .mat holds the same arrays, with ``M`` = mass, ``K`` = stiffness, ``K_prestressed``, ``K_bolt_stress``.
 """
 
 from __future__ import annotations
@@ -73,18 +74,19 @@ def rom_arrays(beam_mesh, beam, fe, bolt: Bolt, n_modes: int) -> tuple[Superelem
     beam_mesh: ``geometry.beam_mesh.BeamMesh``; beam: its ``BeamParameters``; fe: the loaded FE stage .npz;
     bolt: the FE stage's ``Bolt``."""
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
-    reduction = reduce_beam(mesh, beam_mesh, read_csr(fe, "stiffness"), read_csr(fe, "mass"), n_modes)
+    mass = read_csr(fe, "mass")
+    reduction = reduce_beam(mesh, beam_mesh, read_csr(fe, "stiffness"), mass, n_modes)
     basis = reduction.hcb.basis
     string = bolt_string_stiffness(mesh, beam_mesh, beam, bolt)
     prestressed = reduction.hcb.stiffness + reduced_matrix(read_csr(fe, "stress_stiffness") - string, basis)
     points = accelerometer_points(beam)
     sensors = point_recovery(mesh, points)[SENSOR_DIRECTION::3] @ basis
-    superelement = whole_joint_superelement(reduction, prestressed, sensors,
+    superelement = whole_joint_superelement(reduction, reduction.hcb.stiffness, sensors,
                                             preload_vector(mesh, beam_mesh, beam, bolt, basis), beam.name)
     lower, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
     n_patches = len(reduction.patch_areas)
     return superelement, {**superelement_arrays(superelement),
-            "stiffness_without_prestress": reduction.hcb.stiffness,
+            "stiffness_prestressed": prestressed,
             "bolt_stress_stiffness": reduced_matrix(string, basis),
             "patch_pairs": np.column_stack([np.arange(n_patches), n_patches + np.arange(n_patches)]),
             "virtual_node_coordinates": np.vstack([reduction.references, reduction.references]),
@@ -99,8 +101,9 @@ def rom_arrays(beam_mesh, beam, fe, bolt: Bolt, n_modes: int) -> tuple[Superelem
 
 
 def matlab_arrays(arrays: dict[str, np.ndarray]) -> dict:
-    """The .mat content: M, K, K_without_prestress, 1-based index arrays, labels as a cell array of strings."""
-    renamed = {"mass": "M", "stiffness": "K", "stiffness_without_prestress": "K_without_prestress"}
+    """The .mat content: M, K, K_prestressed, K_bolt_stress, 1-based index arrays, labels as a cell array."""
+    renamed = {"mass": "M", "stiffness": "K", "stiffness_prestressed": "K_prestressed",
+               "bolt_stress_stiffness": "K_bolt_stress"}
     content = {renamed.get(key, key): value + 1 if key in ONE_BASED else value for key, value in arrays.items()}
     content["dof_labels"] = np.array(list(arrays["dof_labels"]), dtype=object)
     return content

@@ -7,14 +7,16 @@ What the superelement holds (DESIGN 4: two free halves, 12 zero-energy modes unt
   normal spring K_z of a patch is the bolt and the clamped members in series (paper Eq. 31, K_b + K_m, "the
   total normal stiffness of each joint"), and the bolts' shear and bending stiffness is part of the identified
   tangential behaviour. Keeping the shanks would join the halves in parallel with every joint design.
-- With prestress, K_A = K + K_sigma,solid, the stress stiffness of the clamped halves. The shanks' own stress
-  stiffness (a taut string, ``fem.bolts.shank_stress_stiffness``) joins the halves and belongs to the bolt, i.e.
-  to the joint. Without it the clamp's dead loads leave each half a negative rotational stiffness about x and
-  y (-3 P H / 2 = -441 N m/rad on the BRB, ``fem.prestress``): the free prestressed superelement has four
-  unstable modes, the halves' rotations about x (246i Hz on the BRB: a half's rotary inertia about its axis is
-  only 2e-4 kg m^2) and about y (22i Hz). In the assembly the bolts' string term balances them for rigid motions
-  of the whole beam and for the relative twist, together with the joint's translations for the rest:
-  ``bolt_string_stiffness`` (reduced: ``bolt_stress_stiffness`` in the rom file) for a stage that adds it.
+- Prestress: K_A = K + K_sigma of the clamped halves, on the same basis as K. The shanks' own stress stiffness
+  (taut strings, ``fem.bolts.shank_stress_stiffness``) joins the halves and belongs to the bolts, i.e. to the
+  joint; it is reduced separately (``bolt_string_stiffness``). The clamp's loads on each half are balanced only
+  by that string term and the joint: the stress stiffness of the dead-loaded halves gives each free half
+  -3 P H / 2 = -441 N m/rad about x and y (``fem.prestress``), so the free prestressed superelement is
+  indefinite, with four unstable modes (246i Hz about x, where a half's rotary inertia is only 2e-4 kg m^2, and
+  22i Hz about y, on the BRB). K_A + strings + joint springs reproduces the full prestressed model. Because
+  K_sigma moves the bending frequencies by only about 1e-5 (``fem.prestress``) and a joint stage must keep those
+  negative eigenvalues rather than treat them as rigid modes, the superelement's default stiffness is K; K_A
+  and the string term are stored beside it.
 
 Reduced coordinates (86): lower virtual nodes 1-5, upper virtual nodes 1-5 (6 DOFs each, about the patch
 centroids, which the two sides share), then 26 fixed-interface modal coordinates (``craig_bampton``).
@@ -119,7 +121,7 @@ def reduce_beam(mesh: MeshTet, beam_mesh: BeamMesh, stiffness: sp.spmatrix, mass
 
 def bolt_string_stiffness(mesh: MeshTet, beam_mesh: BeamMesh, beam: BeamParameters, bolt: Bolt) -> sp.csr_matrix:
     """Stress stiffness of the preloaded shanks (taut strings between the washer reference points, H apart),
-    (n_dof, n_dof) N/m, as in ``fem.prestress``."""
+    (n_dof, n_dof) N/m, as in ``fem.prestress``: the part of the FE stage's K_sigma that belongs to the bolts."""
     return assemble_shanks(washer_couplings(mesh, beam_mesh, beam), shank_stress_stiffness(bolt.preload, beam.height))
 
 
