@@ -50,7 +50,7 @@ from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, poi
 from .superelement import Superelement, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: stiffness is K; K_A and the bolt string term beside it
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
 
 
