@@ -1,4 +1,5 @@
-"""Compiled (numba) solver of the condensed static QSMA problem, design by design and level by level.
+"""Compiled (numba) solver of the condensed static QSMA problem and its modal backbone, design by design and
+level by level.
 
 For one design the unknowns are the 2 n_patches tangential joint translations in scaled form,
 x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
@@ -8,9 +9,17 @@ x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
 the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i),
 convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1). Newton's step uses the slope of
 g clipped at K_T (which only changes stiction backbones that soften, keeping the Newton matrix positive
-semi-definite so the step descends E towards a stable state); its length is halved until E decreases
-enough (Armijo) or, once E differences reach round-off, until |R| decreases. Levels are solved in order,
-each starting from the last converged one (continuation).
+semi-definite so the step descends E towards a stable state); only the elements that slip (slope > 0) enter
+its linear system. For the convex laws (unique equilibrium) a full step that halves |R| is taken at once;
+otherwise its length is halved until E decreases enough (Armijo) or, once E differences reach round-off,
+until |R| decreases (C^+ is formed only when E is first needed). Levels are solved in order, each starting from the secant extrapolation of the last
+two converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
+
+    amplitude control: alpha = lambda_1 q - b^T g;  force control: q = (alpha + b^T g) / lambda_1;
+    omega = sqrt(alpha / q);  zeta = D / (2 pi q^2 omega^2) + zeta_0,  D = sum_i 4 phi_i (x_i g_i - 2 G_i),
+
+the Masing dissipation of each element from its slip deficit and its integral (for a Masing loop of
+amplitude a, D = 8 int_0^a f - 4 a f(a), and f = K_T u - g). Work arrays are allocated once per call.
 """
 
 from __future__ import annotations
@@ -18,7 +27,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear import slip_laws
 from nonlinear.stuck_modes import solve_dense
 
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
@@ -28,111 +36,239 @@ TARGET_TOLERANCE = 1e-14  # iterate until max|R| / (largest term of R) is below 
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
-
-_deficit = numba.njit(cache=True)(slip_laws.slip_deficit)
-_slope = numba.njit(cache=True)(slip_laws.slip_deficit_slope)
-_potential = numba.njit(cache=True)(slip_laws.slip_deficit_potential)
+CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws)
+PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
+# Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
+# the scaled residual; then the Newton step, the level's linear joint motion and the slipping elements'
+# Newton system's right-hand side.
+X, TRIAL, DEFICIT, SLOPE, POTENTIAL, TRIAL_DEFICIT, TRIAL_SLOPE, TRIAL_POTENTIAL = range(8)
+RESIDUAL, TRIAL_RESIDUAL, STEP, LINEAR, RIGHT = range(8, 13)
+N_WORK_ROWS = 13
 
 
 @numba.njit(cache=True)
-def _residual(x, linear, compliance, phi, r, s, chi, theta, out):
-    """Scaled residual R / phi into ``out``; returns max|R| over the largest term (round-off floor ~1e-16)."""
+def slip_law(x, r, s, chi, theta):
+    """Slip deficit g (N), its slope clipped at K_T phi_max = s + r / (chi + 1) (N per unit scaled slip)
+    and its integral G (N per unit scaled slip) at scaled slip x: ``nonlinear.slip_laws``' three functions
+    evaluated together with a single power |x|^(chi+1) (none for Jenkins, r = 0)."""
+    a = abs(x)
+    xm = min(a, 1.0)
+    beyond = max(a - 1.0, 0.0)
+    macroslip_slope = s + r / (chi + 1.0)
+    power = r * xm ** (chi + 1.0) if r != 0.0 else 0.0  # r |x|^(chi+1) below macroslip
+    shape = 1.0 / (chi + 1.0) - theta / (chi + 2.0)
+    sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
+    deficit = sign * (power * xm * shape + macroslip_slope * beyond + (s * (1.0 - theta) if a > 1.0 else 0.0))
+    slope = power * ((chi + 2.0) / (chi + 1.0) - theta) if a < 1.0 else macroslip_slope
+    potential = (power * xm * xm * shape / (chi + 3.0) + (r * shape + s * (1.0 - theta)) * beyond
+                 + macroslip_slope * beyond * beyond / 2.0)
+    return deficit, min(slope, macroslip_slope), potential
+
+
+@numba.njit(cache=True)
+def _evaluate(x, r, s, chi, theta, deficit, slope, potential):
+    """The slip law at every element of x into the three arrays."""
+    for i in range(x.size):
+        deficit[i], slope[i], potential[i] = slip_law(x[i], r[i], s[i], chi[i], theta[i])
+
+
+@numba.njit(cache=True)
+def _residual(x, linear, compliance, phi, deficit, out):
+    """Scaled residual R / phi into ``out``; returns (max|R| over the largest term, |R / phi|)."""
     m = x.size
-    g = np.empty(m)
-    for i in range(m):
-        g[i] = _deficit(x[i], r[i], s[i], chi[i], theta[i])
-    largest_residual, largest_term = 0.0, 1e-300
+    largest_residual, largest_term, norm = 0.0, 1e-300, 0.0
     for i in range(m):
         slip_term = 0.0
         for j in range(m):
-            slip_term += compliance[i, j] * g[j]
+            slip_term += compliance[i, j] * deficit[j]
         residual = x[i] * phi[i] - linear[i] - slip_term
         out[i] = residual / phi[i]
+        norm += out[i] * out[i]
         largest_residual = max(largest_residual, abs(residual))
         largest_term = max(largest_term, abs(x[i] * phi[i]), abs(linear[i]), abs(slip_term))
-    return largest_residual / largest_term
+    return largest_residual / largest_term, np.sqrt(norm)
 
 
 @numba.njit(cache=True)
-def _energy(x, linear, compliance_pinv, phi, r, s, chi, theta):
+def _energy(x, linear, compliance_pinv, phi, potential):
     """Potential energy E (J) and the magnitude of its terms (for its round-off)."""
     m = x.size
-    quadratic, potential = 0.0, 0.0
+    quadratic, slip = 0.0, 0.0
     for i in range(m):
         excess_i = x[i] * phi[i] - linear[i]
         for j in range(m):
             quadratic += 0.5 * excess_i * compliance_pinv[i, j] * (x[j] * phi[j] - linear[j])
-        potential += phi[i] * _potential(x[i], r[i], s[i], chi[i], theta[i])
-    return quadratic - potential, abs(quadratic) + abs(potential)
+        slip += phi[i] * potential[i]
+    return quadratic - slip, abs(quadratic) + abs(slip)
 
 
 @numba.njit(cache=True)
-def _newton(x, linear, compliance, compliance_pinv, phi, r, s, chi, theta):
-    """Damped Newton for one design at one level from x; returns (x, status)."""
-    m = x.size
-    x = x.copy()
-    residual = np.empty(m)
-    trial_residual = np.empty(m)
-    error = _residual(x, linear, compliance, phi, r, s, chi, theta, residual)
-    jacobian = np.empty((m, m))
+def pseudo_inverse(matrix):
+    """Moore-Penrose inverse of a symmetric positive semi-definite matrix (eigenvalues below
+    PSEUDO_INVERSE_RCOND times the largest are dropped)."""
+    values, vectors = np.linalg.eigh(matrix)
+    cutoff = PSEUDO_INVERSE_RCOND * np.max(np.abs(values))
+    inverse = np.zeros_like(matrix)
+    for k in range(values.size):
+        if values[k] > cutoff:
+            for i in range(values.size):
+                for j in range(values.size):
+                    inverse[i, j] += vectors[i, k] * vectors[j, k] / values[k]
+    return inverse
+
+
+@numba.njit(cache=True)
+def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
+    """Solve (I - C diag(slope) / phi) step = -R (rows scaled by 1/phi_i) in the scaled unknowns, through the
+    system of the slipping elements A only (a stuck element's column is the identity's): first step_A, then
+    step_i = -R_i + sum_(j in A) C_ij slope_j step_j / phi_i for the others. matrix (m, m), right (m,) and
+    active (m,) are work space. Returns True if singular."""
+    m = residual.size
+    n_active = 0
+    for j in range(m):
+        if slope[j] > 0.0:
+            active[n_active] = j
+            n_active += 1
+    for a in range(n_active):
+        i = active[a]
+        right[a] = -residual[i]
+        for b in range(n_active):
+            j = active[b]
+            matrix[a, b] = (1.0 if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
+    if solve_dense(matrix, right, n_active):
+        return True
+    for i in range(m):
+        coupling = 0.0
+        for b in range(n_active):
+            j = active[b]
+            coupling += compliance[i, j] * slope[j] * right[b]
+        step[i] = -residual[i] + coupling / phi[i]
+    for a in range(n_active):
+        step[active[a]] = right[a]
+    return False
+
+
+@numba.njit(cache=True)
+def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix, active, compliance_pinv):
+    """Damped Newton for one design at one level from work[X] (the start) to work[X]; returns
+    (status, compliance_pinv): C^+ is formed the first time the energy is needed, an empty (0, 0) matrix
+    until then, and carried from level to level."""
+    m = linear.size
+    x, trial, residual, trial_residual, step = work[X], work[TRIAL], work[RESIDUAL], work[TRIAL_RESIDUAL], work[STEP]
+    deficit, slope, potential = work[DEFICIT], work[SLOPE], work[POTENTIAL]
+    trial_deficit, trial_slope, trial_potential = work[TRIAL_DEFICIT], work[TRIAL_SLOPE], work[TRIAL_POTENTIAL]
+    _evaluate(x, r, s, chi, theta, deficit, slope, potential)
+    error, norm = _residual(x, linear, compliance, phi, deficit, residual)
     singular = False
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             break
-        for j in range(m):
-            clipped = min(_slope(x[j], r[j], s[j], chi[j], theta[j]), s[j] + r[j] / (chi[j] + 1.0))
-            for i in range(m):
-                jacobian[i, j] = (1.0 if i == j else 0.0) - compliance[i, j] * clipped / phi[i]
-        step, singular = solve_dense(jacobian, -residual)
+        singular = _newton_step(residual, compliance, phi, slope, step, matrix, work[RIGHT], active)
         if singular:
             break
-        energy, energy_terms = _energy(x, linear, compliance_pinv, phi, r, s, chi, theta)
-        descent, norm = 0.0, 0.0
-        for i in range(m):
-            norm += residual[i] ** 2
-            for j in range(m):
-                descent += step[i] * phi[i] * compliance_pinv[i, j] * residual[j] * phi[j]
-        norm = np.sqrt(norm)
+        energy_known = False
+        energy, energy_terms, descent = 0.0, 0.0, 0.0
         length = 1.0
         accepted = False
         for _ in range(MAX_HALVINGS):
-            trial = x + length * step
-            trial_error = _residual(trial, linear, compliance, phi, r, s, chi, theta, trial_residual)
-            trial_energy, _ = _energy(trial, linear, compliance_pinv, phi, r, s, chi, theta)
-            armijo = trial_energy <= energy + 1e-4 * length * min(descent, 0.0)
-            smaller = (np.sqrt(np.sum(trial_residual ** 2)) < (1.0 - 1e-4 * length) * norm
-                       and trial_energy <= energy + 1e-12 * energy_terms)
-            if armijo or smaller:
-                x, error, accepted = trial, trial_error, True
-                residual[:] = trial_residual
-                break
-            length *= 0.5
+            for i in range(m):
+                trial[i] = x[i] + length * step[i]
+            _evaluate(trial, r, s, chi, theta, trial_deficit, trial_slope, trial_potential)
+            trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
+            smaller = trial_norm < (1.0 - 1e-4 * length) * norm
+            if not (convex and length == 1.0 and trial_norm <= CONTRACTION * norm):
+                if not energy_known:
+                    if compliance_pinv.shape[0] == 0:
+                        compliance_pinv = pseudo_inverse(compliance)
+                    energy, energy_terms = _energy(x, linear, compliance_pinv, phi, potential)
+                    for i in range(m):
+                        for j in range(m):
+                            descent += step[i] * phi[i] * compliance_pinv[i, j] * residual[j] * phi[j]
+                    energy_known = True
+                trial_energy, _ = _energy(trial, linear, compliance_pinv, phi, trial_potential)
+                armijo = trial_energy <= energy + 1e-4 * length * min(descent, 0.0)
+                smaller = smaller and trial_energy <= energy + 1e-12 * energy_terms
+                if not (armijo or smaller):
+                    length *= 0.5
+                    continue
+            error, norm, accepted = trial_error, trial_norm, True
+            for i in range(m):
+                x[i], residual[i] = trial[i], trial_residual[i]
+                deficit[i], slope[i], potential[i] = trial_deficit[i], trial_slope[i], trial_potential[i]
+            break
         if not accepted:
             break
     if error <= ACCEPT_TOLERANCE:
-        return x, CONVERGED
+        return CONVERGED, compliance_pinv
     beyond_macroslip = True
     for i in range(m):
         if (r[i] > 0.0 or s[i] > 0.0) and linear[i] != 0.0 and abs(x[i]) < 1.0:
             beyond_macroslip = False
-    return x, UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED
+    return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, compliance_pinv
 
 
 @numba.njit(cache=True)
-def solve_levels(levels, linear_per_level, compliance, compliance_pinv, phi, r, s, chi, theta):
-    """All designs, all levels. linear_per_level: (n_designs, m), the linear joint motion per unit level;
-    compliance, compliance_pinv: (n_designs, m, m); phi, r, s, chi, theta: (n_designs, m) slip-law
-    constants. Returns scaled solutions (n_designs, levels, m), NaN where not converged, and status codes."""
+def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, eigenvalue, joint_shape,
+                 amplitude_control, linear_damping, convex):
+    """All designs, all levels, and their modal backbone.
+
+    levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
+    linear_per_level: (n_designs, m), the linear joint motion per unit level (m); compliance: (n_designs, m, m)
+    the tangential compliance (m/N) seen by the slip forces (without the tracked mode under amplitude
+    control); phi, r, s, chi, theta: (n_designs, m) slip-law constants; eigenvalue: (n_designs,) lambda_1;
+    joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; convex: the laws have one equilibrium (no
+    stiction drop), so a full step that halves |R| is taken without the energy test.
+    Returns scaled solutions (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha,
+    frequency omega (rad/s), damping zeta, each (n_designs, L); NaN where not converged (the prescribed
+    level is kept).
+    """
     n_designs, m = linear_per_level.shape
-    solutions = np.full((n_designs, levels.size, m), np.nan)
-    status = np.full((n_designs, levels.size), NOT_CONVERGED, dtype=np.int8)
+    n_levels = levels.size
+    solutions = np.full((n_designs, n_levels, m), np.nan)
+    status = np.full((n_designs, n_levels), NOT_CONVERGED, dtype=np.int8)
+    amplitude = np.full((n_designs, n_levels), np.nan)
+    force = np.full((n_designs, n_levels), np.nan)
+    frequency = np.full((n_designs, n_levels), np.nan)
+    damping = np.full((n_designs, n_levels), np.nan)
+    work = np.empty((N_WORK_ROWS, m))
+    matrix = np.empty((m, m))
+    active = np.empty(m, dtype=np.int64)
+    x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
-        x = linear_per_level[d] * levels[0] / phi[d]
-        for level in range(levels.size):
-            x_level, code = _newton(x, linear_per_level[d] * levels[level], compliance[d], compliance_pinv[d],
-                                    phi[d], r[d], s[d], chi[d], theta[d])
+        compliance_pinv = np.empty((0, 0))
+        previous, before = -1, -1  # the last two converged levels
+        for level in range(n_levels):
+            value = levels[level]
+            if amplitude_control:
+                amplitude[d, level] = value
+            else:
+                force[d, level] = value
+            # Start: secant through the last two solutions, else proportional (exact while stuck).
+            for i in range(m):
+                linear[i] = linear_per_level[d, i] * value
+                if before >= 0:
+                    ratio = (value - levels[previous]) / (levels[previous] - levels[before])
+                    x[i] = solutions[d, previous, i] + ratio * (solutions[d, previous, i] - solutions[d, before, i])
+                elif previous >= 0:
+                    x[i] = solutions[d, previous, i] * (value / levels[previous])
+                else:
+                    x[i] = linear[i] / phi[d, i]
+            code, compliance_pinv = _solve_level(linear, compliance[d], phi[d], r[d], s[d], chi[d], theta[d], convex,
+                                                 work, matrix, active, compliance_pinv)
             status[d, level] = code
-            if code == CONVERGED:
-                solutions[d, level] = x_level
-                x = x_level
-    return solutions, status
+            if code != CONVERGED:
+                continue
+            before, previous = previous, level
+            modal_deficit, dissipation = 0.0, 0.0
+            for i in range(m):
+                solutions[d, level, i] = x[i]
+                modal_deficit += joint_shape[d, i] * work[DEFICIT, i]
+                dissipation += 4.0 * phi[d, i] * (x[i] * work[DEFICIT, i] - 2.0 * work[POTENTIAL, i])
+            if amplitude_control:
+                force[d, level] = eigenvalue[d] * value - modal_deficit
+            else:
+                amplitude[d, level] = (value + modal_deficit) / eigenvalue[d]
+            omega_squared = force[d, level] / amplitude[d, level]
+            frequency[d, level] = np.sqrt(omega_squared)
+            damping[d, level] = dissipation / (2.0 * np.pi * amplitude[d, level] ** 2 * omega_squared) + linear_damping
+    return solutions, status, amplitude, force, frequency, damping

@@ -45,6 +45,7 @@ import numpy as np
 # floor of the root near 1e-12 relative.
 ESTIMATE_TOLERANCE = 1e-6
 ROOT_TOLERANCE = 1e-11
+FAST_STEP = 1e-7  # a relative step this small and 100 times smaller than the last: the next is below 1e-13
 MAX_NEWTON_ITERATIONS = 30
 MAX_POLISH_ITERATIONS = 6
 JACOBI_TOLERANCE = 1e-16  # off-diagonal entries below this times the matrix norm are left alone
@@ -78,49 +79,50 @@ def _rmatvec(a, x):
 
 @numba.njit(cache=True)
 def _cholesky(a):
-    """Lower Cholesky factor of the symmetric positive definite ``a`` (its lower triangle is read), column by
-    column with right-looking updates (independent, so the inner loop vectorises)."""
+    """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read), stored as the
+    upper triangular U = L^T (A = U^T U), row by row with right-looking updates along rows (contiguous)."""
     n = a.shape[0]
-    lower = np.zeros_like(a)
+    upper = np.zeros_like(a)
     for i in range(n):
-        for j in range(i + 1):
-            lower[i, j] = a[i, j]
+        for j in range(i, n):
+            upper[i, j] = a[i, j]
     for j in range(n):
-        pivot = np.sqrt(lower[j, j])
+        inverse = 1.0 / np.sqrt(upper[j, j])
         for i in range(j, n):
-            lower[i, j] /= pivot
+            upper[j, i] *= inverse
         for k in range(j + 1, n):
-            factor = lower[k, j]
+            factor = upper[j, k]
             for i in range(k, n):
-                lower[i, k] -= lower[i, j] * factor
-    return lower
+                upper[k, i] -= factor * upper[j, i]
+    return upper
 
 
 @numba.njit(cache=True)
-def _forward(lower, b):
-    """L^-1 b for a lower triangular L and b (n, k), in place (all right-hand sides in the inner loop)."""
+def _forward(upper, b):
+    """U^-T b (= L^-1 b) for the factor of ``_cholesky`` and b (n, k), in place (all right-hand sides in the
+    inner loop)."""
     n, k = b.shape
     for i in range(n):
         for j in range(i):
-            factor = lower[i, j]
+            factor = upper[j, i]
             for c in range(k):
                 b[i, c] -= factor * b[j, c]
-        inverse = 1.0 / lower[i, i]
+        inverse = 1.0 / upper[i, i]
         for c in range(k):
             b[i, c] *= inverse
     return b
 
 
 @numba.njit(cache=True)
-def _backward(lower, b):
-    """L^-T b for a lower triangular L and b (n, k), in place."""
+def _backward(upper, b):
+    """U^-1 b (= L^-T b) for the factor of ``_cholesky`` and b (n, k), in place."""
     n, k = b.shape
     for i in range(n - 1, -1, -1):
         for j in range(i + 1, n):
-            factor = lower[j, i]
+            factor = upper[i, j]
             for c in range(k):
                 b[i, c] -= factor * b[j, c]
-        inverse = 1.0 / lower[i, i]
+        inverse = 1.0 / upper[i, i]
         for c in range(k):
             b[i, c] *= inverse
     return b
@@ -166,35 +168,33 @@ def symmetric_eigen(a):
 
 
 @numba.njit(cache=True)
-def solve_dense(matrix, rhs):
-    """Gaussian elimination with partial pivoting of a small dense system; (solution, singular). Only an
-    exactly zero pivot counts as singular (a joint whose slipping elements leave the halves free); an
-    ill-conditioned but regular matrix is solved, and the line search judges the step."""
-    m = rhs.size
-    a = matrix.copy()
-    b = rhs.copy()
-    for k in range(m):
+def solve_dense(a, b, n):
+    """Gaussian elimination with partial pivoting of the leading n x n block of ``a`` against b[:n], both
+    overwritten (the solution in b[:n]); returns True if singular. Only an exactly zero pivot counts as
+    singular (e.g. a joint whose slipping elements leave the halves free); an ill-conditioned but regular
+    matrix is solved, and the caller judges the result."""
+    for k in range(n):
         pivot = k
-        for i in range(k + 1, m):
+        for i in range(k + 1, n):
             if abs(a[i, k]) > abs(a[pivot, k]):
                 pivot = i
         if a[pivot, k] == 0.0:
-            return b, True
+            return True
         if pivot != k:
-            for j in range(m):
+            for j in range(n):
                 a[k, j], a[pivot, j] = a[pivot, j], a[k, j]
             b[k], b[pivot] = b[pivot], b[k]
-        for i in range(k + 1, m):
+        for i in range(k + 1, n):
             factor = a[i, k] / a[k, k]
-            for j in range(k, m):
+            for j in range(k, n):
                 a[i, j] -= factor * a[k, j]
             b[i] -= factor * b[k]
-    for k in range(m - 1, -1, -1):
+    for k in range(n - 1, -1, -1):
         total = b[k]
-        for j in range(k + 1, m):
+        for j in range(k + 1, n):
             total -= a[k, j] * b[j]
         b[k] = total / a[k, k]
-    return b, False
+    return False
 
 
 @numba.njit(cache=True)
@@ -213,8 +213,8 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenva
             flexibility[j, i] = packed[p]
             p += 1
         flexibility[i, i] += inverse_stiffness[i]
-    lower = _cholesky(flexibility)
-    z = _backward(lower, _forward(lower, low_modes.copy()))
+    factor = _cholesky(flexibility)
+    z = _backward(factor, _forward(factor, low_modes.copy()))
     s = np.empty((n_low, n_low))
     for i in range(n_low):
         for j in range(n_low):
@@ -227,7 +227,7 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenva
     for i in range(n_low):  # exact symmetry for the eigen-solve
         for j in range(i):
             s[i, j] = s[j, i] = 0.5 * (s[i, j] + s[j, i])
-    return flexibility, lower, z, s
+    return flexibility, factor, z, s
 
 
 @numba.njit(cache=True)
@@ -272,17 +272,19 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
     modes' stiffness offsets lambda_L - mu: no joint stiffness and no 1 / (lambda - mu) near a pole, so
     x^T B x has no cancellation beyond eps mu. Quadratic from the estimate. Returns (mu, f, v_L, converged)."""
     m, n_low = low_modes.shape
+    last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
-        flexibility, lower, z, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
+        flexibility, factor, z, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
                                                 high_eigenvalues, high_outer)
         weights = 1.0 / (high_eigenvalues - mu)
         high = _rmatvec(high_modes, force) * weights * weights
         rhs = _matvec(high_modes, high)
         right = _rmatvec(z, rhs) - v_low
-        solution_low, singular = solve_dense(s, right)
+        singular = solve_dense(s, right, n_low)
+        solution_low = right
         if singular:  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF joint): keep x
             return mu, force, v_low, True
-        solution = _backward(lower, _forward(lower, rhs.reshape((m, 1)).copy()))[:, 0] - _matvec(z, solution_low)
+        solution = _backward(factor, _forward(factor, rhs.reshape((m, 1)).copy()))[:, 0] - _matvec(z, solution_low)
         norm = np.sqrt(np.sum(solution ** 2) + np.sum(solution_low ** 2))
         force, v_low = solution / norm, solution_low / norm
         modal = _rmatvec(high_modes, force) * weights
@@ -291,8 +293,10 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
         value += np.sum((mu - low_eigenvalues) * v_low * v_low)
         step = value / (np.sum(modal * modal) + np.sum(v_low * v_low))
         mu -= step
-        if abs(step) <= ROOT_TOLERANCE * mu:
+        # Converged, or converging so fast (at least quadratically) that the next step would be below round-off.
+        if abs(step) <= ROOT_TOLERANCE * mu or (abs(step) <= FAST_STEP * mu and abs(step) <= 1e-2 * abs(last_step)):
             return mu, force, v_low, True
+        last_step = step
     return mu, force, v_low, False
 
 
@@ -354,10 +358,10 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             p += 1
     for d in range(n_designs):
         inverse_stiffness = 1.0 / joint_stiffness[d]
-        _, lower, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
+        _, factor, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                                         high_outer)
         # Compliance.
-        series = _backward(lower, _forward(lower, static_flexibility.copy()))
+        series = _backward(factor, _forward(factor, static_flexibility.copy()))
         low_share = _forward(_cholesky(s0), (z0 * inverse_stiffness.reshape((m, 1))).T.copy())
         for i in range(m):
             for j in range(i + 1):
@@ -369,10 +373,10 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         high0 = np.empty((n_high, n_low))
         for k in range(n_low):
             high0[:, k] = _rmatvec(high_modes, z0[:, k].copy()) / high_eigenvalues
-        metric_lower = _cholesky(np.eye(n_low) + high0.T @ high0)
-        projected = _forward(metric_lower, _forward(metric_lower, s0.copy()).T.copy())
+        metric_factor = _cholesky(np.eye(n_low) + high0.T @ high0)
+        projected = _forward(metric_factor, _forward(metric_factor, s0.copy()).T.copy())
         delta, vectors = symmetric_eigen(0.5 * (projected + projected.T))
-        estimates = _backward(metric_lower, vectors.copy())
+        estimates = _backward(metric_factor, vectors.copy())
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
             w = estimates[:, i] / np.sqrt(np.sum(estimates[:, i] ** 2))
