@@ -4,7 +4,7 @@ Reads ``<beams>/<beam>.msh`` (+ ``.json``, geometry stage) and ``<fe>/<beam>.npz
 writes into ``<out>``: ``<beam>.npz`` (``np.load(..., allow_pickle=False)``; ``reduction.superelement.
 load_superelement`` reads it), the same arrays as MATLAB ``<beam>.mat``, ``<beam>_first_bending.png`` (the first
 flexible mode with the joint stuck, expanded to the mesh) and the sidecar ``<beam>.json`` last (inputs, input hash,
-files' SHA-256, frequencies). The input hash covers the mesh and FE results' hashes, the number of modes and the
+files' SHA-256, mass properties, frequencies). The input hash covers the mesh and FE results' hashes, the number of modes and the
 sensor layout: a rerun with unchanged inputs does nothing.
 
 Reduced coordinates q (n = 86): lower virtual nodes 1-5, upper virtual nodes 1-5 (u_x, u_y, u_z m; r_x, r_y, r_z
@@ -44,7 +44,8 @@ from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.parameters import BEAMS
 from pipeline.files import atomic_path, sha256_file, sha256_json, write_json
 
-from .craig_bampton import N_FIXED_INTERFACE_MODES, reduced_matrix, virtual_dof_labels
+from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
+                            virtual_dof_labels)
 from .render import render_mode
 from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, point_recovery
 from .superelement import Superelement, stuck_joint_modes, superelement_arrays
@@ -152,7 +153,12 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
                 render_mode(beam_mesh, (arrays["vertex_recovery"] @ shapes[:, 0]).reshape(-1, 3), temporary,
                             f"{name}: first flexible mode, joint stuck, {frequencies[0]:.1f} Hz (superelement)")
             files[kind] = {"name": path.name, "sha256": sha256_file(temporary)}
+    rigid = rigid_reduced_coordinates(arrays["virtual_node_coordinates"][:superelement.n_patches],
+                                      superelement.mass.shape[0])
+    total_mass, centre, inertia = rigid_body_properties(rigid.T @ superelement.mass @ rigid)
     write_json(sidecar, {"inputs": inputs, "input_hash": input_hash, "files": files,
+                         "mass_kg": total_mass, "centre_of_mass_m": centre.tolist(),
+                         "inertia_about_centre_kg_m2": inertia.tolist(),
                          "stuck_joint_frequencies_hz": frequencies.tolist(),
                          "fixed_interface_frequencies_hz": arrays["fixed_interface_frequencies"].tolist()})
     return sidecar

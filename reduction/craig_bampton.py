@@ -111,6 +111,16 @@ def virtual_rigid_motion(references: np.ndarray) -> np.ndarray:
     return motion.reshape(-1, DOFS_PER_PATCH)
 
 
+def rigid_reduced_coordinates(references: np.ndarray, n_reduced: int) -> np.ndarray:
+    """Reduced coordinates (n_reduced, 6) of the rigid motions of the whole beam about the origin: both sides'
+    virtual nodes at their references (n_patches, 3) m move as ``virtual_rigid_motion``, modal coordinates at zero
+    (the constraint modes reproduce rigid motions exactly)."""
+    coordinates = np.zeros((n_reduced, DOFS_PER_PATCH))
+    virtual = virtual_rigid_motion(references)
+    coordinates[:2 * len(virtual)] = np.vstack([virtual, virtual])
+    return coordinates
+
+
 def constrained_solver(stiffness: sp.spmatrix, constraints: sp.spmatrix, rigid_modes: np.ndarray,
                        supported: np.ndarray, method: str | None = None
                        ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -193,10 +203,6 @@ class HurtyCraigBampton:
     mass: np.ndarray
     stiffness: np.ndarray
     fixed_interface_frequencies: np.ndarray
-
-    @property
-    def n_boundary(self) -> int:
-        return self.basis.shape[1] - len(self.fixed_interface_frequencies)
 
 
 def hurty_craig_bampton(stiffness: sp.spmatrix, mass: sp.spmatrix, constraints: sp.spmatrix,

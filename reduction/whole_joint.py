@@ -39,8 +39,8 @@ from geometry.beam_mesh import BeamMesh
 from geometry.parameters import BeamParameters
 from geometry.properties import triangle_areas
 
-from .craig_bampton import (HurtyCraigBampton, PatchLayoutError, boundary_constraints, half_rigid_modes,
-                            hurty_craig_bampton, reduced_matrix, relative_patch_motion, N_FIXED_INTERFACE_MODES)
+from .craig_bampton import (N_FIXED_INTERFACE_MODES, HurtyCraigBampton, PatchLayoutError, boundary_constraints,
+                            half_rigid_modes, hurty_craig_bampton, relative_patch_motion)
 from .superelement import Superelement
 
 _PATCH_NAME = re.compile(r"(lower|upper)_patch_(\d+)$")

@@ -20,7 +20,9 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, MeshParameters
 from reduction.craig_bampton import (PatchLayoutError, boundary_constraints, half_rigid_modes,
-                                     relative_patch_motion, rigid_body_properties, virtual_rigid_motion)
+                                     relative_patch_motion, rigid_body_properties, rigid_reduced_coordinates,
+                                     virtual_rigid_motion)
+from reduction.sensors import INSIDE, accelerometer_points, point_recovery, top_face_height
 from reduction.superelement import asb_data_folder, read_asb_superelement, stuck_joint_modes
 from reduction.whole_joint import reduce_beam
 
@@ -145,14 +147,26 @@ def test_mass_centre_and_inertia_equal_the_full_model(beam):
     mass, centre of mass and rotational inertia about it. The mass includes the 3 x 28.64 g of bolts."""
     _, _, mesh, _, mass, reduction = beam
     rigid = rigid_body_modes(quadratic_node_coordinates(mesh), centre=np.zeros(3))
-    virtual = np.vstack([virtual_rigid_motion(reduction.references)] * 2)
-    reduced = np.vstack([virtual, np.zeros((reduction.hcb.basis.shape[1] - 60, 6))])
+    reduced = rigid_reduced_coordinates(reduction.references, reduction.hcb.basis.shape[1])
     full = rigid_body_properties(rigid.T @ mass @ rigid)
     superelement = rigid_body_properties(reduced.T @ reduction.hcb.mass @ reduced)
     assert superelement[0] == pytest.approx(full[0], rel=1e-12)
     assert np.abs(superelement[1] - full[1]).max() < 1e-12 * np.ptp(mesh.p[0])
     assert np.abs(superelement[2] - full[2]).max() < 1e-12 * np.abs(full[2]).max()
     assert full[0] > 3 * Bolt().mass
+
+
+def test_accelerometers_sit_on_the_top_face_and_recover_quadratic_fields_exactly(beam):
+    """The ten sensor points lie inside the mesh just below the top face (on the SBRB's flexures, two of them, the
+    flexure's face), and the recovery interpolates any quadratic displacement field exactly (round-off, 1e-15 m)."""
+    name, _, mesh, _, _, _ = beam
+    points = accelerometer_points(BEAMS[name])
+    assert np.all(np.abs(points[:, 2] - top_face_height(BEAMS[name], points[:, 0])) <= 2 * INSIDE)
+    assert np.count_nonzero(points[:, 2] < BEAMS[name].height / 2 - INSIDE - 1e-12) == (2 if name == "SBRB" else 0)
+    coordinates = quadratic_node_coordinates(mesh)
+    field = np.column_stack([coordinates[:, 0] ** 2, coordinates[:, 1] * coordinates[:, 2], coordinates[:, 2]])
+    expected = np.column_stack([points[:, 0] ** 2, points[:, 1] * points[:, 2], points[:, 2]])
+    assert np.abs(point_recovery(mesh, points) @ field.ravel() - expected.ravel()).max() < 1e-15
 
 
 def test_rigid_body_properties_of_a_point_mass():
