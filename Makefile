@@ -9,7 +9,7 @@ export OMP_NUM_THREADS ?= 1
 RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
 MODE_HZ ?= 80.5
 
-.PHONY: demo test test-slow beams fe freevib bench clean system-packages
+.PHONY: demo test test-slow beams fe rom freevib bench clean system-packages
 
 demo: beams freevib
 
@@ -25,6 +25,11 @@ beams: $(STAMP)
 # Stiffness, mass, bolt preload with frictionless contact, stress stiffness and tied modes of each beam.
 fe: beams
 	$(BIN)/surrogacy fe --beams build/beams --out build/fe
+
+# Whole-joint patches and the Hurty/Craig-Bampton superelement of each beam (60 virtual + 26 modal DOFs):
+# build/rom/<beam>.npz, .mat, _first_bending.png and .json, cached per beam.
+rom: fe
+	$(BIN)/surrogacy rom --beams build/beams --fe build/fe --out build/rom
 
 # Amplitude-dependent frequency and damping of one mode from a measured ring-down (Hilbert / FreeVib).
 freevib: $(STAMP)
