@@ -10,10 +10,11 @@ the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r 
 convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1). Newton's step uses the slope of
 g clipped at K_T (which only changes stiction backbones that soften, keeping the Newton matrix positive
 semi-definite so the step descends E towards a stable state); only the elements that slip (slope > 0) enter
-its linear system. For the convex laws (unique equilibrium) a full step that halves |R| is taken at once;
-otherwise its length is halved until E decreases enough (Armijo) or, once E differences reach round-off,
-until |R| decreases (C^+ is formed only when E is first needed). Levels are solved in order, each starting from the secant extrapolation of the last
-two converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
+its linear system, symmetric and solved by Cholesky where E is convex. For the convex laws (unique
+equilibrium) a full step that halves |R| is taken at once; otherwise its length is halved until E decreases
+enough (Armijo) or, once E differences reach round-off, until |R| decreases (C^+ is formed only when E is
+first needed). Levels are solved in order, each starting from the quadratic extrapolation of the last three
+converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
 
     amplitude control: alpha = lambda_1 q - b^T g;  force control: q = (alpha + b^T g) / lambda_1;
     omega = sqrt(alpha / q);  zeta = D / (2 pi q^2 omega^2) + zeta_0,  D = sum_i 4 phi_i (x_i g_i - 2 G_i),
@@ -27,12 +28,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.stuck_modes import solve_dense
+from nonlinear.stuck_modes import FAST_MATH, solve_dense
 
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
 # macroslip (or the Newton matrix is singular): the halves slide freely.
 CONVERGED, NOT_CONVERGED, UNRESTRAINED = 0, 1, 2
-TARGET_TOLERANCE = 1e-14  # iterate until max|R| / (largest term of R) is below this ...
+TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
@@ -46,16 +47,16 @@ RESIDUAL, TRIAL_RESIDUAL, STEP, LINEAR, RIGHT = range(8, 13)
 N_WORK_ROWS = 13
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def slip_law(x, r, s, chi, theta):
     """Slip deficit g (N), its slope clipped at K_T phi_max = s + r / (chi + 1) (N per unit scaled slip)
     and its integral G (N per unit scaled slip) at scaled slip x: ``nonlinear.slip_laws``' three functions
-    evaluated together with a single power |x|^(chi+1) (none for Jenkins, r = 0)."""
+    evaluated together with a single power |x|^(chi+1) (none for Jenkins, r = 0, or beyond macroslip)."""
     a = abs(x)
     xm = min(a, 1.0)
     beyond = max(a - 1.0, 0.0)
     macroslip_slope = s + r / (chi + 1.0)
-    power = r * xm ** (chi + 1.0) if r != 0.0 else 0.0  # r |x|^(chi+1) below macroslip
+    power = r if xm == 1.0 else r * xm ** (chi + 1.0) if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
     shape = 1.0 / (chi + 1.0) - theta / (chi + 2.0)
     sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
     deficit = sign * (power * xm * shape + macroslip_slope * beyond + (s * (1.0 - theta) if a > 1.0 else 0.0))
@@ -65,14 +66,14 @@ def slip_law(x, r, s, chi, theta):
     return deficit, min(slope, macroslip_slope), potential
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _evaluate(x, r, s, chi, theta, deficit, slope, potential):
     """The slip law at every element of x into the three arrays."""
     for i in range(x.size):
         deficit[i], slope[i], potential[i] = slip_law(x[i], r[i], s[i], chi[i], theta[i])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _residual(x, linear, compliance, phi, deficit, out):
     """Scaled residual R / phi into ``out``; returns (max|R| over the largest term, |R / phi|)."""
     m = x.size
@@ -89,7 +90,7 @@ def _residual(x, linear, compliance, phi, deficit, out):
     return largest_residual / largest_term, np.sqrt(norm)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _energy(x, linear, compliance_pinv, phi, potential):
     """Potential energy E (J) and the magnitude of its terms (for its round-off)."""
     m = x.size
@@ -102,7 +103,7 @@ def _energy(x, linear, compliance_pinv, phi, potential):
     return quadratic - slip, abs(quadratic) + abs(slip)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def pseudo_inverse(matrix):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix (eigenvalues below
     PSEUDO_INVERSE_RCOND times the largest are dropped)."""
@@ -117,12 +118,43 @@ def pseudo_inverse(matrix):
     return inverse
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _cholesky_solve(a, b, n):
+    """Solve the leading n x n block of the symmetric ``a`` against b[:n] by Cholesky (both overwritten, the
+    solution in b[:n]); returns False, leaving them spoiled, if the block is not numerically positive
+    definite."""
+    for j in range(n):
+        pivot = a[j, j]
+        if not pivot > 0.0 or not np.isfinite(pivot):
+            return False
+        inverse = 1.0 / np.sqrt(pivot)
+        for i in range(j, n):
+            a[j, i] *= inverse
+        b[j] *= inverse
+        for k in range(j + 1, n):
+            factor = a[j, k]
+            for i in range(k, n):
+                a[k, i] -= factor * a[j, i]
+            b[k] -= factor * b[j]
+    for i in range(n - 1, -1, -1):
+        total = b[i]
+        for j in range(i + 1, n):
+            total -= a[i, j] * b[j]
+        b[i] = total / a[i, i]
+    return True
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
-    """Solve (I - C diag(slope) / phi) step = -R (rows scaled by 1/phi_i) in the scaled unknowns, through the
-    system of the slipping elements A only (a stuck element's column is the identity's): first step_A, then
-    step_i = -R_i + sum_(j in A) C_ij slope_j step_j / phi_i for the others. matrix (m, m), right (m,) and
-    active (m,) are work space. Returns True if singular."""
+    """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
+    (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
+
+        (diag(1 / g'_A) - C_AA) w_A = -R_A,
+
+    a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
+    1 / g' >= C), solved by Cholesky. Where it is not (the stiction law softening, or a singular joint), the
+    unsymmetric form (I - C diag(g')) du = -R is solved with pivoting instead. residual: R / phi; step: dx
+    (out); matrix (m, m), right (m,) and active (m,) are work space. Returns True if singular."""
     m = residual.size
     n_active = 0
     for j in range(m):
@@ -131,24 +163,30 @@ def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
             n_active += 1
     for a in range(n_active):
         i = active[a]
-        right[a] = -residual[i]
+        right[a] = -residual[i] * phi[i]
         for b in range(n_active):
-            j = active[b]
-            matrix[a, b] = (1.0 if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
-    if solve_dense(matrix, right, n_active):
-        return True
+            matrix[a, b] = -compliance[i, active[b]]
+        matrix[a, a] += phi[i] / slope[i]
+    if not _cholesky_solve(matrix, right, n_active):
+        for a in range(n_active):
+            i = active[a]
+            right[a] = -residual[i]
+            for b in range(n_active):
+                j = active[b]
+                matrix[a, b] = (1.0 if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
+        if solve_dense(matrix, right, n_active):
+            return True
+        for a in range(n_active):  # from dx_A to w_A
+            right[a] *= slope[active[a]]
     for i in range(m):
         coupling = 0.0
         for b in range(n_active):
-            j = active[b]
-            coupling += compliance[i, j] * slope[j] * right[b]
-        step[i] = -residual[i] + coupling / phi[i]
-    for a in range(n_active):
-        step[active[a]] = right[a]
+            coupling += compliance[i, active[b]] * right[b]
+        step[i] = coupling / phi[i] - residual[i]
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix, active, compliance_pinv):
     """Damped Newton for one design at one level from work[X] (the start) to work[X]; returns
     (status, compliance_pinv): C^+ is formed the first time the energy is needed, an empty (0, 0) matrix
@@ -207,7 +245,7 @@ def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix
     return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, compliance_pinv
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, eigenvalue, joint_shape,
                  amplitude_control, linear_damping, convex):
     """All designs, all levels, and their modal backbone.
@@ -236,29 +274,42 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, ei
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         compliance_pinv = np.empty((0, 0))
-        previous, before = -1, -1  # the last two converged levels
+        previous, before, earliest = -1, -1, -1  # the last three converged levels
         for level in range(n_levels):
             value = levels[level]
             if amplitude_control:
                 amplitude[d, level] = value
             else:
                 force[d, level] = value
-            # Start: secant through the last two solutions, else proportional (exact while stuck).
+            # Start: the parabola through the last three solutions, else the secant through two, else
+            # proportional to the level (exact while the joint is stuck), else the linear solution.
+            weights = np.zeros(3)
+            if earliest >= 0:
+                t0, t1, t2 = levels[earliest], levels[before], levels[previous]
+                weights[0] = (value - t1) * (value - t2) / ((t0 - t1) * (t0 - t2))
+                weights[1] = (value - t0) * (value - t2) / ((t1 - t0) * (t1 - t2))
+                weights[2] = (value - t0) * (value - t1) / ((t2 - t0) * (t2 - t1))
+            elif before >= 0:
+                weights[1] = (levels[previous] - value) / (levels[previous] - levels[before])
+                weights[2] = 1.0 - weights[1]
+            elif previous >= 0:
+                weights[2] = value / levels[previous]
             for i in range(m):
                 linear[i] = linear_per_level[d, i] * value
-                if before >= 0:
-                    ratio = (value - levels[previous]) / (levels[previous] - levels[before])
-                    x[i] = solutions[d, previous, i] + ratio * (solutions[d, previous, i] - solutions[d, before, i])
-                elif previous >= 0:
-                    x[i] = solutions[d, previous, i] * (value / levels[previous])
-                else:
+                if previous < 0:
                     x[i] = linear[i] / phi[d, i]
+                    continue
+                x[i] = weights[2] * solutions[d, previous, i]
+                if before >= 0:
+                    x[i] += weights[1] * solutions[d, before, i]
+                if earliest >= 0:
+                    x[i] += weights[0] * solutions[d, earliest, i]
             code, compliance_pinv = _solve_level(linear, compliance[d], phi[d], r[d], s[d], chi[d], theta[d], convex,
                                                  work, matrix, active, compliance_pinv)
             status[d, level] = code
             if code != CONVERGED:
                 continue
-            before, previous = previous, level
+            earliest, before, previous = before, previous, level
             modal_deficit, dissipation = 0.0, 0.0
             for i in range(m):
                 solutions[d, level, i] = x[i]

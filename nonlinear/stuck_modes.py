@@ -43,6 +43,9 @@ import numpy as np
 # step) and the compliance form T(mu) f = 0 polishes the root until its Newton step is below
 # ROOT_TOLERANCE. T's entries span the joint compliances 1e-14 to 1e-2 m/N, which puts the round-off
 # floor of the root near 1e-12 relative.
+# Floating-point reassociation and fused multiply-adds (never assumptions about NaN or infinity): lets the
+# compiler vectorise the small reductions; results change only in the last bits.
+FAST_MATH = {"reassoc", "contract", "arcp"}
 ESTIMATE_TOLERANCE = 1e-6
 ROOT_TOLERANCE = 1e-11
 FAST_STEP = 1e-7  # a relative step this small and 100 times smaller than the last: the next is below 1e-13
@@ -52,7 +55,7 @@ JACOBI_TOLERANCE = 1e-16  # off-diagonal entries below this times the matrix nor
 MAX_JACOBI_SWEEPS = 30
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _matvec(a, x):
     """a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
     rows, columns = a.shape
@@ -65,7 +68,7 @@ def _matvec(a, x):
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _rmatvec(a, x):
     """a^T x for a small dense matrix."""
     rows, columns = a.shape
@@ -77,7 +80,7 @@ def _rmatvec(a, x):
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _cholesky(a):
     """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read), stored as the
     upper triangular U = L^T (A = U^T U), row by row with right-looking updates along rows (contiguous)."""
@@ -97,7 +100,7 @@ def _cholesky(a):
     return upper
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _forward(upper, b):
     """U^-T b (= L^-1 b) for the factor of ``_cholesky`` and b (n, k), in place (all right-hand sides in the
     inner loop)."""
@@ -113,7 +116,7 @@ def _forward(upper, b):
     return b
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _backward(upper, b):
     """U^-1 b (= L^-T b) for the factor of ``_cholesky`` and b (n, k), in place."""
     n, k = b.shape
@@ -128,7 +131,7 @@ def _backward(upper, b):
     return b
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def symmetric_eigen(a):
     """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix by cyclic
     Jacobi rotations, until every off-diagonal entry is below JACOBI_TOLERANCE times the matrix norm
@@ -167,7 +170,7 @@ def symmetric_eigen(a):
     return values[order], vectors[:, order]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_dense(a, b, n):
     """Gaussian elimination with partial pivoting of the leading n x n block of ``a`` against b[:n], both
     overwritten (the solution in b[:n]); returns True if singular. Only an exactly zero pivot counts as
@@ -197,7 +200,7 @@ def solve_dense(a, b, n):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_outer):
     """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L).
 
@@ -230,7 +233,7 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenva
     return flexibility, factor, z, s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
                  high_outer):
     """Root of the ``branch``-th smallest eigenvalue of S(mu) in (0, lambda_c), by Newton's method from mu,
@@ -260,7 +263,7 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     return mu + step, w, z
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
             high_outer):
     """Newton's method on the Rayleigh functional of the bordered form B(mu) x = 0, x = (f, v_L),
@@ -300,7 +303,7 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
     return mu, force, v_low, False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _estimate_mac(mu, w, z, high_eigenvalues, high_modes, reference_low, reference_high):
     """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w."""
     v_high = -_rmatvec(high_modes, z) / (high_eigenvalues - mu)
@@ -308,7 +311,7 @@ def _estimate_mac(mu, w, z, high_eigenvalues, high_modes, reference_low, referen
     return projection ** 2 / (np.sum(w ** 2) + np.sum(v_high ** 2))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues, high_modes, reference_low, reference_high):
     """Unit mode (v_L, v_E = (Lambda_E - mu)^-1 Phi_E^T f) with a positive projection on the (unit) reference,
     its MAC, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude, without
@@ -320,7 +323,7 @@ def _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues, high_mode
     return v_low * scale, v_high * scale, projection ** 2, -inverse_stiffness * force * scale
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer,
                   reference_low, reference_high, unambiguous_mac):
     """Tracked stuck mode and joint-space compliance for every design.

@@ -15,12 +15,16 @@ compared only while every element's backbone tangent is still positive along the
 import numpy as np
 import pytest
 
-from nonlinear.condensation import joint_space, stuck_stiffness_matrix
-from nonlinear.joint import patch_elements, random_designs, stuck_stiffness, tangential_elements, tangential_tangent
+from nonlinear import slip_laws
+from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space, stuck_stiffness_matrix
+from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
+                             tangential_tangent)
 from nonlinear.qsma import MACROSLIP, qsma_reference
+from nonlinear.qsma_kernel import slip_law
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import asb_data_folder, read_asb_superelement
 from test_qsma import REDUCED_MASS, two_body_space
+from test_stuck_modes import full_target_mode
 
 AMPLITUDES = np.logspace(-7, -4, 10)  # m kg^0.5: the ASB's measured range is 7e-6 to 1.1e-4
 LINEAR_DAMPING = 7e-4
@@ -117,3 +121,33 @@ def test_vectorised_force_control_retraces_amplitude_control(model):
         assert by_force.converged.all()
         np.testing.assert_allclose(by_force.amplitude[0], AMPLITUDES[usable], rtol=1e-8)
         np.testing.assert_allclose(by_force.damping[0], damping[usable], rtol=1e-7)
+
+
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5"])
+def test_compiled_slip_law_is_the_slip_laws_module(model):
+    """The kernel's fused evaluation (one power per element) gives ``nonlinear.slip_laws``' deficit, slope
+    (clipped at K_T phi_max) and potential on Table 3 elements from stuck to deep macroslip."""
+    law = scaled_law(tangential_elements(patch_elements(model, random_designs(model, 200, 3,
+                                                                              np.random.default_rng(4)))))
+    constants = [np.ravel(a) for a in law[1:]]
+    x = np.random.default_rng(5).choice([-1, 1], constants[0].size) * np.geomspace(1e-6, 1e3, constants[0].size)
+    fused = np.array([slip_law(*values) for values in zip(x, *constants)])
+    np.testing.assert_allclose(fused[:, 0], slip_laws.slip_deficit(x, *constants), rtol=1e-13, atol=0)
+    slope = np.minimum(slip_laws.slip_deficit_slope(x, *constants), constants[1] + constants[0] / (constants[2] + 1))
+    np.testing.assert_allclose(fused[:, 1], slope, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(fused[:, 2], slip_laws.slip_deficit_potential(x, *constants), rtol=1e-13, atol=0)
+
+
+def test_vectorised_low_amplitude_limit_is_the_linear_mode():
+    """Jenkins joints below their smallest slip displacement (Table 3: F_S / K_T >= 1e-13 m; here r ~ 1e-16 m)
+    are linear: omega equals the stuck eigenfrequency, which equals the full eigen-solve's (within 1e-6)."""
+    space = cd1_space()
+    designs = random_designs("jenkins", 40, 3, np.random.default_rng(8))
+    result = qsma_designs(space, "jenkins", designs, amplitudes=[1e-16, 2e-16])
+    unambiguous = result.mac > UNAMBIGUOUS_MAC  # the others are flagged
+    assert unambiguous.mean() > 0.9 and result.converged[unambiguous].all()
+    frequency = result.frequency[unambiguous]
+    np.testing.assert_allclose(frequency, result.stuck_frequency[unambiguous, None] * np.ones(2), rtol=1e-12)
+    stiffness = stuck_stiffness(patch_elements("jenkins", designs[unambiguous], space.superelement.patch_groups))
+    full = np.array([full_target_mode(space, k)[0] for k in stiffness])
+    np.testing.assert_allclose(frequency[:, 0], np.sqrt(full), rtol=1e-6)
