@@ -9,12 +9,15 @@ joined structure is never formed in the superelement's own coordinates. Instead:
    removed, so that any positive joint stiffness makes the structure positive definite. In these coordinates
    eta (u = Psi eta) the mass is the identity, the stiffness diag(lambda), and the relative joint
    translations are r = Phi eta with Phi = B Psi (3 n_patches x n_modes).
-2. Per design, with the stuck joint tangents k (3 n_patches), the stuck stiffness
-   A = diag(lambda) + Phi^T diag(k) Phi is a symmetric standard eigenproblem (identity mass): no Cholesky of
-   an ill-conditioned mass matrix (the ASB models' mass matrices have condition numbers near 1e13), backward
-   error eps ||A||, i.e. about 1e-7 of lambda_1 for joint stiffnesses of 1e14 N/m.
-3. The joint-space compliance of the stuck structure, C = B (K + B^T K_d B)^+ B^T = (H + K_d)^-1, is the
-   sum of positive semi-definite terms w w^T / mu over the stuck modes (w = Phi v): no cancellation.
+2. Per design, with the stuck joint tangents k (3 n_patches), the stuck matrix
+   A = diag(lambda) + Phi^T diag(k) Phi (identity mass: no Cholesky of an ill-conditioned mass matrix; the
+   ASB models' mass matrices have condition numbers near 1e13) is never decomposed: a dense eigen-solve of
+   it has a backward error of eps ||A||, at least eps lambda_max (7e14 rad^2/s^2 for CD1), i.e. up to 1e-7
+   of lambda_1 and more for stiff joints. ``stuck_modes`` instead solves the small exact problem of
+   ``nonlinear.stuck_modes``: the modes below a cutoff (``modal_split``) explicit, the others as a
+   frequency-dependent flexibility in series with the joint, residual at round-off.
+3. The joint-space compliance of the stuck structure, C = B (K + B^T K_d B)^+ B^T = (H + K_d)^-1, comes from
+   the same split at mu = 0 as a sum of two positive semi-definite terms (no cancellation).
 
 The target mode is chosen by shape, not index: the stuck mode with the largest modal assurance criterion
 (mass-weighted) against a reference mode, by default the first elastic mode with all relative patch

@@ -25,12 +25,20 @@ lambda_c the number of stuck eigenvalues below mu is the number of negative eige
 eigenvalue sigma_j(mu) of S decreases strictly (slope <= -1), so the j-th smallest one has exactly one root
 in (0, lambda_c) if any, and that root is the j-th stuck eigenvalue: the branch index tracks the mode.
 
+S(mu) itself holds the joint's and the high modes' large stiffnesses (Phi_L^T X^-1 Phi_L reaches 1e15), so
+its root is only good to eps times their ratio to mu (about 1e-7). The root is therefore polished in the
+bordered form B(mu) x = 0, x = (f, v_L), B = [[X, Phi_L], [Phi_L^T, mu - Lambda_L]] (Schur complement -S),
+which holds only compliances and the low modes' offsets lambda_L - mu: its Rayleigh functional x^T B x has
+no cancellation beyond eps mu, and the root comes out at round-off (1e-12 to 1e-14 relative).
+
 Per design: the static quantities at mu = 0 give the joint-space compliance; the linearisation
 S(0) w = delta (I + Z^T F'(0) Z) w (one step of the method of successive linear problems) estimates all low
-stuck modes at once, and the one whose shape best matches the reference fixes the branch j; a safeguarded
-Newton iteration mu <- mu + sigma_j / (1 + z^T F' z), z = Z w (w the unit eigenvector of sigma_j), then
-converges quadratically to its root. Cost per design: a few dozen m x m operations instead of a full
-(n_modes x n_modes) eigen-decomposition.
+stuck modes at once (within 1e-3), and the estimate whose shape best matches the reference is polished.
+Only one stuck mode can have a MAC above 0.5, so a polished mode above it is the target; otherwise (veering
+modes, one to three per thousand of Table 3's designs) the root of every branch j is found by a safeguarded
+Newton iteration mu <- mu + sigma_j / (1 + z^T F' z), z = Z w (w the unit eigenvector of sigma_j), polished,
+and the best match kept. Cost per design: a few dozen m x m operations (m = 15) instead of a dense
+n_modes x n_modes eigen-decomposition that is, besides, less accurate.
 """
 
 from __future__ import annotations
@@ -38,11 +46,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-# S(mu) has the stiff joint's and the stiff modes' large stiffnesses in it, so its root is only good to
-# about eps times their ratio to mu (up to 1e-7 here): Newton on S stops at ESTIMATE_TOLERANCE (relative
-# step) and the compliance form T(mu) f = 0 polishes the root until its Newton step is below
-# ROOT_TOLERANCE. T's entries span the joint compliances 1e-14 to 1e-2 m/N, which puts the round-off
-# floor of the root near 1e-12 relative.
+# Newton on S(mu) stops at ESTIMATE_TOLERANCE (relative step; S's own round-off is near 1e-7), the bordered
+# polish at ROOT_TOLERANCE, or at FAST_STEP once it converges at least quadratically.
 # Floating-point reassociation and fused multiply-adds (never assumptions about NaN or infinity): lets the
 # compiler vectorise the small reductions; results change only in the last bits.
 FAST_MATH = {"reassoc", "contract", "arcp"}
@@ -373,10 +378,16 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                     value += low_share[k, i] * low_share[k, j]
                 compliance[d, i, j] = compliance[d, j, i] = value
         # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
-        high0 = np.empty((n_high, n_low))
-        for k in range(n_low):
-            high0[:, k] = _rmatvec(high_modes, z0[:, k].copy()) / high_eigenvalues
-        metric_factor = _cholesky(np.eye(n_low) + high0.T @ high0)
+        metric = np.eye(n_low)  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
+        for e in range(n_high):
+            high0 = np.zeros(n_low)
+            for i in range(m):
+                for k in range(n_low):
+                    high0[k] += high_modes[i, e] * z0[i, k]
+            for k in range(n_low):
+                for j in range(n_low):
+                    metric[k, j] += high0[k] * high0[j] / high_eigenvalues[e] ** 2
+        metric_factor = _cholesky(metric)
         projected = _forward(metric_factor, _forward(metric_factor, s0.copy()).T.copy())
         delta, vectors = symmetric_eigen(0.5 * (projected + projected.T))
         estimates = _backward(metric_factor, vectors.copy())
