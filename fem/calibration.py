@@ -46,6 +46,7 @@ MEASURED_HZ = {"BRB": 169.48, "LBRB": 80.82, "SBRB": 91.96}
 CALIBRATED_FIELD = {"LBRB": "body_length", "SBRB": "spring_height"}
 ARM = 0.01  # m: rotational springs k a^2, a patch-sized lever on the translational stiffness k
 LOG_STIFFNESS_BRACKET = (6.0, 12.0)  # log10 of k in N/m: from a loose joint to near the stiff-spring limit
+MESH_FACTOR = 1.0  # calibration mesh: this factor on the default element sizes (see fem.convergence)
 STIFFNESS_TOLERANCE = 1e-5  # relative, on log10 k of the BRB's springs
 FREQUENCY_TOLERANCE = 1e-4  # relative, on the calibrated LBRB and SBRB first bending (the ratios must hold to 1e-2)
 
@@ -97,23 +98,23 @@ def secant_root(function, x0: float, x1: float, tolerance: float, max_iterations
                 ) -> list[tuple[float, float]]:
     """Secant iteration on a scalar function until |function(x)| < tolerance.
 
-    Returns the history of (x, function(x)); its last entry is the root. Raises RuntimeError after
-    ``max_iterations`` evaluations.
+    Returns the history of (x, function(x)); its last entry is the root (x0 alone when it already is one).
+    Raises RuntimeError after ``max_iterations`` evaluations.
     """
     history = [(x0, function(x0))]
     x = x1
-    while len(history) < max_iterations:
+    while abs(history[-1][1]) >= tolerance:
+        if len(history) == max_iterations:
+            raise RuntimeError(f"secant iteration not converged after {max_iterations} evaluations: {history[-3:]}")
         history.append((x, function(x)))
         (previous, f_previous), (x, f_x) = history[-2:]
-        if abs(f_x) < tolerance:
-            return history
         x = x - f_x * (x - previous) / (f_x - f_previous)
-    raise RuntimeError(f"secant iteration not converged after {max_iterations} evaluations: {history[-3:]}")
+    return history
 
 
 def calibrate_geometry(beam: BeamParameters, field: str, target_hz: float, springs: np.ndarray,
                        sizes: MeshParameters, material: Material = Material(), bolt: Bolt = Bolt(),
-                       step: float = 0.05) -> list[tuple[float, float]]:
+                       step: float = 0.01) -> list[tuple[float, float]]:
     """Find ``beam.<field>`` (m) whose first bending with ``springs`` is ``target_hz`` (steps 2-3).
 
     Secant iteration (``secant_root``) on f / target - 1 from the current value and ``(1 + step)`` times it,
@@ -132,8 +133,11 @@ def calibrate_geometry(beam: BeamParameters, field: str, target_hz: float, sprin
 
 
 def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt = Bolt(),
-              beams: dict[str, BeamParameters] = BEAMS, progress: bool = False) -> dict:
+              beams: dict[str, BeamParameters] = BEAMS, stiffness: float | None = None, progress: bool = False) -> dict:
     """Steps 1-3 on meshes of ``sizes``, starting from the current ``beams``; returns the JSON-ready record.
+
+    stiffness: the BRB's translational patch stiffness k, N/m, found before on the same mesh: step 1 is then
+    skipped (its frequency is still computed and recorded).
 
     Record: mesh, material, bolt; springs (translational k N/m, lever a m, the (6,) spring vector); per beam the
     first bending Hz, and for LBRB and SBRB the calibrated parameter (m), the ratio to the BRB, the measured
@@ -143,7 +147,7 @@ def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt
     log = tqdm.write if progress else (lambda line: None)
     with tempfile.TemporaryDirectory(prefix="calibration-") as folder:
         brb = spring_beam(beams["BRB"], sizes, Path(folder), material, bolt)
-        stiffness = calibrate_stiffness(brb, MEASURED_HZ["BRB"])
+        stiffness = calibrate_stiffness(brb, MEASURED_HZ["BRB"]) if stiffness is None else stiffness
         springs = joint_springs(stiffness)
         brb_hz = spring_first_bending(brb, springs)
     log(f"BRB: k = {stiffness:.6g} N/m, first bending {brb_hz:.3f} Hz")
@@ -164,7 +168,7 @@ def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt
 
 def run(arguments: argparse.Namespace) -> None:
     sizes = scaled_sizes(MeshParameters(), arguments.mesh_factor)
-    record = calibrate(sizes, progress=True)
+    record = calibrate(sizes, stiffness=arguments.stiffness, progress=True)
     path = Path(arguments.out) / "calibration.json"
     write_json(path, record)
     tqdm.write(f"{path}: LBRB.body_length = {record['LBRB']['body_length']:.6g} m, "
@@ -176,7 +180,9 @@ def register(subparsers) -> None:
     command = subparsers.add_parser(
         "calibrate", help="joint springs of the BRB and LBRB/SBRB geometry from the measured frequency ratios",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    command.add_argument("--mesh-factor", type=float, default=1.0,
+    command.add_argument("--mesh-factor", type=float, default=MESH_FACTOR,
                          help="scale factor on the default element sizes (geometry.parameters.MeshParameters)")
+    command.add_argument("--stiffness", type=float, default=None,
+                         help="BRB patch stiffness k, N/m, found before on the same mesh: skip step 1")
     command.add_argument("--out", type=Path, default=Path("results/calibration"), help="output folder")
     command.set_defaults(run=run)

@@ -19,13 +19,15 @@ def run_study(folder, factors) -> list[dict]:
 
 
 def test_changes_and_the_converged_mesh_of_a_sequence():
-    changes = changes_to_finer([204.0, 200.0, 199.2, 198.5, 198.3])
+    frequencies = [204.0, 200.0, 199.2, 198.5, 198.3]
+    changes = changes_to_finer(frequencies)
     np.testing.assert_allclose(changes[:-1], [204 / 200 - 1, 200 / 199.2 - 1, 199.2 / 198.5 - 1, 198.5 / 198.3 - 1])
     assert np.isnan(changes[-1])
-    assert converged_index(changes) == 1  # 2 %, then 0.40 %, 0.35 %, 0.10 %: converged from the second mesh on
-    # A small step between coarse meshes followed by a large one is not convergence.
-    assert converged_index(np.array([0.02, 0.001, 0.008, 0.002, np.nan])) == 3
-    assert converged_index(np.array([0.02, 0.01, np.nan])) is None
+    # 200 Hz is 0.40 % above the next finer mesh but 0.86 % above the finest: steps that are each small do not
+    # make a converged mesh; 199.2 Hz is within 0.5 % of every finer one.
+    assert converged_index(frequencies) == 2
+    assert converged_index([204.0, 200.0, 199.9]) == 1
+    assert converged_index([210.0, 200.0, 190.0]) is None
 
 
 def test_scaled_sizes_scale_all_three_element_sizes():
@@ -50,9 +52,10 @@ def test_tied_bending_frequency_decreases_with_refinement(tmp_path):
 
 @pytest.mark.slow
 def test_default_mesh_is_the_coarsest_converged_one(tmp_path):
-    """The full study (about 8 minutes here, 26k to 400k DOF): the default sizes of geometry.parameters are the
-    coarsest of the sequence whose first bending changes by less than 0.5 % to the next finer mesh and on."""
+    """The full study, 26k to 393k DOF (9 CPU minutes, 24 minutes on the shared two-core machine; the finest mesh
+    takes 4 GB): the default sizes of geometry.parameters are the coarsest of the sequence whose first bending is
+    within 0.5 % of every finer mesh's. Measured 198.28, 197.55, 196.48, 195.82, 195.33, 194.88 Hz."""
     rows = run_study(tmp_path, FACTORS)
-    changes = np.array([row["change_to_finer"] for row in rows[:-1]] + [np.nan])
-    assert np.all(changes[:-1] > 0)
-    assert rows[converged_index(changes, TOLERANCE)]["factor"] == 1.0
+    frequencies = np.array([row["first_bending_hz"] for row in rows])
+    assert np.all(np.diff(frequencies) < 0)
+    assert rows[converged_index(frequencies, TOLERANCE)]["factor"] == 1.0
