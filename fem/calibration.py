@@ -13,6 +13,10 @@ a monotone frequency:
 1. k such that the BRB's first bending is the measured 169.48 Hz (Brent on log10 k; the frequency rises with k).
 2. With that k, ``LBRB.body_length`` such that f_LBRB / f_BRB = 80.82/169.48 (secant; remeshing each step).
 3. With that k, ``SBRB.spring_height`` such that f_SBRB / f_BRB = 91.96/169.48 (secant; remeshing each step).
+
+Result on the default mesh (130k DOF for the BRB): k = 3.657e8 N/m (k a^2 = 3.657e4 N m/rad), 13.5 % below the
+tied BRB's 195.8 Hz; LBRB.body_length = 0.4856 m (80.83 Hz), SBRB.spring_height = 4.874 mm (91.97 Hz). The
+values move by 0.3 % (LBRB) and 1 % (SBRB) from a mesh twice as coarse to the default one.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import brentq, root_scalar
+from scipy.optimize import brentq
 from tqdm import tqdm
 
 from geometry.beam_mesh import read_beam_mesh
