@@ -9,9 +9,9 @@ export OMP_NUM_THREADS ?= 1
 RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
 MODE_HZ ?= 80.5
 
-.PHONY: demo test test-slow beams fe rom freevib bench clean system-packages
+.PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib bench clean system-packages
 
-demo: beams freevib
+demo: beams fe rom freevib
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -25,6 +25,14 @@ beams: $(STAMP)
 # Stiffness, mass, bolt preload with frictionless contact, stress stiffness and tied modes of each beam.
 fe: beams
 	$(BIN)/surrogacy fe --beams build/beams --out build/fe
+
+# Mesh-convergence study of the tied first bending of the BRB (about 10 CPU minutes).
+fe-convergence: $(STAMP)
+	$(BIN)/surrogacy fe-convergence --beam BRB --out results/fe-convergence
+
+# Joint springs of the BRB and the LBRB/SBRB geometry from the measured frequency ratios (about 15 CPU minutes).
+calibrate: $(STAMP)
+	$(BIN)/surrogacy calibrate --out results/calibration
 
 # Whole-joint patches and the Hurty/Craig-Bampton superelement of each beam (60 virtual + 26 modal DOFs):
 # build/rom/<beam>.npz, .mat, _first_bending.png and .json, cached per beam.
