@@ -28,7 +28,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.stuck_modes import FAST_MATH, solve_dense
+from nonlinear.stuck_modes import FAST_MATH, back_substitute, solve_dense
 
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
 # macroslip (or the Newton matrix is singular): the halves slide freely.
@@ -136,11 +136,7 @@ def _cholesky_solve(a, b, n):
             for i in range(k, n):
                 a[k, i] -= factor * a[j, i]
             b[k] -= factor * b[j]
-    for i in range(n - 1, -1, -1):
-        total = b[i]
-        for j in range(i + 1, n):
-            total -= a[i, j] * b[j]
-        b[i] = total / a[i, i]
+    back_substitute(a, b, n)
     return True
 
 

@@ -197,12 +197,18 @@ def solve_dense(a, b, n):
             for j in range(k, n):
                 a[i, j] -= factor * a[k, j]
             b[i] -= factor * b[k]
+    back_substitute(a, b, n)
+    return False
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def back_substitute(upper, b, n):
+    """Solve the leading n x n upper-triangular block of ``upper`` against b[:n], in place in b."""
     for k in range(n - 1, -1, -1):
         total = b[k]
         for j in range(k + 1, n):
-            total -= a[k, j] * b[j]
-        b[k] = total / a[k, k]
-    return False
+            total -= upper[k, j] * b[j]
+        b[k] = total / upper[k, k]
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
