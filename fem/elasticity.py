@@ -8,22 +8,23 @@ Degrees of freedom follow scikit-fem's vector numbering: the "quadratic nodes" a
 (0..n_vertices-1) followed by the edge midpoints (in ``mesh.edges`` order), and the DOF of component k
 (0: x, 1: y, 2: z) at quadratic node p is 3 p + k.
 
-Forms are assembled over element chunks so that the quadrature-point arrays of one chunk, not of the whole
-mesh, are held in memory at a time (about 3 GB peak at any mesh size for the default chunk).
+Matrices are assembled from scalar forms on the quadratic nodes (the 3 x 3 blocks of elasticity, or one
+block times the identity for the mass and the stress stiffness), about ten times faster than scikit-fem's
+vector forms, and over element chunks so that the quadrature-point arrays of one chunk, not of the whole mesh,
+are held in memory at a time.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import BilinearForm, CellBasis, ElementTetP2, ElementVector, MeshTet
-from skfem.helpers import ddot, dot, sym_grad, trace
+from skfem import BilinearForm, CellBasis, ElementTetP2, MeshTet
 from skfem.models.elasticity import lame_parameters
 
-CHUNK_ELEMENTS = 4000
+CHUNK_ELEMENTS = 20000
 
 
 @dataclass(frozen=True)
@@ -49,11 +50,6 @@ def solid_mesh(points: np.ndarray, tetrahedra: np.ndarray) -> MeshTet:
                    np.ascontiguousarray(tetrahedra[:, :4].T, dtype=np.int64))
 
 
-def displacement_element() -> ElementVector:
-    """The quadratic (10-node) Lagrange tetrahedron with three displacement components per node."""
-    return ElementVector(ElementTetP2())
-
-
 def quadratic_node_coordinates(mesh: MeshTet) -> np.ndarray:
     """Coordinates of the quadratic nodes (vertices, then edge midpoints), (n_vertices + n_edges, 3), m."""
     midpoints = 0.5 * (mesh.p[:, mesh.edges[0]] + mesh.p[:, mesh.edges[1]])
@@ -72,55 +68,102 @@ def edge_indices(mesh: MeshTet, first: np.ndarray, second: np.ndarray) -> np.nda
     return np.where(keys[found] == wanted, found, -1)
 
 
-def assemble(mesh: MeshTet, form: BilinearForm, intorder: int,
-             fields: Callable[[CellBasis], dict] | None = None,
-             chunk_elements: int = CHUNK_ELEMENTS) -> sp.csr_matrix:
-    """Assemble a bilinear form over the quadratic displacement space, element chunk by element chunk.
+def node_basis_chunks(mesh: MeshTet, intorder: int) -> Iterator[CellBasis]:
+    """The scalar quadratic basis (one function per quadratic node) over successive element chunks.
 
     intorder: degree of polynomials the tetrahedron quadrature integrates exactly (2: products of gradients of
-        straight-sided quadratic elements, 4: products of the shape functions).
-    fields: optional function of a chunk's basis returning the keyword fields the form reads from ``w``
-        (e.g. the prestress at that chunk's quadrature points).
-    Returns the (3 n_nodes, 3 n_nodes) CSR matrix, n_nodes = n_vertices + n_edges.
+    straight-sided quadratic elements, 4: products of the shape functions). Global numbering: the quadratic
+    node index (vertices, then edges), whatever the chunk. Chunks of ``CHUNK_ELEMENTS`` elements bound the
+    memory of the quadrature-point arrays.
     """
-    element = displacement_element()
-    whole = CellBasis(mesh, element, elements=np.arange(1), disable_doflocs=True)
-    parts = []
+    chunk_elements = CHUNK_ELEMENTS
+    whole = CellBasis(mesh, ElementTetP2(), elements=np.arange(1), disable_doflocs=True)
     for start in range(0, mesh.t.shape[1], chunk_elements):
-        chunk = np.arange(start, min(start + chunk_elements, mesh.t.shape[1]))
-        basis = CellBasis(mesh, element, intorder=intorder, elements=chunk, dofs=whole.dofs,
-                          disable_doflocs=True)
-        parts.append(form.assemble(basis, **(fields(basis) if fields else {})))
-    return sum(parts[1:], parts[0]).tocsr()
+        yield CellBasis(mesh, ElementTetP2(), intorder=intorder, dofs=whole.dofs, disable_doflocs=True,
+                        elements=np.arange(start, min(start + chunk_elements, mesh.t.shape[1])))
 
 
-def stiffness_form(material: Material) -> BilinearForm:
-    """Linear elasticity: integral of (lambda tr eps(u) tr eps(v) + 2 mu eps(u) : eps(v)) dV, N/m."""
-    lame_lambda, shear_modulus = lame_parameters(material.youngs_modulus, material.poissons_ratio)
+UPPER_BLOCKS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # component pairs (a, b), a <= b
 
-    @BilinearForm
-    def stiffness(u, v, w):
-        strain_u, strain_v = sym_grad(u), sym_grad(v)
-        return lame_lambda * trace(strain_u) * trace(strain_v) + 2 * shear_modulus * ddot(strain_u, strain_v)
-    return stiffness
+
+def gradient_products(mesh: MeshTet) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element-by-element integrals of products of quadratic shape-function derivatives,
+    G_ab[i, j] = integral of d_a phi_i d_b phi_j dV (m), for the component pairs ``UPPER_BLOCKS``.
+
+    Returns rows, columns (n_entries,) quadratic node indices i, j and values (6, n_entries), in scikit-fem's
+    element-wise (COO) layout: one entry per element sharing the pair, not yet summed. Degree-2 quadrature is
+    exact on straight-sided elements.
+    """
+    rows, columns, values = [], [], []
+    for basis in node_basis_chunks(mesh, intorder=2):
+        products = [BilinearForm(lambda u, v, w: v.grad[a] * u.grad[b]).coo_data(basis) for a, b in UPPER_BLOCKS]
+        rows.append(products[0].indices[0])
+        columns.append(products[0].indices[1])
+        values.append(np.stack([product.data for product in products]))
+    return np.concatenate(rows), np.concatenate(columns), np.concatenate(values, axis=-1)
+
+
+def summed_blocks(n_nodes: int, rows: np.ndarray, columns: np.ndarray, upper: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Sum element-wise entries into node pairs and complete the 3 x 3 blocks of a form whose transpose swaps
+    the components, G_ba[i, j] = G_ab[j, i].
+
+    rows, columns (n_entries,) quadratic nodes; upper (6, n_entries) the ``UPPER_BLOCKS`` values. Returns the
+    node pairs (n_pairs,) as keys i n_nodes + j, ascending, and blocks (3, 3, n_pairs).
+    """
+    pairs, entry = np.unique(rows.astype(np.int64) * n_nodes + columns, return_inverse=True)
+    transposed = np.searchsorted(pairs, (pairs % n_nodes) * n_nodes + pairs // n_nodes)
+    blocks = np.empty((3, 3, len(pairs)))
+    for (a, b), values in zip(UPPER_BLOCKS, upper):
+        blocks[a, b] = np.bincount(entry, weights=values, minlength=len(pairs))
+        blocks[b, a] = blocks[a, b][transposed]
+    return pairs, blocks
+
+
+def vector_matrix(n_nodes: int, pairs: np.ndarray, blocks: np.ndarray) -> sp.csr_matrix:
+    """The (3 n_nodes, 3 n_nodes) CSR matrix A[3 i + a, 3 j + b] = blocks[a, b, k] for pairs[k] = i n_nodes + j
+    (ascending), through 3 x 3 block rows (BSR)."""
+    row_starts = np.searchsorted(pairs // n_nodes, np.arange(n_nodes + 1))
+    return sp.bsr_matrix((np.moveaxis(blocks, -1, 0), pairs % n_nodes, row_starts),
+                         shape=(3 * n_nodes, 3 * n_nodes)).tocsr()
+
+
+def assemble_isotropic(mesh: MeshTet, form: BilinearForm, intorder: int,
+                       fields: Callable[[CellBasis], dict] | None = None) -> sp.csr_matrix:
+    """A vector form that acts alike on each displacement component, A = S (x) I_3 in scikit-fem's vector DOF
+    numbering, from its scalar form S over the quadratic nodes (mass, stress stiffness).
+
+    intorder: quadrature degree (``node_basis_chunks``); fields: optional function of a chunk's basis
+    returning the keyword fields the form reads from ``w``. Returns (3 n_nodes, 3 n_nodes) CSR.
+    """
+    scalar = sum(form.assemble(basis, **(fields(basis) if fields else {}))
+                 for basis in node_basis_chunks(mesh, intorder))
+    return sp.kron(scalar, sp.identity(3), format="csr")
 
 
 def mass_form(material: Material) -> BilinearForm:
-    """Consistent mass: integral of rho u . v dV, kg."""
+    """Consistent mass of one displacement component: integral of rho u v dV, kg."""
     @BilinearForm
     def mass(u, v, w):
-        return material.density * dot(u, v)
+        return material.density * u * v
     return mass
 
 
 def stiffness_matrix(mesh: MeshTet, material: Material) -> sp.csr_matrix:
-    """Elastic stiffness K, (n_dof, n_dof), N/m."""
-    return assemble(mesh, stiffness_form(material), intorder=2)
+    """Elastic stiffness K, (n_dof, n_dof), N/m: integral of lambda tr eps(u) tr eps(v) + 2 mu eps(u) : eps(v),
+    whose block (a, b) for u = phi_j e_b, v = phi_i e_a is lambda G_ab + mu G_ba + mu delta_ab tr G
+    (``gradient_products``)."""
+    lame_lambda, shear_modulus = lame_parameters(material.youngs_modulus, material.poissons_ratio)
+    n_nodes = mesh.p.shape[1] + mesh.edges.shape[1]
+    pairs, products = summed_blocks(n_nodes, *gradient_products(mesh))
+    blocks = lame_lambda * products + shear_modulus * products.swapaxes(0, 1)
+    blocks[np.arange(3), np.arange(3)] += shear_modulus * np.trace(products)
+    return vector_matrix(n_nodes, pairs, blocks)
 
 
 def mass_matrix(mesh: MeshTet, material: Material) -> sp.csr_matrix:
     """Consistent mass M, (n_dof, n_dof), kg."""
-    return assemble(mesh, mass_form(material), intorder=4)
+    return assemble_isotropic(mesh, mass_form(material), intorder=4)
 
 
 def rigid_body_modes(coordinates: np.ndarray, centre: np.ndarray | None = None) -> np.ndarray:

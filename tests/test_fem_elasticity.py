@@ -78,3 +78,37 @@ def test_solid_mesh_keeps_node_numbering_and_drops_mid_side_nodes():
     mesh = solid_mesh(points10, np.arange(10)[None, :])
     np.testing.assert_array_equal(mesh.t[:, 0], [0, 1, 2, 3])
     np.testing.assert_allclose(mesh.p.T[:4], points)
+
+
+@pytest.mark.parametrize("chunk_elements", [7, 20000])
+def test_block_assembly_equals_scikit_fem_vector_forms(chunk_elements, monkeypatch):
+    """The scalar-block assembly (``fem.elasticity.gradient_products`` / ``assemble_isotropic``) against
+    scikit-fem's own vector forms on the same quadratic space, in one element chunk or many: linear
+    elasticity, mass and a stress stiffness with a full prestress tensor, equal to round-off."""
+    from skfem import Basis, BilinearForm, ElementTetP2, ElementVector
+    from skfem.helpers import ddot, dot, grad, mul
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    from fem.stress_stiffness import stress_stiffness_matrix, uniform_prestress
+
+    monkeypatch.setattr("fem.elasticity.CHUNK_ELEMENTS", chunk_elements)
+    mesh = bar_mesh(0.1, 3, 2)
+    material = Material()
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=4)
+    stress = np.array([[3.0, 1.0, -2.0], [1.0, -5.0, 0.5], [-2.0, 0.5, 4.0]]) * 1e6
+
+    @BilinearForm
+    def vector_mass(u, v, w):
+        return material.density * dot(u, v)
+
+    @BilinearForm
+    def vector_stress_stiffness(u, v, w):
+        return ddot(mul(grad(v), stress[:, :, None, None]), grad(u))
+
+    cases = [(stiffness_matrix(mesh, material), linear_elasticity(*lame_parameters(material.youngs_modulus,
+                                                                                   material.poissons_ratio))),
+             (mass_matrix(mesh, material), vector_mass),
+             (stress_stiffness_matrix(mesh, uniform_prestress(stress)), vector_stress_stiffness)]
+    for ours, form in cases:
+        reference = form.assemble(basis)
+        assert abs(ours - reference).max() <= 1e-12 * abs(reference).max()
