@@ -19,9 +19,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 try:
+    from sksparse.cholmod import analyze as _cholmod_analyze
     from sksparse.cholmod import cholesky as _cholmod_cholesky
 except ImportError:  # scikit-sparse absent or built against another SuiteSparse: SuperLU below
-    _cholmod_cholesky = None
+    _cholmod_analyze = _cholmod_cholesky = None
 
 
 def factorization_name() -> str:
@@ -42,6 +43,19 @@ def factorize(matrix: sp.spmatrix, method: str | None = None) -> Callable[[np.nd
     if method == "superlu":
         return spla.splu(sp.csc_matrix(matrix), permc_spec="MMD_AT_PLUS_A").solve
     raise ValueError(f"unknown factorisation '{method}': expected 'cholmod' or 'superlu'")
+
+
+def pattern_factorizer(pattern: sp.spmatrix, method: str | None = None
+                       ) -> Callable[[sp.spmatrix], Callable[[np.ndarray], np.ndarray]]:
+    """A factorize function for a sequence of symmetric positive definite matrices that all have the sparsity
+    pattern (explicit zeros included) of ``pattern`` (n, n): CHOLMOD orders and analyses the pattern once and
+    then only computes the numbers; SuperLU factorises each afresh. Returns matrix -> solve, as ``factorize``.
+    """
+    method = method or factorization_name()
+    if method == "cholmod" and _cholmod_analyze is not None:
+        symbolic = _cholmod_analyze(sp.csc_matrix(pattern))
+        return lambda matrix: symbolic.cholesky(sp.csc_matrix(matrix))
+    return lambda matrix: factorize(matrix, method)
 
 
 def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
