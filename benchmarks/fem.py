@@ -1,8 +1,12 @@
-"""Benchmark of the finite-element stage on the BRB: time and peak memory of each step, CalculiX for comparison.
+"""Benchmark of the finite-element stage for each beam: time and peak memory of each step, CalculiX beside it.
 
-Steps (each in a fresh process): assemble K and M; 16 tied-interface modes (shift-invert); bolt preload with
-frictionless contact; CalculiX C3D10 on the same tied mesh (when ccx is installed).
-Run: ``python -m benchmarks.fem`` (coarse mesh, about a minute) or ``python -m benchmarks.fem --default-mesh``.
+Steps, each in a fresh process on a mesh made beforehand (``geometry.beams.make_beam``): assemble K and M; 16
+tied-interface modes (tie and shift-invert, assembly excluded); the bolt preload with frictionless contact;
+stress stiffness and the prestressed tied modes; CalculiX C3D10 on the same tied mesh (16 modes, one thread,
+the ccx run only, deck writing excluded). The times are each step's own (model set-up excluded), the memory the
+peak of its whole process. The last columns compare the two codes on the step they share, the tied modal
+analysis from the mesh: CalculiX's run against our assembly plus tied modes, as a ratio (> 1: ours faster).
+Run: ``python -m benchmarks.fem`` (default meshes, about 10 min) or ``--coarse`` (about 2 min).
 """
 
 from __future__ import annotations
@@ -10,47 +14,49 @@ from __future__ import annotations
 import argparse
 import os
 import tempfile
+import time
+from pathlib import Path
 
 from benchmarks.peak import measure
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 COARSE = {"size": 0.0127, "lap_size": 0.0064, "hole_size": 0.0032}
+N_MODES = 16
 
 
-def _model(sizes: dict, folder: str):
+def _model(msh: str):
     from fem.elasticity import Material, solid_mesh
     from fem.modes import interface_quadratic_pairs
     from geometry.beam_mesh import interface_partners, read_beam_mesh
-    from geometry.beams import make_beam
-    from geometry.parameters import BEAMS, MeshParameters
 
-    beam_mesh = read_beam_mesh(make_beam(BEAMS["BRB"], MeshParameters(**sizes), folder, render=False)
-                               .with_suffix(".msh"))
+    beam_mesh = read_beam_mesh(Path(msh))
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     return beam_mesh, mesh, interface_quadratic_pairs(mesh, *interface_partners(beam_mesh)), Material()
 
 
-def assemble_step(sizes: dict, folder: str) -> str:
+def assemble_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     from fem.elasticity import mass_matrix, stiffness_matrix
 
-    _, mesh, _, material = _model(sizes, folder)
+    _, mesh, _, material = _model(msh)
+    start = time.perf_counter()
     stiffness, _ = stiffness_matrix(mesh, material), mass_matrix(mesh, material)
-    return f"{stiffness.shape[0]} DOF"
+    return time.perf_counter() - start, f"{stiffness.shape[0]} DOF"
 
 
-def modes_step(sizes: dict, folder: str) -> str:
+def modes_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     from fem.elasticity import mass_matrix, stiffness_matrix
     from fem.modes import tie_transformation, tied_modes
     from fem.solver import factorization_name
 
-    _, mesh, (lower, upper), material = _model(sizes, folder)
+    _, mesh, (lower, upper), material = _model(msh)
     stiffness, mass = stiffness_matrix(mesh, material), mass_matrix(mesh, material)
-    frequencies, _ = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), 16)
-    return f"first bending {frequencies[6]:.2f} Hz ({factorization_name()}, includes assembly)"
+    start = time.perf_counter()
+    frequencies, _ = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), N_MODES)
+    return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz ({factorization_name()})"
 
 
-def contact_step(sizes: dict, folder: str) -> str:
+def contact_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     import numpy as np
 
     from fem.bolts import Bolt, bolts_stiffness, preload_forces, washer_couplings
@@ -58,42 +64,68 @@ def contact_step(sizes: dict, folder: str) -> str:
     from fem.elasticity import quadratic_node_coordinates, stiffness_matrix
     from geometry.parameters import BEAMS
 
-    beam_mesh, mesh, (lower, upper), material = _model(sizes, folder)
-    couplings, bolt = washer_couplings(mesh, beam_mesh, BEAMS["BRB"]), Bolt()
+    beam_mesh, mesh, (lower, upper), material = _model(msh)
+    couplings, bolt = washer_couplings(mesh, beam_mesh, BEAMS[beam]), Bolt()
     stiffness = stiffness_matrix(mesh, material) + bolts_stiffness(couplings, bolt, axial=False)
     supported = support_321(quadratic_node_coordinates(mesh), np.unique(beam_mesh.volumes["lower_half"][:, :4]))
+    start = time.perf_counter()
     solution = frictionless_contact(stiffness, preload_forces(couplings, bolt), lower, upper, supported)
-    return (f"contact force {solution.normal_force.sum():.1f} N, {solution.active.mean():.0%} of pairs closed, "
-            f"{solution.iterations} active-set iterations (includes assembly)")
+    return time.perf_counter() - start, (f"contact force {solution.normal_force.sum():.1f} N, "
+                                         f"{solution.active.mean():.0%} of pairs closed, "
+                                         f"{solution.iterations} active-set iterations")
 
 
-def calculix_step(sizes: dict, folder: str) -> str:
+def prestressed_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
+    from fem.prestress import prestressed_beam
+    from geometry.beam_mesh import read_beam_mesh
+    from geometry.parameters import BEAMS
+
+    start = time.perf_counter()
+    model = prestressed_beam(read_beam_mesh(Path(msh)), BEAMS[beam], n_modes=N_MODES)
+    return time.perf_counter() - start, (f"first bending {model.frequencies[6]:.2f} -> "
+                                         f"{model.prestressed_frequencies[6]:.2f} Hz with K_sigma (whole "
+                                         f"prestress solve: assembly, contact, K_sigma, two modal solves)")
+
+
+def calculix_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     from fem.calculix import read_frequencies, run_calculix, tied_frequency_deck
 
-    _, mesh, (lower, upper), material = _model(sizes, folder)
-    frequencies = read_frequencies(run_calculix(tied_frequency_deck(mesh, material, lower, upper, 16), folder))
-    return f"first bending {frequencies[6]:.2f} Hz (ccx, one thread, includes deck writing)"
+    _, mesh, (lower, upper), material = _model(msh)
+    deck = tied_frequency_deck(mesh, material, lower, upper, N_MODES)
+    start = time.perf_counter()
+    frequencies = read_frequencies(run_calculix(deck, Path(folder), f"{beam}_modes"))
+    return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz (ccx, one thread)"
+
+
+STEPS = (("assemble K, M", assemble_step), ("tied modes", modes_step), ("preload contact", contact_step),
+         ("prestressed", prestressed_step))
 
 
 def main(argv: list[str] | None = None) -> None:
     from fem.calculix import calculix_available
+    from geometry.beams import make_beam
+    from geometry.parameters import BEAMS, MeshParameters
 
     arguments = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    arguments.add_argument("--default-mesh", action="store_true", help="the default mesh sizes instead of coarse")
-    sizes = {} if arguments.parse_args(argv).default_mesh else COARSE
-    steps = [("assemble K, M", assemble_step), ("tied modes", modes_step), ("preload contact", contact_step)]
-    if calculix_available():
-        steps.append(("CalculiX modes", calculix_step))
-    print(f"fem: BRB, {'default' if not sizes else 'coarse'} mesh, OPENBLAS_NUM_THREADS=1")
-    print(f"{'step':16} {'time s':>8} {'peak MiB':>9}  result")
-    times = {}
+    arguments.add_argument("--coarse", action="store_true", help="the coarse test mesh instead of the default")
+    arguments.add_argument("--beams", nargs="+", default=list(BEAMS), choices=list(BEAMS))
+    options = arguments.parse_args(argv)
+    sizes = COARSE if options.coarse else {}
+    steps = STEPS + ((("CalculiX modes", calculix_step),) if calculix_available() else ())
+    print(f"fem: {'coarse' if sizes else 'default'} meshes, OPENBLAS_NUM_THREADS=1, each step's own time")
+    print(f"{'beam':5} {'step':16} {'time s':>8} {'peak MiB':>9}  result")
     with tempfile.TemporaryDirectory() as folder:
-        for name, step in steps:
-            seconds, peak, result = measure(step, sizes, folder)
-            times[name] = seconds
-            print(f"{name:16} {seconds:8.2f} {peak:9.0f}  {result}")
-    if "CalculiX modes" in times:
-        print(f"CalculiX / scikit-fem time for the tied modes: {times['CalculiX modes'] / times['tied modes']:.2f}")
+        for beam in options.beams:
+            msh = str(make_beam(BEAMS[beam], MeshParameters(**sizes), folder, render=False).with_suffix(".msh"))
+            times = {}
+            for name, step in steps:
+                _, peak, (seconds, result) = measure(step, beam, msh, folder)
+                times[name] = seconds
+                print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
+            if "CalculiX modes" in times:
+                ours = times["assemble K, M"] + times["tied modes"]
+                print(f"{beam:5} {'CalculiX / ours':16} {times['CalculiX modes'] / ours:8.2f} {'':9}  tied modal "
+                      f"analysis from the mesh: ccx {times['CalculiX modes']:.1f} s, assembly + modes {ours:.1f} s")
 
 
 if __name__ == "__main__":
