@@ -3,10 +3,11 @@
 Steps, each in a fresh process on a mesh made beforehand (``geometry.beams.make_beam``): assemble K and M; 16
 tied-interface modes (tie and shift-invert, assembly excluded); the bolt preload with frictionless contact;
 stress stiffness and the prestressed tied modes; CalculiX C3D10 on the same tied mesh (16 modes, one thread,
-the ccx run only, deck writing excluded). The times are each step's own (model set-up excluded), the memory the
-peak of its whole process. The last columns compare the two codes on the step they share, the tied modal
-analysis from the mesh: CalculiX's run against our assembly plus tied modes, as a ratio (> 1: ours faster).
-Run: ``python -m benchmarks.fem`` (default meshes, about 10 min) or ``--coarse`` (about 2 min).
+the ccx run only, deck writing excluded) and CalculiX's preload with node-to-surface frictionless contact
+(``fem.calculix.preload_contact_deck``). The times are each step's own (model set-up excluded), the memory the
+peak of its whole process. The last rows compare the two codes on the steps they share, from the mesh: the tied
+modal analysis and the preload, CalculiX's run against our assembly plus solve, as a ratio (> 1: ours faster).
+Run: ``python -m benchmarks.fem`` (default meshes, about 15 min) or ``--coarse`` (about 3 min).
 """
 
 from __future__ import annotations
@@ -56,23 +57,61 @@ def modes_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz ({factorization_name()})"
 
 
-def contact_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
+def _preload(beam: str, msh: str):
+    """The preload problem of ``fem.contact.frictionless_contact`` on a beam mesh, and what its CalculiX twin
+    needs: (beam_mesh, mesh, material, couplings, bolt, stiffness, forces, lower, upper, supported, coordinates)."""
     import numpy as np
 
     from fem.bolts import Bolt, bolts_stiffness, preload_forces, washer_couplings
-    from fem.contact import frictionless_contact, support_321
+    from fem.contact import support_321
     from fem.elasticity import quadratic_node_coordinates, stiffness_matrix
     from geometry.parameters import BEAMS
 
     beam_mesh, mesh, (lower, upper), material = _model(msh)
     couplings, bolt = washer_couplings(mesh, beam_mesh, BEAMS[beam]), Bolt()
     stiffness = stiffness_matrix(mesh, material) + bolts_stiffness(couplings, bolt, axial=False)
-    supported = support_321(quadratic_node_coordinates(mesh), np.unique(beam_mesh.volumes["lower_half"][:, :4]))
+    coordinates = quadratic_node_coordinates(mesh)
+    supported = support_321(coordinates, np.unique(beam_mesh.volumes["lower_half"][:, :4]))
+    return (beam_mesh, mesh, material, couplings, bolt, stiffness, preload_forces(couplings, bolt), lower, upper,
+            supported, coordinates)
+
+
+def contact_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
+    from fem.contact import frictionless_contact
+
+    *_, stiffness, forces, lower, upper, supported, _ = _preload(beam, msh)
     start = time.perf_counter()
-    solution = frictionless_contact(stiffness, preload_forces(couplings, bolt), lower, upper, supported)
+    solution = frictionless_contact(stiffness, forces, lower, upper, supported)
     return time.perf_counter() - start, (f"contact force {solution.normal_force.sum():.1f} N, "
                                          f"{solution.active.mean():.0%} of pairs closed, "
                                          f"{solution.iterations} active-set iterations")
+
+
+def calculix_preload_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
+    """CalculiX's node-to-surface preload (``fem.calculix.preload_contact_deck``), its springs started from our
+    solution's bolt shortening; the ccx run only is timed."""
+    import numpy as np
+
+    from fem.calculix import (bolt_elongations, in_plane_support, preload_contact_deck, read_node_values,
+                              run_calculix, spring_initial_forces)
+    from fem.contact import frictionless_contact, support_321
+    from geometry.parameters import BEAMS
+
+    (beam_mesh, mesh, material, couplings, bolt, stiffness, forces, lower, upper, supported,
+     coordinates) = _preload(beam, msh)
+    ours = frictionless_contact(stiffness, forces, lower, upper, supported)
+    initial_forces = spring_initial_forces(bolt, bolt_elongations(couplings, ours.displacement))
+    upper_support = in_plane_support(support_321(coordinates, np.unique(beam_mesh.volumes["upper_half"][:, :4])))
+    deck = preload_contact_deck(mesh, beam_mesh, BEAMS[beam], material, bolt, initial_forces,
+                                np.concatenate([supported, upper_support]))
+    start = time.perf_counter()
+    dat = run_calculix(deck, Path(folder), f"{beam}_preload")
+    seconds = time.perf_counter() - start
+    ids, values = read_node_values(dat, "displacements", "SOLID_NODES")
+    displacement = np.zeros(stiffness.shape[0])
+    displacement[3 * (ids - 1)[:, None] + np.arange(3)] = values
+    contact_force = (stiffness @ displacement)[3 * upper + 2].sum()
+    return seconds, f"contact force {contact_force:.1f} N (ccx, one thread, node-to-surface penalty contact)"
 
 
 def prestressed_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
@@ -111,7 +150,8 @@ def main(argv: list[str] | None = None) -> None:
     arguments.add_argument("--beams", nargs="+", default=list(BEAMS), choices=list(BEAMS))
     options = arguments.parse_args(argv)
     sizes = COARSE if options.coarse else {}
-    steps = STEPS + ((("CalculiX modes", calculix_step),) if calculix_available() else ())
+    steps = STEPS + ((("CalculiX modes", calculix_step), ("CalculiX preload", calculix_preload_step))
+                     if calculix_available() else ())
     print(f"fem: {'coarse' if sizes else 'default'} meshes, OPENBLAS_NUM_THREADS=1, each step's own time")
     print(f"{'beam':5} {'step':16} {'time s':>8} {'peak MiB':>9}  result")
     with tempfile.TemporaryDirectory() as folder:
@@ -123,9 +163,11 @@ def main(argv: list[str] | None = None) -> None:
                 times[name] = seconds
                 print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
             if "CalculiX modes" in times:
-                ours = times["assemble K, M"] + times["tied modes"]
-                print(f"{beam:5} {'CalculiX / ours':16} {times['CalculiX modes'] / ours:8.2f} {'':9}  tied modal "
-                      f"analysis from the mesh: ccx {times['CalculiX modes']:.1f} s, assembly + modes {ours:.1f} s")
+                for shared, theirs, ours in (("tied modes", "CalculiX modes", ("assemble K, M", "tied modes")),
+                                             ("preload", "CalculiX preload", ("assemble K, M", "preload contact"))):
+                    mine = sum(times[name] for name in ours)
+                    print(f"{beam:5} {'CalculiX / ours':16} {times[theirs] / mine:8.2f} {'':9}  {shared} from the "
+                          f"mesh: ccx {times[theirs]:.1f} s, ours {mine:.1f} s ({' + '.join(ours)})")
 
 
 if __name__ == "__main__":
