@@ -9,8 +9,8 @@ Degrees of freedom follow scikit-fem's vector numbering: the "quadratic nodes" a
 (0: x, 1: y, 2: z) at quadratic node p is 3 p + k.
 
 Matrices are assembled from scalar forms on the quadratic nodes (the 3 x 3 blocks of elasticity, or one
-block times the identity for the mass and the stress stiffness), about ten times faster than scikit-fem's
-vector forms, and over element chunks so that the quadrature-point arrays of one chunk, not of the whole mesh,
+block times the identity for the mass and the stress stiffness): 2.4 (K) and 6 (M) times faster than
+scikit-fem's vector forms on the default BRB, and over element chunks so that the quadrature-point arrays of one chunk, not of the whole mesh,
 are held in memory at a time.
 """
 
