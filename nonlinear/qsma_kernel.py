@@ -28,7 +28,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.stuck_modes import FAST_MATH, back_substitute, solve_dense
+from nonlinear.stuck_modes import FAST_MATH, solve_dense
 
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
 # macroslip (or the Newton matrix is singular): the halves slide freely.
@@ -40,11 +40,43 @@ MAX_HALVINGS = 40
 CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws)
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
-# the scaled residual; then the Newton step, the level's linear joint motion and the slipping elements'
-# Newton system's right-hand side.
+# the scaled residual; then the Newton step in x and in the slip forces, the level's linear joint motion and
+# the slipping elements' Newton system's right-hand side.
 X, TRIAL, DEFICIT, SLOPE, POTENTIAL, TRIAL_DEFICIT, TRIAL_SLOPE, TRIAL_POTENTIAL = range(8)
-RESIDUAL, TRIAL_RESIDUAL, STEP, LINEAR, RIGHT = range(8, 13)
-N_WORK_ROWS = 13
+RESIDUAL, TRIAL_RESIDUAL, STEP, SLIP_STEP, LINEAR, RIGHT = range(8, 14)
+N_WORK_ROWS = 14
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def law_constants(r, s, chi, theta):
+    """The constants of one element's scaled slip law that do not depend on the slip, formed once per design
+    (N_LAW of them, N or N per unit scaled slip, exponents and shape factors dimensionless): the exponent
+    chi + 1, r, the backbone's shape factor 1 / (chi + 1) - theta / (chi + 2), the macroslip slope
+    s + r / (chi + 1), the microslip slope factor (chi + 2) / (chi + 1) - theta, the potential factor
+    shape / (chi + 3), the stiction drop s (1 - theta) and the potential's slope beyond macroslip."""
+    shape = 1.0 / (chi + 1.0) - theta / (chi + 2.0)
+    stiction = s * (1.0 - theta)
+    return (chi + 1.0, r, shape, s + r / (chi + 1.0), (chi + 2.0) / (chi + 1.0) - theta, shape / (chi + 3.0),
+            stiction, r * shape + stiction)
+
+
+N_LAW = 8
+MACROSLIP_SLOPE = 3  # column of the macroslip slope in a table of ``law_constants``
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _scaled_slip_law(x, exponent, r, shape, macroslip_slope, slope_factor, potential_factor, stiction,
+                     beyond_potential):
+    """``slip_law`` from the constants of ``law_constants``."""
+    a = abs(x)
+    xm = min(a, 1.0)
+    beyond = max(a - 1.0, 0.0)
+    power = r if xm == 1.0 else r * xm ** exponent if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
+    sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
+    deficit = sign * (power * xm * shape + macroslip_slope * beyond + (stiction if a > 1.0 else 0.0))
+    slope = power * slope_factor if a < 1.0 else macroslip_slope
+    potential = power * xm * xm * potential_factor + beyond_potential * beyond + macroslip_slope * beyond * beyond / 2.0
+    return deficit, min(slope, macroslip_slope), potential
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -52,25 +84,25 @@ def slip_law(x, r, s, chi, theta):
     """Slip deficit g (N), its slope clipped at K_T phi_max = s + r / (chi + 1) (N per unit scaled slip)
     and its integral G (N per unit scaled slip) at scaled slip x: ``nonlinear.slip_laws``' three functions
     evaluated together with a single power |x|^(chi+1) (none for Jenkins, r = 0, or beyond macroslip)."""
-    a = abs(x)
-    xm = min(a, 1.0)
-    beyond = max(a - 1.0, 0.0)
-    macroslip_slope = s + r / (chi + 1.0)
-    power = r if xm == 1.0 else r * xm ** (chi + 1.0) if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
-    shape = 1.0 / (chi + 1.0) - theta / (chi + 2.0)
-    sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
-    deficit = sign * (power * xm * shape + macroslip_slope * beyond + (s * (1.0 - theta) if a > 1.0 else 0.0))
-    slope = power * ((chi + 2.0) / (chi + 1.0) - theta) if a < 1.0 else macroslip_slope
-    potential = (power * xm * xm * shape / (chi + 3.0) + (r * shape + s * (1.0 - theta)) * beyond
-                 + macroslip_slope * beyond * beyond / 2.0)
-    return deficit, min(slope, macroslip_slope), potential
+    return _scaled_slip_law(x, *law_constants(r, s, chi, theta))
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _evaluate(x, r, s, chi, theta, deficit, slope, potential):
-    """The slip law at every element of x into the three arrays."""
+def _law_table(r, s, chi, theta, table):
+    """``law_constants`` of every element into table (m, N_LAW)."""
+    for i in range(r.size):
+        constants = law_constants(r[i], s[i], chi[i], theta[i])
+        for k in range(N_LAW):
+            table[i, k] = constants[k]
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _evaluate(x, table, deficit, slope, potential):
+    """The slip law at every element of x (constants in ``table``, see ``_law_table``) into the three arrays."""
     for i in range(x.size):
-        deficit[i], slope[i], potential[i] = slip_law(x[i], r[i], s[i], chi[i], theta[i])
+        deficit[i], slope[i], potential[i] = _scaled_slip_law(x[i], table[i, 0], table[i, 1], table[i, 2],
+                                                              table[i, 3], table[i, 4], table[i, 5],
+                                                              table[i, 6], table[i, 7])
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -104,44 +136,50 @@ def _energy(x, linear, compliance_pinv, phi, potential):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def pseudo_inverse(matrix):
-    """Moore-Penrose inverse of a symmetric positive semi-definite matrix (eigenvalues below
-    PSEUDO_INVERSE_RCOND times the largest are dropped)."""
+def pseudo_inverse(matrix, inverse):
+    """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
+    eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped)."""
     values, vectors = np.linalg.eigh(matrix)
     cutoff = PSEUDO_INVERSE_RCOND * np.max(np.abs(values))
-    inverse = np.zeros_like(matrix)
+    inverse[:] = 0.0
     for k in range(values.size):
         if values[k] > cutoff:
             for i in range(values.size):
                 for j in range(values.size):
                     inverse[i, j] += vectors[i, k] * vectors[j, k] / values[k]
-    return inverse
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _cholesky_solve(a, b, n):
-    """Solve the leading n x n block of the symmetric ``a`` against b[:n] by Cholesky (both overwritten, the
-    solution in b[:n]); returns False, leaving them spoiled, if the block is not numerically positive
-    definite."""
-    for j in range(n):
-        pivot = a[j, j]
-        if not pivot > 0.0 or not np.isfinite(pivot):
-            return False
-        inverse = 1.0 / np.sqrt(pivot)
-        for i in range(j, n):
-            a[j, i] *= inverse
-        b[j] *= inverse
-        for k in range(j + 1, n):
-            factor = a[j, k]
-            for i in range(k, n):
-                a[k, i] -= factor * a[j, i]
-            b[k] -= factor * b[j]
-    back_substitute(a, b, n)
+    """Solve the leading n x n block of the symmetric ``a`` (its lower triangle is read) against b[:n] by
+    Cholesky, both overwritten (the solution in b[:n]); returns False, leaving them spoiled, if the block is
+    not numerically positive definite. Row-oriented (each entry of the factor L a dot product of two of its
+    rows, contiguous), with the reciprocals of L's diagonal stored on the diagonal."""
+    for i in range(n):
+        for j in range(i + 1):
+            total = a[i, j]
+            for k in range(j):
+                total -= a[i, k] * a[j, k]
+            if j < i:
+                a[i, j] = total * a[j, j]
+            elif total > 0.0 and np.isfinite(total):
+                a[i, i] = 1.0 / np.sqrt(total)
+            else:
+                return False
+    for i in range(n):  # L y = b
+        total = b[i]
+        for k in range(i):
+            total -= a[i, k] * b[k]
+        b[i] = total * a[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        b[i] *= a[i, i]
+        for k in range(i):
+            b[k] -= a[i, k] * b[i]
     return True
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
+def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, right, active):
     """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
     (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
 
@@ -150,7 +188,8 @@ def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
     1 / g' >= C), solved by Cholesky. Where it is not (the stiction law softening, or a singular joint), the
     unsymmetric form (I - C diag(g')) du = -R is solved with pivoting instead. residual: R / phi; step: dx
-    (out); matrix (m, m), right (m,) and active (m,) are work space. Returns True if singular."""
+    (out); slip_step: w (m,) (out, N); matrix (m, m), right (m,) and active (m,) are work space. Returns True
+    if singular."""
     m = residual.size
     n_active = 0
     for j in range(m):
@@ -160,9 +199,9 @@ def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
     for a in range(n_active):
         i = active[a]
         right[a] = -residual[i] * phi[i]
-        for b in range(n_active):
+        for b in range(a):
             matrix[a, b] = -compliance[i, active[b]]
-        matrix[a, a] += phi[i] / slope[i]
+        matrix[a, a] = phi[i] / slope[i] - compliance[i, i]
     if not _cholesky_solve(matrix, right, n_active):
         for a in range(n_active):
             i = active[a]
@@ -174,30 +213,33 @@ def _newton_step(residual, compliance, phi, slope, step, matrix, right, active):
             return True
         for a in range(n_active):  # from dx_A to w_A
             right[a] *= slope[active[a]]
+    slip_step[:] = 0.0
+    for a in range(n_active):
+        slip_step[active[a]] = right[a]
     for i in range(m):
         coupling = 0.0
-        for b in range(n_active):
-            coupling += compliance[i, active[b]] * right[b]
+        for j in range(m):
+            coupling += compliance[i, j] * slip_step[j]
         step[i] = coupling / phi[i] - residual[i]
     return False
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix, active, compliance_pinv):
-    """Damped Newton for one design at one level from work[X] (the start) to work[X]; returns
-    (status, compliance_pinv): C^+ is formed the first time the energy is needed, an empty (0, 0) matrix
-    until then, and carried from level to level."""
+def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, compliance_pinv, pinv_formed):
+    """Damped Newton for one design at one level from work[X] (the start) to work[X]; table: the elements'
+    ``law_constants`` (m, N_LAW). Returns (status, pinv_formed): C^+ is formed into compliance_pinv (m, m) the
+    first time the energy is needed (pinv_formed False until then) and carried from level to level."""
     m = linear.size
     x, trial, residual, trial_residual, step = work[X], work[TRIAL], work[RESIDUAL], work[TRIAL_RESIDUAL], work[STEP]
     deficit, slope, potential = work[DEFICIT], work[SLOPE], work[POTENTIAL]
     trial_deficit, trial_slope, trial_potential = work[TRIAL_DEFICIT], work[TRIAL_SLOPE], work[TRIAL_POTENTIAL]
-    _evaluate(x, r, s, chi, theta, deficit, slope, potential)
+    _evaluate(x, table, deficit, slope, potential)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
     singular = False
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             break
-        singular = _newton_step(residual, compliance, phi, slope, step, matrix, work[RIGHT], active)
+        singular = _newton_step(residual, compliance, phi, slope, step, work[SLIP_STEP], matrix, work[RIGHT], active)
         if singular:
             break
         energy_known = False
@@ -207,13 +249,14 @@ def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix
         for _ in range(MAX_HALVINGS):
             for i in range(m):
                 trial[i] = x[i] + length * step[i]
-            _evaluate(trial, r, s, chi, theta, trial_deficit, trial_slope, trial_potential)
+            _evaluate(trial, table, trial_deficit, trial_slope, trial_potential)
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
             if not (convex and length == 1.0 and trial_norm <= CONTRACTION * norm):
                 if not energy_known:
-                    if compliance_pinv.shape[0] == 0:
-                        compliance_pinv = pseudo_inverse(compliance)
+                    if not pinv_formed:
+                        pseudo_inverse(compliance, compliance_pinv)
+                        pinv_formed = True
                     energy, energy_terms = _energy(x, linear, compliance_pinv, phi, potential)
                     for i in range(m):
                         for j in range(m):
@@ -233,12 +276,12 @@ def _solve_level(linear, compliance, phi, r, s, chi, theta, convex, work, matrix
         if not accepted:
             break
     if error <= ACCEPT_TOLERANCE:
-        return CONVERGED, compliance_pinv
+        return CONVERGED, pinv_formed
     beyond_macroslip = True
     for i in range(m):
-        if (r[i] > 0.0 or s[i] > 0.0) and linear[i] != 0.0 and abs(x[i]) < 1.0:
+        if table[i, MACROSLIP_SLOPE] > 0.0 and linear[i] != 0.0 and abs(x[i]) < 1.0:
             beyond_macroslip = False
-    return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, compliance_pinv
+    return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, pinv_formed
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -266,10 +309,13 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, ei
     damping = np.full((n_designs, n_levels), np.nan)
     work = np.empty((N_WORK_ROWS, m))
     matrix = np.empty((m, m))
+    compliance_pinv = np.empty((m, m))
+    table = np.empty((m, N_LAW))
     active = np.empty(m, dtype=np.int64)
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
-        compliance_pinv = np.empty((0, 0))
+        _law_table(r[d], s[d], chi[d], theta[d], table)
+        pinv_formed = False
         previous, before, earliest = -1, -1, -1  # the last three converged levels
         for level in range(n_levels):
             value = levels[level]
@@ -279,29 +325,29 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, ei
                 force[d, level] = value
             # Start: the parabola through the last three solutions, else the secant through two, else
             # proportional to the level (exact while the joint is stuck), else the linear solution.
-            weights = np.zeros(3)
+            weight_earliest, weight_before, weight_previous = 0.0, 0.0, 0.0
             if earliest >= 0:
                 t0, t1, t2 = levels[earliest], levels[before], levels[previous]
-                weights[0] = (value - t1) * (value - t2) / ((t0 - t1) * (t0 - t2))
-                weights[1] = (value - t0) * (value - t2) / ((t1 - t0) * (t1 - t2))
-                weights[2] = (value - t0) * (value - t1) / ((t2 - t0) * (t2 - t1))
+                weight_earliest = (value - t1) * (value - t2) / ((t0 - t1) * (t0 - t2))
+                weight_before = (value - t0) * (value - t2) / ((t1 - t0) * (t1 - t2))
+                weight_previous = (value - t0) * (value - t1) / ((t2 - t0) * (t2 - t1))
             elif before >= 0:
-                weights[1] = (levels[previous] - value) / (levels[previous] - levels[before])
-                weights[2] = 1.0 - weights[1]
+                weight_before = (levels[previous] - value) / (levels[previous] - levels[before])
+                weight_previous = 1.0 - weight_before
             elif previous >= 0:
-                weights[2] = value / levels[previous]
+                weight_previous = value / levels[previous]
             for i in range(m):
                 linear[i] = linear_per_level[d, i] * value
                 if previous < 0:
                     x[i] = linear[i] / phi[d, i]
                     continue
-                x[i] = weights[2] * solutions[d, previous, i]
+                x[i] = weight_previous * solutions[d, previous, i]
                 if before >= 0:
-                    x[i] += weights[1] * solutions[d, before, i]
+                    x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
-                    x[i] += weights[0] * solutions[d, earliest, i]
-            code, compliance_pinv = _solve_level(linear, compliance[d], phi[d], r[d], s[d], chi[d], theta[d], convex,
-                                                 work, matrix, active, compliance_pinv)
+                    x[i] += weight_earliest * solutions[d, earliest, i]
+            code, pinv_formed = _solve_level(linear, compliance[d], phi[d], table, convex, work, matrix, active,
+                                             compliance_pinv, pinv_formed)
             status[d, level] = code
             if code != CONVERGED:
                 continue
