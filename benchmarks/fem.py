@@ -5,7 +5,7 @@ tied-interface modes (tie and shift-invert, assembly excluded); the bolt preload
 stress stiffness and the prestressed tied modes; CalculiX C3D10 on the same tied mesh (16 modes, one thread,
 the ccx run only, deck writing excluded) and CalculiX's preload with node-to-surface frictionless contact
 (``fem.calculix.preload_contact_deck``). The times are each step's own (model set-up excluded), the memory the
-peak of its whole process. The last rows compare the two codes on the steps they share, from the mesh: the tied
+peak of its whole process (for CalculiX, ccx's own peak is in the result column). The last rows compare the two codes on the steps they share, from the mesh: the tied
 modal analysis and the preload, CalculiX's run against our assembly plus solve, as a ratio (> 1: ours faster).
 Run: ``python -m benchmarks.fem`` (default meshes, about 15 min) or ``--coarse`` (about 3 min).
 """
@@ -34,6 +34,13 @@ def _model(msh: str):
     beam_mesh = read_beam_mesh(Path(msh))
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     return beam_mesh, mesh, interface_quadratic_pairs(mesh, *interface_partners(beam_mesh)), Material()
+
+
+def _ccx_peak() -> str:
+    """Peak resident memory of the finished ccx run (the step's only child process)."""
+    import resource
+
+    return f"ccx peak {resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024:.0f} MiB"
 
 
 def assemble_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
@@ -111,7 +118,8 @@ def calculix_preload_step(beam: str, msh: str, folder: str) -> tuple[float, str]
     displacement = np.zeros(stiffness.shape[0])
     displacement[3 * (ids - 1)[:, None] + np.arange(3)] = values
     contact_force = (stiffness @ displacement)[3 * upper + 2].sum()
-    return seconds, f"contact force {contact_force:.1f} N (ccx, one thread, node-to-surface penalty contact)"
+    return seconds, (f"contact force {contact_force:.1f} N (ccx, one thread, node-to-surface penalty contact, "
+                     f"{_ccx_peak()})")
 
 
 def prestressed_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
@@ -133,7 +141,7 @@ def calculix_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     deck = tied_frequency_deck(mesh, material, lower, upper, N_MODES)
     start = time.perf_counter()
     frequencies = read_frequencies(run_calculix(deck, Path(folder), f"{beam}_modes"))
-    return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz (ccx, one thread)"
+    return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz (ccx, one thread, {_ccx_peak()})"
 
 
 STEPS = (("assemble K, M", assemble_step), ("tied modes", modes_step), ("preload contact", contact_step),
