@@ -29,8 +29,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nonlinear.condensation import JointSpace, modal_assurance, stuck_modes, stuck_stiffness_matrix
+from nonlinear.condensation import JointSpace
 from nonlinear.joint import patch_elements, stuck_stiffness, tangential_elements, tangential_rows
+from nonlinear.qsma import stuck_target_mode
 from nonlinear.sliders import Sliders, initial_state, iwan_sliders, jenkins_sliders, slider_response
 
 NEWTON_TOLERANCE = 1e-10  # residual force relative to the largest inertia, stiffness or joint force term
@@ -125,10 +126,10 @@ def sensor_modes(space: JointSpace, model: str, design, stuck_group: int | None 
     q, and the index of the tracked mode (largest MAC against the reference).
     """
     joint_stiffness = stuck_stiffness(patch_elements(model, design, space.superelement.patch_groups, stuck_group))[0]
-    eigenvalues, shapes = np.linalg.eigh(stuck_stiffness_matrix(space, joint_stiffness))
-    target = int(np.argmax(modal_assurance(shapes, space.reference)))
-    shapes = shapes * np.sign(shapes[:, target] @ space.reference)
-    return np.sqrt(np.abs(eigenvalues)), space.superelement.sensors @ space.modes @ shapes, target
+    stuck = stuck_target_mode(space, joint_stiffness)
+    shapes = stuck.shapes.copy()
+    shapes[:, stuck.target] = stuck.shape
+    return np.sqrt(np.abs(stuck.eigenvalues)), space.superelement.sensors @ space.modes @ shapes, stuck.target
 
 
 def ring_down(space: JointSpace, model: str, design, duration: float, time_step: float,
@@ -146,10 +147,9 @@ def ring_down(space: JointSpace, model: str, design, duration: float, time_step:
     superelement = space.superelement
     elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
     joint_stiffness = stuck_stiffness(elements)[0]
-    modes = stuck_modes(space, joint_stiffness[None, :])
-    shape = modes.shape[0]
-    stuck_eigenvalues, stuck_shapes = np.linalg.eigh(stuck_stiffness_matrix(space, joint_stiffness))
-    damping = (stuck_shapes * (2.0 * linear_damping * np.sqrt(np.abs(stuck_eigenvalues)))) @ stuck_shapes.T
+    stuck = stuck_target_mode(space, joint_stiffness)
+    shape = stuck.shape
+    damping = (stuck.shapes * (2.0 * linear_damping * np.sqrt(np.abs(stuck.eigenvalues)))) @ stuck.shapes.T
     sliders = stacked_sliders(element_sliders(model, design, superelement.patch_groups, stuck_group))
     states = initial_state(sliders)
     tangential = tangential_rows(superelement.n_patches)
@@ -206,5 +206,5 @@ def ring_down(space: JointSpace, model: str, design, duration: float, time_step:
         sensors=history @ (superelement.sensors @ space.modes).T,
         modal_amplitude=history @ shape,
         joint_displacement=history @ phi.T,
-        stuck_frequency=float(np.sqrt(modes.eigenvalue[0])),
+        stuck_frequency=float(np.sqrt(stuck.eigenvalue)),
         unconverged_steps=unconverged)

@@ -14,6 +14,7 @@ import pytest
 from nonlinear.condensation import (CUTOFF_FACTOR, UNAMBIGUOUS_MAC, joint_space, modal_assurance, stuck_modes,
                                     stuck_stiffness_matrix)
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
+from nonlinear.qsma import stuck_target_mode
 from reduction.superelement import asb_data_folder, read_asb_superelement
 
 
@@ -25,18 +26,10 @@ def asb_space(configuration):
 
 
 def full_target_mode(space, joint_stiffness):
-    """Target (largest MAC) eigenpair of the full stuck matrix by a dense eigen-solve, refined by three steps
-    of Rayleigh quotient iteration in the full space (the quotient as a sum of modal and joint strain
-    energies, all positive)."""
-    matrix = stuck_stiffness_matrix(space, joint_stiffness)
-    eigenvalues, shapes = np.linalg.eigh(matrix)
-    target = np.argmax(modal_assurance(shapes, space.reference))
-    eigenvalue, shape = eigenvalues[target], shapes[:, target]
-    for _ in range(3):
-        shape = np.linalg.solve(matrix - eigenvalue * np.eye(len(shape)), shape)
-        shape /= np.linalg.norm(shape)
-        eigenvalue = space.eigenvalues @ shape ** 2 + joint_stiffness @ (space.joint_modes @ shape) ** 2
-    return eigenvalue, shape * np.sign(shape @ space.reference), modal_assurance(shapes, space.reference)[target]
+    """Target (largest MAC) eigenpair of the full stuck matrix: the QSMA oracle's dense eigen-solve refined by
+    Rayleigh quotient iteration with the energy quotient (``nonlinear.qsma.stuck_target_mode``)."""
+    stuck = stuck_target_mode(space, joint_stiffness)
+    return stuck.eigenvalue, stuck.shape, stuck.mac
 
 
 @pytest.mark.parametrize("configuration", ["CD1", "C1"])
