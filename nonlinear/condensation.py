@@ -146,9 +146,8 @@ class StuckModes(NamedTuple):
 
     eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
     positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
-    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2;
-    residual_compliance: C - b b^T / lambda_1, the compliance without the tracked mode; found: False where
-    no stuck mode was found below the split's cutoff (then the fields hold the best attempt).
+    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2; found: False
+    where no stuck mode was found below the split's cutoff (then the fields hold the best attempt).
     """
 
     eigenvalue: np.ndarray
@@ -156,7 +155,6 @@ class StuckModes(NamedTuple):
     joint_shape: np.ndarray
     mac: np.ndarray
     compliance: np.ndarray
-    residual_compliance: np.ndarray
     found: np.ndarray
 
 
@@ -176,5 +174,4 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
         UNAMBIGUOUS_MAC)
     shape = np.empty((len(k), len(eigenvalues)))
     shape[:, split.low], shape[:, split.high] = shape_low, shape_high
-    residual_compliance = compliance - joint_shape[:, :, None] * joint_shape[:, None, :] / eigenvalue[:, None, None]
-    return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, residual_compliance, found)
+    return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, found)

@@ -38,7 +38,9 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     rows = tangential_rows(space.superelement.n_patches)
     b = np.ascontiguousarray(modes.joint_shape[:, rows])
     amplitude_control = amplitudes is not None
-    compliance = (modes.residual_compliance if amplitude_control else modes.compliance)[:, rows[:, None], rows]
+    compliance = modes.compliance[:, rows[:, None], rows]
+    if amplitude_control:  # the compliance without the tracked mode, C - b b^T / lambda_1
+        compliance -= b[:, :, None] * b[:, None, :] / modes.eigenvalue[:, None, None]
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)

@@ -61,6 +61,15 @@ MAX_JACOBI_SWEEPS = 30
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
+def _dot(x, y):
+    """x . y of two vectors (a loop: no temporary array)."""
+    total = 0.0
+    for i in range(x.size):
+        total += x[i] * y[i]
+    return total
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _matvec(a, x):
     """a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
     rows, columns = a.shape
@@ -212,13 +221,18 @@ def back_substitute(upper, b, n):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_outer):
-    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L).
+def _high_flexibility(mu, high_eigenvalues, high_outer):
+    """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T packed as its row-major lower triangle (m (m+1) / 2,), m/N.
 
     high_outer: (n_E, m (m+1) / 2) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
+    return _rmatvec(high_outer, 1.0 / (high_eigenvalues - mu))
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed):
+    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L), from the high modes'
+    flexibility F(mu) packed by ``_high_flexibility``."""
     m, n_low = low_modes.shape
-    weights = 1.0 / (high_eigenvalues - mu)
-    packed = _rmatvec(high_outer, weights)
     flexibility = np.empty((m, m))
     p = 0
     for i in range(m):
@@ -254,8 +268,8 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     if not lower_bound < mu < upper_bound:
         mu = 0.5 * upper_bound if np.isfinite(upper_bound) else 1.0
     for _ in range(MAX_NEWTON_ITERATIONS):
-        _, _, z_all, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
-                                   high_outer)
+        _, _, z_all, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
+                                      _high_flexibility(mu, high_eigenvalues, high_outer))
         sigma, vectors = symmetric_eigen(s)
         w = vectors[:, branch]
         z = _matvec(z_all, w)
@@ -289,23 +303,30 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
     last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
         flexibility, factor, z, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
-                                                high_eigenvalues, high_outer)
+                                                _high_flexibility(mu, high_eigenvalues, high_outer))
         weights = 1.0 / (high_eigenvalues - mu)
-        high = _rmatvec(high_modes, force) * weights * weights
+        high = _rmatvec(high_modes, force)
+        for e in range(weights.size):
+            high[e] *= weights[e] * weights[e]
         rhs = _matvec(high_modes, high)
-        right = _rmatvec(z, rhs) - v_low
-        singular = solve_dense(s, right, n_low)
-        solution_low = right
-        if singular:  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF joint): keep x
-            return mu, force, v_low, True
-        solution = _backward(factor, _forward(factor, rhs.reshape((m, 1)).copy()))[:, 0] - _matvec(z, solution_low)
-        norm = np.sqrt(np.sum(solution ** 2) + np.sum(solution_low ** 2))
-        force, v_low = solution / norm, solution_low / norm
-        modal = _rmatvec(high_modes, force) * weights
-        coupling = _matvec(low_modes, v_low)
-        value = np.sum(force * _matvec(flexibility, force)) + 2.0 * np.sum(force * coupling)
-        value += np.sum((mu - low_eigenvalues) * v_low * v_low)
-        step = value / (np.sum(modal * modal) + np.sum(v_low * v_low))
+        solution_low = _rmatvec(z, rhs)
+        for k in range(n_low):
+            solution_low[k] -= v_low[k]
+        if solve_dense(s, solution_low, n_low):  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF
+            return mu, force, v_low, True        # joint): keep x
+        solution = _backward(factor, _forward(factor, rhs.reshape((m, 1))))[:, 0]
+        coupling = _matvec(z, solution_low)
+        for i in range(m):
+            solution[i] -= coupling[i]
+        inverse_norm = 1.0 / np.sqrt(_dot(solution, solution) + _dot(solution_low, solution_low))
+        force, v_low = solution * inverse_norm, solution_low * inverse_norm
+        modal = _rmatvec(high_modes, force)
+        for e in range(weights.size):
+            modal[e] *= weights[e]
+        value = _dot(force, _matvec(flexibility, force)) + 2.0 * _dot(force, _matvec(low_modes, v_low))
+        for k in range(n_low):
+            value += (mu - low_eigenvalues[k]) * v_low[k] * v_low[k]
+        step = value / (_dot(modal, modal) + _dot(v_low, v_low))
         mu -= step
         # Converged, or converging so fast (at least quadratically) that the next step would be below round-off.
         if abs(step) <= ROOT_TOLERANCE * mu or (abs(step) <= FAST_STEP * mu and abs(step) <= 1e-2 * abs(last_step)):
@@ -315,9 +336,23 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _estimate_mac(mu, w, z, high_eigenvalues, high_modes, reference_low, reference_high):
-    """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w."""
-    v_high = -_rmatvec(high_modes, z) / (high_eigenvalues - mu)
+def _high_projection(z, high_modes):
+    """Z^T Phi_E (n_L, n_E): the high modes' share of the joint forces Z (m, n_L), rows contiguous."""
+    m, n_low = z.shape
+    projection = np.zeros((n_low, high_modes.shape[1]))
+    for k in range(n_low):
+        for i in range(m):
+            factor = z[i, k]
+            for e in range(high_modes.shape[1]):
+                projection[k, e] += factor * high_modes[i, e]
+    return projection
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, reference_high):
+    """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w, from the
+    high modes' projection Z^T Phi_E (n_L, n_E) of ``_high_projection``."""
+    v_high = -_rmatvec(high_projection, w) / (high_eigenvalues - mu)
     projection = np.sum(w * reference_low) + np.sum(v_high * reference_high)
     return projection ** 2 / (np.sum(w ** 2) + np.sum(v_high ** 2))
 
@@ -341,7 +376,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
 
     joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in
     rad^2/s^2 and low_/high_modes Phi_L (m, n_L), Phi_E (m, n_E): the modal data split at the cutoff;
-    high_outer as in ``_low_problem``; reference_low/high: the unit reference mode split alike. Returns the
+    high_outer as in ``_high_flexibility``; reference_low/high: the unit reference mode split alike. Returns the
     eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
     joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
     (n_designs, m, m), m/N, and found (n_designs,) bool (False where the root was not found to
@@ -365,15 +400,15 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     found = np.empty(n_designs, dtype=np.bool_)
     static_flexibility = np.zeros((m, m))
     p = 0
-    packed = _rmatvec(high_outer, 1.0 / high_eigenvalues)
+    static_packed = _high_flexibility(0.0, high_eigenvalues, high_outer)
+    inverse_square = 1.0 / high_eigenvalues ** 2
     for i in range(m):
         for j in range(i + 1):
-            static_flexibility[i, j] = static_flexibility[j, i] = packed[p]
+            static_flexibility[i, j] = static_flexibility[j, i] = static_packed[p]
             p += 1
     for d in range(n_designs):
         inverse_stiffness = 1.0 / joint_stiffness[d]
-        _, factor, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
-                                        high_outer)
+        _, factor, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed)
         # Compliance.
         series = _backward(factor, _forward(factor, static_flexibility.copy()))
         low_share = _forward(_cholesky(s0), (z0 * inverse_stiffness.reshape((m, 1))).T.copy())
@@ -384,15 +419,12 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                     value += low_share[k, i] * low_share[k, j]
                 compliance[d, i, j] = compliance[d, j, i] = value
         # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
+        high0 = _high_projection(z0, high_modes)
         metric = np.eye(n_low)  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
-        for e in range(n_high):
-            high0 = np.zeros(n_low)
-            for i in range(m):
-                for k in range(n_low):
-                    high0[k] += high_modes[i, e] * z0[i, k]
-            for k in range(n_low):
-                for j in range(n_low):
-                    metric[k, j] += high0[k] * high0[j] / high_eigenvalues[e] ** 2
+        for k in range(n_low):
+            for j in range(n_low):
+                for e in range(n_high):
+                    metric[k, j] += high0[k, e] * high0[j, e] * inverse_square[e]
         metric_factor = _cholesky(metric)
         projected = _forward(metric_factor, _forward(metric_factor, s0.copy()).T.copy())
         delta, vectors = symmetric_eigen(0.5 * (projected + projected.T))
@@ -400,8 +432,8 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
             w = estimates[:, i] / np.sqrt(np.sum(estimates[:, i] ** 2))
-            candidate_mac = _estimate_mac(max(delta[i], 0.0), w, _matvec(z0, w), high_eigenvalues, high_modes,
-                                          reference_low, reference_high)
+            candidate_mac = _estimate_mac(max(delta[i], 0.0), w, high0, high_eigenvalues, reference_low,
+                                          reference_high)
             if candidate_mac > best_mac:
                 best_branch, best_mac = i, candidate_mac
         # The estimate is within about 1e-3: polish it directly. Only one stuck mode can have a MAC above 0.5,
