@@ -6,8 +6,10 @@ evaluated at L modal amplitudes (amplitude control, log-spaced over the ASB's me
 work on the machine does not count; the compiled kernels are loaded before timing; the shortest of
 ``--repeats`` runs, since contention for a shared machine's caches still lengthens it), designs per CPU-second,
 the projected time of the paper's full scale (6 x 10^7 design evaluations) on two such cores, were they all
-of that model, and the share of designs with at least one level not converged, by reason; a last line
-projects the study itself (a quarter of the evaluations per model).
+of that model, the CPU time per design split into the condensation (element parameters and the stuck
+modes, ``nonlinear.condensation.stuck_modes``, timed alone) and the rest (the levels: the compiled kernel),
+and the share of designs with at least one level not converged, by reason; a last line projects the study
+itself (a quarter of the evaluations per model).
 """
 
 from __future__ import annotations
@@ -23,8 +25,8 @@ from collections import Counter  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from nonlinear.condensation import joint_space, modal_split  # noqa: E402
-from nonlinear.joint import FRICTION_MODELS, random_designs  # noqa: E402
+from nonlinear.condensation import joint_space, modal_split, stuck_modes  # noqa: E402
+from nonlinear.joint import FRICTION_MODELS, patch_elements, random_designs, stuck_stiffness  # noqa: E402
 from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
 from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
 
@@ -35,13 +37,14 @@ PAPER_EVALUATIONS = 6e7  # 5 x 10^6 designs per beam and model (paper section 4.
 
 def benchmark(model: str, space, n_designs: int, n_levels: int, repeats: int = 1, seed: int = 0) -> dict:
     """Evaluate ``n_designs`` random Table 3 designs ``repeats`` times; return the shortest CPU time (other
-    processes on a shared machine only ever lengthen it) and the non-convergence counts."""
+    processes on a shared machine only ever lengthen it), the shortest CPU time of the condensation alone
+    (element parameters and stuck modes) and the non-convergence counts."""
     n_groups = max(space.superelement.patch_groups) + 1
     designs = random_designs(model, n_designs, n_groups, np.random.default_rng(seed))
     amplitudes = np.geomspace(*AMPLITUDE_RANGE, n_levels)
     split = modal_split(space)
     qsma_designs(space, model, designs[:2], amplitudes=amplitudes, split=split)  # load the compiled kernels
-    seconds = np.inf
+    seconds = condensation_seconds = np.inf
     for _ in range(repeats):
         reasons = Counter()
         start = time.process_time()
@@ -51,7 +54,13 @@ def benchmark(model: str, space, n_designs: int, n_levels: int, repeats: int = 1
             failed = ~result.converged.all(axis=1)
             reasons.update(next(reason for reason in row if reason) for row in result.reason[failed])
         seconds = min(seconds, time.process_time() - start)
+        start = time.process_time()
+        for first in range(0, n_designs, CHUNK):
+            elements = patch_elements(model, designs[first:first + CHUNK], space.superelement.patch_groups)
+            stuck_modes(space, stuck_stiffness(elements), split)
+        condensation_seconds = min(condensation_seconds, time.process_time() - start)
     return {"model": model, "designs": n_designs, "seconds": seconds, "rate": n_designs / seconds,
+            "condensation": condensation_seconds / n_designs, "levels": (seconds - condensation_seconds) / n_designs,
             "failed": sum(reasons.values()) / n_designs, "reasons": reasons}
 
 
@@ -69,15 +78,16 @@ def main(argv=None) -> None:
     print(f"QSMA benchmark: ASB {arguments.configuration} ({space.superelement.n_patches} patches, "
           f"{len(space.eigenvalues)} modes), {arguments.levels} amplitude levels, one core")
     print(f"{'model':<12} {'designs':>8} {'CPU s':>8} {'designs/s':>10} {'6e7 on 2 cores':>15} "
-          f"{'not converged':>14}  reasons")
+          f"{'us/design: condensation + levels':>33} {'not converged':>14}  reasons")
     study_minutes = 0.0
     for model in FRICTION_MODELS:
         row = benchmark(model, space, arguments.designs, arguments.levels, arguments.repeats)
         reasons = "; ".join(f"{reason}: {count}" for reason, count in row["reasons"].items()) or "-"
         full_scale = PAPER_EVALUATIONS / (2 * row["rate"]) / 60
         study_minutes += full_scale / len(FRICTION_MODELS)
+        stages = f"{1e6 * row['condensation']:.1f} + {1e6 * row['levels']:.1f}"
         print(f"{model:<12} {row['designs']:>8} {row['seconds']:>8.2f} {row['rate']:>10.0f} {full_scale:>11.0f} min "
-              f"{100 * row['failed']:>13.2f}%  {reasons}")
+              f"{stages:>33} {100 * row['failed']:>13.2f}%  {reasons}")
     print(f"the paper's study (6e7 evaluations, a quarter per model) on two cores: {study_minutes:.0f} min")
 
 

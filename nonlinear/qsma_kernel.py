@@ -39,6 +39,7 @@ MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
 CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws)
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
+CHOLESKY_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
 # the scaled residual; then the Newton step in x and in the slip forces, the level's linear joint motion and
 # the slipping elements' Newton system's right-hand side.
@@ -136,9 +137,21 @@ def _energy(x, linear, compliance_pinv, phi, potential):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def pseudo_inverse(matrix, inverse):
+def pseudo_inverse(matrix, inverse, factor):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
-    eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped)."""
+    eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
+    (1-norm condition number, an upper bound of the spectral one, below CHOLESKY_CONDITION) no eigenvalue is
+    dropped and the inverse comes from its Cholesky factor (``factor``, same shape, is work space); otherwise
+    from its eigen-decomposition."""
+    n = matrix.shape[0]
+    factor[:] = matrix
+    if _cholesky_factor(factor, n):
+        for k in range(n):
+            for i in range(n):
+                inverse[k, i] = 1.0 if i == k else 0.0
+            _cholesky_substitute(factor, inverse[k], n)
+        if _norm_1(matrix) * _norm_1(inverse) < CHOLESKY_CONDITION:
+            return
     values, vectors = np.linalg.eigh(matrix)
     cutoff = PSEUDO_INVERSE_RCOND * np.max(np.abs(values))
     inverse[:] = 0.0
@@ -150,11 +163,23 @@ def pseudo_inverse(matrix, inverse):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _cholesky_solve(a, b, n):
-    """Solve the leading n x n block of the symmetric ``a`` (its lower triangle is read) against b[:n] by
-    Cholesky, both overwritten (the solution in b[:n]); returns False, leaving them spoiled, if the block is
-    not numerically positive definite. Row-oriented (each entry of the factor L a dot product of two of its
-    rows, contiguous), with the reciprocals of L's diagonal stored on the diagonal."""
+def _norm_1(matrix):
+    """Largest absolute column sum."""
+    largest = 0.0
+    for j in range(matrix.shape[1]):
+        total = 0.0
+        for i in range(matrix.shape[0]):
+            total += abs(matrix[i, j])
+        largest = max(largest, total)
+    return largest
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _cholesky_factor(a, n):
+    """Cholesky factor L of the leading n x n block of the symmetric ``a`` (its lower triangle is read), in
+    place, with the reciprocals of L's diagonal stored on the diagonal; returns False, leaving it spoiled, if
+    the block is not numerically positive definite. Row-oriented: each entry of L a dot product of two of its
+    rows (contiguous)."""
     for i in range(n):
         for j in range(i + 1):
             total = a[i, j]
@@ -166,16 +191,21 @@ def _cholesky_solve(a, b, n):
                 a[i, i] = 1.0 / np.sqrt(total)
             else:
                 return False
+    return True
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _cholesky_substitute(factor, b, n):
+    """Solve L L^T x = b[:n] in place for the factor of ``_cholesky_factor``."""
     for i in range(n):  # L y = b
         total = b[i]
         for k in range(i):
-            total -= a[i, k] * b[k]
-        b[i] = total * a[i, i]
+            total -= factor[i, k] * b[k]
+        b[i] = total * factor[i, i]
     for i in range(n - 1, -1, -1):  # L^T x = y
-        b[i] *= a[i, i]
+        b[i] *= factor[i, i]
         for k in range(i):
-            b[k] -= a[i, k] * b[i]
-    return True
+            b[k] -= factor[i, k] * b[i]
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -202,7 +232,9 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
         for b in range(a):
             matrix[a, b] = -compliance[i, active[b]]
         matrix[a, a] = phi[i] / slope[i] - compliance[i, i]
-    if not _cholesky_solve(matrix, right, n_active):
+    if _cholesky_factor(matrix, n_active):
+        _cholesky_substitute(matrix, right, n_active)
+    else:
         for a in range(n_active):
             i = active[a]
             right[a] = -residual[i]
@@ -255,7 +287,7 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
             if not (convex and length == 1.0 and trial_norm <= CONTRACTION * norm):
                 if not energy_known:
                     if not pinv_formed:
-                        pseudo_inverse(compliance, compliance_pinv)
+                        pseudo_inverse(compliance, compliance_pinv, matrix)
                         pinv_formed = True
                     energy, energy_terms = _energy(x, linear, compliance_pinv, phi, potential)
                     for i in range(m):
