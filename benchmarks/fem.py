@@ -2,10 +2,11 @@
 
 Steps, each in a fresh process on a mesh made beforehand (``geometry.beams.make_beam``): assemble K and M; 16
 tied-interface modes (tie and shift-invert, assembly excluded); the bolt preload with frictionless contact;
-stress stiffness and the prestressed tied modes; CalculiX C3D10 on the same tied mesh (16 modes, one thread,
-the ccx run only, deck writing excluded) and CalculiX's preload with node-to-surface frictionless contact
-(``fem.calculix.preload_contact_deck``). The times are each step's own (model set-up excluded), the memory the
-peak of its whole process (for CalculiX, ccx's own peak is in the result column). The last rows compare the two codes on the steps they share, from the mesh: the tied
+stress stiffness and the prestressed tied modes; CalculiX C3D10 on the same tied mesh (16 modes, one thread)
+and CalculiX's preload with node-to-surface frictionless contact (``fem.calculix.preload_contact_deck``), each
+deck written beforehand and the ccx run (with its writing of the deck file) timed. The times are each step's
+own (model set-up excluded), the memory the peak of its whole process (for CalculiX, of ccx itself, run from a
+small process of its own). The last rows compare the two codes on the steps they share, from the mesh: the tied
 modal analysis and the preload, CalculiX's run against our assembly plus solve, as a ratio (> 1: ours faster).
 Run: ``python -m benchmarks.fem`` (default meshes, about 15 min) or ``--coarse`` (about 3 min).
 """
@@ -34,13 +35,6 @@ def _model(msh: str):
     beam_mesh = read_beam_mesh(Path(msh))
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     return beam_mesh, mesh, interface_quadratic_pairs(mesh, *interface_partners(beam_mesh)), Material()
-
-
-def _ccx_peak() -> str:
-    """Peak resident memory of the finished ccx run (the step's only child process)."""
-    import resource
-
-    return f"ccx peak {resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024:.0f} MiB"
 
 
 def assemble_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
@@ -94,34 +88,6 @@ def contact_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
                                          f"{solution.iterations} active-set iterations")
 
 
-def calculix_preload_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
-    """CalculiX's node-to-surface preload (``fem.calculix.preload_contact_deck``), its springs started from our
-    solution's bolt shortening; the ccx run only is timed."""
-    import numpy as np
-
-    from fem.calculix import (bolt_elongations, in_plane_support, preload_contact_deck, read_node_values,
-                              run_calculix, spring_initial_forces)
-    from fem.contact import frictionless_contact, support_321
-    from geometry.parameters import BEAMS
-
-    (beam_mesh, mesh, material, couplings, bolt, stiffness, forces, lower, upper, supported,
-     coordinates) = _preload(beam, msh)
-    ours = frictionless_contact(stiffness, forces, lower, upper, supported)
-    initial_forces = spring_initial_forces(bolt, bolt_elongations(couplings, ours.displacement))
-    upper_support = in_plane_support(support_321(coordinates, np.unique(beam_mesh.volumes["upper_half"][:, :4])))
-    deck = preload_contact_deck(mesh, beam_mesh, BEAMS[beam], material, bolt, initial_forces,
-                                np.concatenate([supported, upper_support]))
-    start = time.perf_counter()
-    dat = run_calculix(deck, Path(folder), f"{beam}_preload")
-    seconds = time.perf_counter() - start
-    ids, values = read_node_values(dat, "displacements", "SOLID_NODES")
-    displacement = np.zeros(stiffness.shape[0])
-    displacement[3 * (ids - 1)[:, None] + np.arange(3)] = values
-    contact_force = (stiffness @ displacement)[3 * upper + 2].sum()
-    return seconds, (f"contact force {contact_force:.1f} N (ccx, one thread, node-to-surface penalty contact, "
-                     f"{_ccx_peak()})")
-
-
 def prestressed_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
     from fem.prestress import prestressed_beam
     from geometry.beam_mesh import read_beam_mesh
@@ -134,18 +100,65 @@ def prestressed_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
                                          f"prestress solve: assembly, contact, K_sigma, two modal solves)")
 
 
-def calculix_step(beam: str, msh: str, folder: str) -> tuple[float, str]:
-    from fem.calculix import read_frequencies, run_calculix, tied_frequency_deck
+def calculix_modes_deck(beam: str, msh: str, folder: str) -> tuple[str, dict]:
+    """Write the tied frequency deck (``fem.calculix.tied_frequency_deck``); returns its name and no extras."""
+    from fem.calculix import tied_frequency_deck
 
     _, mesh, (lower, upper), material = _model(msh)
-    deck = tied_frequency_deck(mesh, material, lower, upper, N_MODES)
+    name = f"{beam}_modes"
+    (Path(folder) / f"{name}.inp").write_text(tied_frequency_deck(mesh, material, lower, upper, N_MODES))
+    return name, {}
+
+
+def calculix_preload_deck(beam: str, msh: str, folder: str) -> tuple[str, dict]:
+    """Write CalculiX's node-to-surface preload deck (``fem.calculix.preload_contact_deck``), its springs started
+    from our solution's bolt shortening; returns its name and the springs' initial forces (N) and stiffness
+    (N/m), from which the run reports the clamp forces."""
+    import numpy as np
+
+    from fem.calculix import bolt_elongations, in_plane_support, preload_contact_deck, spring_initial_forces
+    from fem.contact import frictionless_contact, support_321
+    from geometry.parameters import BEAMS
+
+    (beam_mesh, mesh, material, couplings, bolt, stiffness, forces, lower, upper, supported,
+     coordinates) = _preload(beam, msh)
+    ours = frictionless_contact(stiffness, forces, lower, upper, supported)
+    initial_forces = spring_initial_forces(bolt, bolt_elongations(couplings, ours.displacement))
+    upper_support = in_plane_support(support_321(coordinates, np.unique(beam_mesh.volumes["upper_half"][:, :4])))
+    name = f"{beam}_preload"
+    (Path(folder) / f"{name}.inp").write_text(preload_contact_deck(
+        mesh, beam_mesh, BEAMS[beam], material, bolt, initial_forces, np.concatenate([supported, upper_support])))
+    return name, {"initial_forces": initial_forces.tolist(), "spring_stiffness": bolt.axial_stiffness}
+
+
+def calculix_run(folder: str, name: str, extras: dict) -> tuple[float, float, str]:
+    """Run ccx on folder/name.inp from this small process, so that its children's peak memory is ccx's own
+    (a child forked from a large process inherits that process's peak). Returns (seconds, ccx peak MiB,
+    result): the first bending frequency of a frequency deck, the clamp force of each bolt spring of a preload
+    deck (``extras``: initial_forces, spring_stiffness)."""
+    import resource
+
+    import numpy as np
+
+    from fem.calculix import read_frequencies, read_node_values, run_calculix
+
+    deck = (Path(folder) / f"{name}.inp").read_text()
     start = time.perf_counter()
-    frequencies = read_frequencies(run_calculix(deck, Path(folder), f"{beam}_modes"))
-    return time.perf_counter() - start, f"first bending {frequencies[6]:.2f} Hz (ccx, one thread, {_ccx_peak()})"
+    dat = run_calculix(deck, Path(folder), name)
+    seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    if not extras:
+        return seconds, peak, f"first bending {read_frequencies(dat)[6]:.2f} Hz (ccx, one thread)"
+    _, references = read_node_values(dat, "displacements", "REFERENCES")
+    springs = np.asarray(extras["initial_forces"]) + extras["spring_stiffness"] * (references[1::2, 2]
+                                                                                   - references[0::2, 2])
+    return seconds, peak, (f"bolt clamp forces {', '.join(f'{force:.1f}' for force in springs)} N (ccx, one "
+                           f"thread, node-to-surface penalty contact)")
 
 
 STEPS = (("assemble K, M", assemble_step), ("tied modes", modes_step), ("preload contact", contact_step),
          ("prestressed", prestressed_step))
+CALCULIX_STEPS = (("CalculiX modes", calculix_modes_deck), ("CalculiX preload", calculix_preload_deck))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -158,16 +171,19 @@ def main(argv: list[str] | None = None) -> None:
     arguments.add_argument("--beams", nargs="+", default=list(BEAMS), choices=list(BEAMS))
     options = arguments.parse_args(argv)
     sizes = COARSE if options.coarse else {}
-    steps = STEPS + ((("CalculiX modes", calculix_step), ("CalculiX preload", calculix_preload_step))
-                     if calculix_available() else ())
     print(f"fem: {'coarse' if sizes else 'default'} meshes, OPENBLAS_NUM_THREADS=1, each step's own time")
     print(f"{'beam':5} {'step':16} {'time s':>8} {'peak MiB':>9}  result")
     with tempfile.TemporaryDirectory() as folder:
         for beam in options.beams:
             msh = str(make_beam(BEAMS[beam], MeshParameters(**sizes), folder, render=False).with_suffix(".msh"))
             times = {}
-            for name, step in steps:
+            for name, step in STEPS:
                 _, peak, (seconds, result) = measure(step, beam, msh, folder)
+                times[name] = seconds
+                print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
+            for name, write_deck in CALCULIX_STEPS if calculix_available() else ():
+                _, _, (deck, extras) = measure(write_deck, beam, msh, folder)
+                _, _, (seconds, peak, result) = measure(calculix_run, folder, deck, extras)
                 times[name] = seconds
                 print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
             if "CalculiX modes" in times:
