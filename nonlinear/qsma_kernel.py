@@ -317,23 +317,27 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, eigenvalue, joint_shape,
+def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
                  amplitude_control, linear_damping, convex):
     """All designs, all levels, and their modal backbone.
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
     linear_per_level: (n_designs, m), the linear joint motion per unit level (m); compliance: (n_designs, m, m)
     the tangential compliance (m/N) seen by the slip forces (without the tracked mode under amplitude
-    control); phi, r, s, chi, theta: (n_designs, m) slip-law constants; eigenvalue: (n_designs,) lambda_1;
+    control); phi, r, s, chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear
+    elements (slip ratio 0); eigenvalue: (n_designs,) lambda_1;
     joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; convex: the laws have one equilibrium (no
     stiction drop), so a full step that halves |R| is taken without the energy test.
-    Returns scaled solutions (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha,
-    frequency omega (rad/s), damping zeta, each (n_designs, L); NaN where not converged (the prescribed
-    level is kept).
+    Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
+    (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha, frequency omega (rad/s),
+    damping zeta, each (n_designs, L); NaN where not converged (the prescribed level is kept).
     """
     n_designs, m = linear_per_level.shape
     n_levels = levels.size
     solutions = np.full((n_designs, n_levels, m), np.nan)
+    joint_displacement = np.full((n_designs, n_levels, m), np.nan)
+    slip_ratio = np.full((n_designs, n_levels, m), np.nan)
+    slip_ratio[:, :, stuck] = 0.0
     status = np.full((n_designs, n_levels), NOT_CONVERGED, dtype=np.int8)
     amplitude = np.full((n_designs, n_levels), np.nan)
     force = np.full((n_designs, n_levels), np.nan)
@@ -387,6 +391,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, ei
             modal_deficit, dissipation = 0.0, 0.0
             for i in range(m):
                 solutions[d, level, i] = x[i]
+                joint_displacement[d, level, i] = x[i] * phi[d, i]
+                if not stuck[i]:
+                    slip_ratio[d, level, i] = abs(x[i])
                 modal_deficit += joint_shape[d, i] * work[DEFICIT, i]
                 dissipation += 4.0 * phi[d, i] * (x[i] * work[DEFICIT, i] - 2.0 * work[POTENTIAL, i])
             if amplitude_control:
@@ -396,4 +403,4 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, ei
             omega_squared = force[d, level] / amplitude[d, level]
             frequency[d, level] = np.sqrt(omega_squared)
             damping[d, level] = dissipation / (2.0 * np.pi * amplitude[d, level] ** 2 * omega_squared) + linear_damping
-    return solutions, status, amplitude, force, frequency, damping
+    return joint_displacement, slip_ratio, status, amplitude, force, frequency, damping

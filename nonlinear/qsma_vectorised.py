@@ -45,9 +45,9 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)
     convex = tangential.law != "iwan5" or bool(np.all(tangential.theta == 1.0))
-    solutions, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
+    joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
         levels, np.ascontiguousarray(linear_per_level), np.ascontiguousarray(compliance),
-        *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), modes.eigenvalue, b,
+        *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), tangential.stuck, modes.eigenvalue, b,
         amplitude_control, float(linear_damping), convex)
 
     converged = status == qsma_kernel.CONVERGED
@@ -61,6 +61,5 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     reason = reasons[code]
     return QSMAResult(
         amplitude=amplitude, force=force, frequency=frequency, damping=damping,
-        joint_displacement=solutions * law.phi_max[:, None, :],
-        slip_ratio=np.where(tangential.stuck, 0.0, np.abs(solutions)),
-        converged=converged, reason=reason, stuck_frequency=np.sqrt(modes.eigenvalue), mac=modes.mac)
+        joint_displacement=joint_displacement, slip_ratio=slip_ratio, converged=converged, reason=reason,
+        stuck_frequency=np.sqrt(modes.eigenvalue), mac=modes.mac)
