@@ -146,7 +146,8 @@ class StuckModes(NamedTuple):
 
     eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
     positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
-    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2; found: False
+    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2, or only the
+    rows and columns asked for (``stuck_modes``' rows); found: False
     where no stuck mode was found below the split's cutoff (then the fields hold the best attempt).
     """
 
@@ -158,9 +159,10 @@ class StuckModes(NamedTuple):
     found: np.ndarray
 
 
-def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None) -> StuckModes:
+def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None, rows=None) -> StuckModes:
     """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches),
     N/m, by the small exact eigenproblem of ``nonlinear.stuck_modes`` (no n_modes x n_modes solve).
+    rows: the joint rows (e.g. the tangential ones) whose compliance block is wanted; default all.
 
     The target is the stuck mode with the largest MAC against the reference among those below the cutoff
     (every mode with MAC above 1 / CUTOFF_FACTOR is there, see ``modal_split``).
@@ -171,7 +173,7 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
     eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found = stuck_designs(
         k, eigenvalues[split.low], np.ascontiguousarray(phi[:, split.low]), eigenvalues[split.high],
         np.ascontiguousarray(phi[:, split.high]), split.high_outer, reference[split.low], reference[split.high],
-        UNAMBIGUOUS_MAC)
+        UNAMBIGUOUS_MAC, np.arange(k.shape[1]) if rows is None else np.asarray(rows, dtype=np.int64))
     shape = np.empty((len(k), len(eigenvalues)))
     shape[:, split.low], shape[:, split.high] = shape_low, shape_high
     return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, found)

@@ -18,6 +18,9 @@ from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangent
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, MACROSLIP, NOT_CONVERGED, QSMAResult
 
 NO_STUCK_MODE = "no stuck mode found below the modal split's cutoff"
+# Reason codes 0 to 4 (converged, kernel failure, macroslip, ambiguous target, no stuck mode) and their texts,
+# an object array: indexing it with the codes gives the reason strings without copying them.
+REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE], dtype=object)
 
 
 def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces=None,
@@ -34,11 +37,11 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
         raise ValueError("give either amplitudes (amplitude control) or forces (force control)")
     elements = patch_elements(model, designs, space.superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
-    modes = stuck_modes(space, stuck_stiffness(elements), split)
     rows = tangential_rows(space.superelement.n_patches)
+    modes = stuck_modes(space, stuck_stiffness(elements), split, rows)
     b = np.ascontiguousarray(modes.joint_shape[:, rows])
     amplitude_control = amplitudes is not None
-    compliance = modes.compliance[:, rows[:, None], rows]
+    compliance = modes.compliance
     if amplitude_control:  # the compliance without the tracked mode, C - b b^T / lambda_1
         compliance -= b[:, :, None] * b[:, None, :] / modes.eigenvalue[:, None, None]
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
@@ -51,14 +54,13 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
         amplitude_control, float(linear_damping), convex)
 
     converged = status == qsma_kernel.CONVERGED
-    reasons = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE])
-    code = np.where(converged, 0, 1)
+    code = np.where(converged, 0, 1).astype(np.int8)
     if not amplitude_control:
         code[status == qsma_kernel.UNRESTRAINED] = 2
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
     converged &= code == 0
-    reason = reasons[code]
+    reason = REASONS[code]  # references to five strings, not (designs, levels) copies of up to 50 characters
     return QSMAResult(
         amplitude=amplitude, force=force, frequency=frequency, damping=damping,
         joint_displacement=joint_displacement, slip_ratio=slip_ratio, converged=converged, reason=reason,

@@ -43,6 +43,8 @@ n_modes x n_modes eigen-decomposition that is, besides, less accurate.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 
@@ -70,10 +72,9 @@ def _dot(x, y):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _matvec(a, x):
-    """a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
+def _matvec(a, x, out):
+    """out = a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
     rows, columns = a.shape
-    out = np.zeros(rows)
     for i in range(rows):
         total = 0.0
         for j in range(columns):
@@ -83,10 +84,10 @@ def _matvec(a, x):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _rmatvec(a, x):
-    """a^T x for a small dense matrix."""
+def _rmatvec(a, x, out):
+    """out = a^T x for a small dense matrix."""
     rows, columns = a.shape
-    out = np.zeros(columns)
+    out[:] = 0.0
     for i in range(rows):
         xi = x[i]
         for j in range(columns):
@@ -95,12 +96,14 @@ def _rmatvec(a, x):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _cholesky(a):
-    """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read), stored as the
-    upper triangular U = L^T (A = U^T U), row by row with right-looking updates along rows (contiguous)."""
+def _cholesky(a, upper):
+    """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read) into ``upper``
+    (same shape), stored as the upper triangular U = L^T (A = U^T U), row by row with right-looking updates
+    along rows (contiguous)."""
     n = a.shape[0]
-    upper = np.zeros_like(a)
     for i in range(n):
+        for j in range(i):
+            upper[i, j] = 0.0
         for j in range(i, n):
             upper[i, j] = a[i, j]
     for j in range(n):
@@ -146,14 +149,17 @@ def _backward(upper, b):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def symmetric_eigen(a):
-    """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix by cyclic
-    Jacobi rotations, until every off-diagonal entry is below JACOBI_TOLERANCE times the matrix norm
-    (backward error of order eps times the norm)."""
+def _symmetric_eigen(a, values, vectors):
+    """Eigenvalues (ascending, into ``values``) and orthonormal eigenvectors (columns, into ``vectors``) of a
+    small symmetric matrix ``a`` (overwritten) by cyclic Jacobi rotations, until every off-diagonal entry is
+    below JACOBI_TOLERANCE times the matrix norm (backward error of order eps times the norm)."""
     n = a.shape[0]
-    a = a.copy()
-    vectors = np.eye(n)
-    threshold = JACOBI_TOLERANCE * np.sqrt(np.sum(a * a))
+    squares = 0.0
+    for i in range(n):
+        for j in range(n):
+            squares += a[i, j] * a[i, j]
+            vectors[i, j] = 1.0 if i == j else 0.0
+    threshold = JACOBI_TOLERANCE * np.sqrt(squares)
     for _ in range(MAX_JACOBI_SWEEPS):
         rotated = False
         for p in range(n - 1):
@@ -177,11 +183,27 @@ def symmetric_eigen(a):
                 a[p, q] = a[q, p] = 0.0
         if not rotated:
             break
-    values = np.empty(n)
     for i in range(n):
         values[i] = a[i, i]
-    order = np.argsort(values)
-    return values[order], vectors[:, order]
+    for i in range(n):  # selection sort, swapping the eigenvectors along
+        smallest = i
+        for j in range(i + 1, n):
+            if values[j] < values[smallest]:
+                smallest = j
+        if smallest != i:
+            values[i], values[smallest] = values[smallest], values[i]
+            for k in range(n):
+                vectors[k, i], vectors[k, smallest] = vectors[k, smallest], vectors[k, i]
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def symmetric_eigen(a):
+    """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix
+    (``_symmetric_eigen`` on a copy)."""
+    n = a.shape[0]
+    values, vectors = np.empty(n), np.empty((n, n))
+    _symmetric_eigen(a.copy(), values, vectors)
+    return values, vectors
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -220,20 +242,57 @@ def back_substitute(upper, b, n):
         b[k] = total / upper[k, k]
 
 
+class _Work(NamedTuple):
+    """Work arrays of ``stuck_designs``, allocated once per call (m joint rows, n_L low and n_E high modes)."""
+
+    packed: np.ndarray  # F(mu) packed, (m (m+1) / 2,)
+    weights: np.ndarray  # 1 / (lambda_E - mu), (n_E,)
+    flexibility: np.ndarray  # X(mu), (m, m)
+    factor: np.ndarray  # its Cholesky factor, (m, m)
+    z: np.ndarray  # X^-1 Phi_L, (m, n_L)
+    s: np.ndarray  # S(mu), (n_L, n_L)
+    high: np.ndarray  # (n_E,) high-mode products
+    modal: np.ndarray  # (n_E,)
+    rhs: np.ndarray  # (m, 1)
+    low: np.ndarray  # (n_L,)
+    small: np.ndarray  # (n_L, n_L): a copy of S for the pivoted solve, or the eigen-solve's matrix
+    vectors: np.ndarray  # (n_L, n_L) eigenvectors
+    values: np.ndarray  # (n_L,) eigenvalues
+    force: np.ndarray  # (m,) joint force of the polished mode
+    v_low: np.ndarray  # (n_L,) its low-mode part
+    w: np.ndarray  # (n_L,) unit low-mode vector of a branch
+    zw: np.ndarray  # (m,) Z w
+    v_high: np.ndarray  # (n_E,) a candidate mode's high-mode part
+    b: np.ndarray  # (m,) a candidate's joint shape
+
+
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _high_flexibility(mu, high_eigenvalues, high_outer):
-    """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T packed as its row-major lower triangle (m (m+1) / 2,), m/N.
+def _work(m, n_low, n_high):
+    """``_Work`` for m joint rows, n_low low and n_high high modes."""
+    return _Work(np.empty(m * (m + 1) // 2), np.empty(n_high), np.empty((m, m)), np.empty((m, m)),
+                 np.empty((m, n_low)), np.empty((n_low, n_low)), np.empty(n_high), np.empty(n_high),
+                 np.empty((m, 1)), np.empty(n_low), np.empty((n_low, n_low)), np.empty((n_low, n_low)),
+                 np.empty(n_low), np.empty(m), np.empty(n_low), np.empty(n_low), np.empty(m), np.empty(n_high),
+                 np.empty(m))
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _high_flexibility(mu, high_eigenvalues, high_outer, weights, packed):
+    """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T packed as its row-major lower triangle (m (m+1) / 2,) into
+    ``packed``, m/N, and 1 / (lambda_E - mu) into ``weights``.
 
     high_outer: (n_E, m (m+1) / 2) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
-    return _rmatvec(high_outer, 1.0 / (high_eigenvalues - mu))
+    for e in range(high_eigenvalues.size):
+        weights[e] = 1.0 / (high_eigenvalues[e] - mu)
+    _rmatvec(high_outer, weights, packed)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed):
-    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L), from the high modes'
-    flexibility F(mu) packed by ``_high_flexibility``."""
+def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, work):
+    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L) into ``work``, from the
+    high modes' flexibility F(mu) packed by ``_high_flexibility``."""
     m, n_low = low_modes.shape
-    flexibility = np.empty((m, m))
+    flexibility, z, s = work.flexibility, work.z, work.s
     p = 0
     for i in range(m):
         for j in range(i + 1):
@@ -241,9 +300,9 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed):
             flexibility[j, i] = packed[p]
             p += 1
         flexibility[i, i] += inverse_stiffness[i]
-    factor = _cholesky(flexibility)
-    z = _backward(factor, _forward(factor, low_modes.copy()))
-    s = np.empty((n_low, n_low))
+    _cholesky(flexibility, work.factor)
+    z[:] = low_modes
+    _backward(work.factor, _forward(work.factor, z))
     for i in range(n_low):
         for j in range(n_low):
             total = 0.0
@@ -255,42 +314,45 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed):
     for i in range(n_low):  # exact symmetry for the eigen-solve
         for j in range(i):
             s[i, j] = s[j, i] = 0.5 * (s[i, j] + s[j, i])
-    return flexibility, factor, z, s
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
-                 high_outer):
+                 high_outer, work):
     """Root of the ``branch``-th smallest eigenvalue of S(mu) in (0, lambda_c), by Newton's method from mu,
-    kept inside a bracket by bisection, to ESTIMATE_TOLERANCE. Returns (mu, w (n_L,) unit, z = Z w (m,))."""
+    kept inside a bracket by bisection, to ESTIMATE_TOLERANCE. Returns mu; w (n_L,) unit and z = Z w (m,) in
+    work.w, work.zw."""
     lower_bound = 0.0
     upper_bound = high_eigenvalues.min() if high_eigenvalues.size else np.inf
     if not lower_bound < mu < upper_bound:
         mu = 0.5 * upper_bound if np.isfinite(upper_bound) else 1.0
+    step = 0.0
     for _ in range(MAX_NEWTON_ITERATIONS):
-        _, _, z_all, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
-                                      _high_flexibility(mu, high_eigenvalues, high_outer))
-        sigma, vectors = symmetric_eigen(s)
-        w = vectors[:, branch]
-        z = _matvec(z_all, w)
-        high = _rmatvec(high_modes, z)
-        slope = 1.0 + np.sum((high / (high_eigenvalues - mu)) ** 2)
-        step = sigma[branch] / slope
+        _high_flexibility(mu, high_eigenvalues, high_outer, work.weights, work.packed)
+        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work)
+        work.small[:] = work.s
+        _symmetric_eigen(work.small, work.values, work.vectors)
+        work.w[:] = work.vectors[:, branch]
+        _matvec(work.z, work.w, work.zw)
+        _rmatvec(high_modes, work.zw, work.high)
+        slope = 1.0
+        for e in range(high_eigenvalues.size):
+            slope += (work.high[e] * work.weights[e]) ** 2
+        step = work.values[branch] / slope
         if abs(step) <= ESTIMATE_TOLERANCE * mu:
             break
-        if sigma[branch] > 0.0:
+        if work.values[branch] > 0.0:
             lower_bound = mu
         else:
             upper_bound = mu
         mu += step
         if not lower_bound < mu < upper_bound:
             mu = 0.5 * (lower_bound + upper_bound) if np.isfinite(upper_bound) else 2.0 * lower_bound
-    return mu + step, w, z
+    return mu + step
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
-            high_outer):
+def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer, work):
     """Newton's method on the Rayleigh functional of the bordered form B(mu) x = 0, x = (f, v_L),
 
         B(mu) = [[X(mu), Phi_L], [Phi_L^T, mu - Lambda_L]],   dB/dmu = [[F'(mu), 0], [0, I]],
@@ -298,80 +360,122 @@ def _polish(mu, force, v_low, inverse_stiffness, low_eigenvalues, low_modes, hig
     (m + n_L square; its Schur complement on v_L is -S(mu)): x <- B^-1 B' x (inverse iteration, solved through
     the Cholesky factor of X and S), mu <- mu - x^T B x / x^T B' x. B holds only compliances and the low
     modes' stiffness offsets lambda_L - mu: no joint stiffness and no 1 / (lambda - mu) near a pole, so
-    x^T B x has no cancellation beyond eps mu. Quadratic from the estimate. Returns (mu, f, v_L, converged)."""
+    x^T B x has no cancellation beyond eps mu. Quadratic from the estimate. x starts from, and ends in,
+    work.force and work.v_low. Returns (mu, converged)."""
     m, n_low = low_modes.shape
+    force, v_low, weights, high, modal, low = work.force, work.v_low, work.weights, work.high, work.modal, work.low
+    solution = work.rhs[:, 0]
     last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
-        flexibility, factor, z, s = _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes,
-                                                _high_flexibility(mu, high_eigenvalues, high_outer))
-        weights = 1.0 / (high_eigenvalues - mu)
-        high = _rmatvec(high_modes, force)
+        _high_flexibility(mu, high_eigenvalues, high_outer, weights, work.packed)
+        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work)
+        _rmatvec(high_modes, force, high)
         for e in range(weights.size):
             high[e] *= weights[e] * weights[e]
-        rhs = _matvec(high_modes, high)
-        solution_low = _rmatvec(z, rhs)
+        _matvec(high_modes, high, solution)  # F'(mu) f
+        _rmatvec(work.z, solution, low)
         for k in range(n_low):
-            solution_low[k] -= v_low[k]
-        if solve_dense(s, solution_low, n_low):  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF
-            return mu, force, v_low, True        # joint): keep x
-        solution = _backward(factor, _forward(factor, rhs.reshape((m, 1))))[:, 0]
-        coupling = _matvec(z, solution_low)
+            low[k] -= v_low[k]
+        work.small[:] = work.s
+        if solve_dense(work.small, low, n_low):  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF
+            return mu, True                      # joint): keep x
+        _backward(work.factor, _forward(work.factor, work.rhs))
+        norm = 0.0
         for i in range(m):
-            solution[i] -= coupling[i]
-        inverse_norm = 1.0 / np.sqrt(_dot(solution, solution) + _dot(solution_low, solution_low))
-        force, v_low = solution * inverse_norm, solution_low * inverse_norm
-        modal = _rmatvec(high_modes, force)
+            coupling = 0.0
+            for k in range(n_low):
+                coupling += work.z[i, k] * low[k]
+            solution[i] -= coupling
+            norm += solution[i] * solution[i]
+        inverse_norm = 1.0 / np.sqrt(norm + _dot(low, low))
+        for i in range(m):
+            force[i] = solution[i] * inverse_norm
+        for k in range(n_low):
+            v_low[k] = low[k] * inverse_norm
+        _rmatvec(high_modes, force, modal)
         for e in range(weights.size):
             modal[e] *= weights[e]
-        value = _dot(force, _matvec(flexibility, force)) + 2.0 * _dot(force, _matvec(low_modes, v_low))
+        value = 0.0
+        for i in range(m):  # f^T X f + 2 f^T Phi_L v_L
+            total = 0.0
+            for j in range(m):
+                total += work.flexibility[i, j] * force[j]
+            for k in range(n_low):
+                total += 2.0 * low_modes[i, k] * v_low[k]
+            value += force[i] * total
         for k in range(n_low):
             value += (mu - low_eigenvalues[k]) * v_low[k] * v_low[k]
         step = value / (_dot(modal, modal) + _dot(v_low, v_low))
         mu -= step
         # Converged, or converging so fast (at least quadratically) that the next step would be below round-off.
         if abs(step) <= ROOT_TOLERANCE * mu or (abs(step) <= FAST_STEP * mu and abs(step) <= 1e-2 * abs(last_step)):
-            return mu, force, v_low, True
+            return mu, True
         last_step = step
-    return mu, force, v_low, False
+    return mu, False
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _high_projection(z, high_modes):
-    """Z^T Phi_E (n_L, n_E): the high modes' share of the joint forces Z (m, n_L), rows contiguous."""
+def _high_projection(z, high_modes, projection):
+    """Z^T Phi_E (n_L, n_E) into ``projection``: the high modes' share of the joint forces Z (m, n_L), rows
+    contiguous."""
     m, n_low = z.shape
-    projection = np.zeros((n_low, high_modes.shape[1]))
+    projection[:] = 0.0
     for k in range(n_low):
         for i in range(m):
             factor = z[i, k]
             for e in range(high_modes.shape[1]):
                 projection[k, e] += factor * high_modes[i, e]
-    return projection
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, reference_high):
     """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w, from the
     high modes' projection Z^T Phi_E (n_L, n_E) of ``_high_projection``."""
-    v_high = -_rmatvec(high_projection, w) / (high_eigenvalues - mu)
-    projection = np.sum(w * reference_low) + np.sum(v_high * reference_high)
-    return projection ** 2 / (np.sum(w ** 2) + np.sum(v_high ** 2))
+    n_low, n_high = high_projection.shape
+    projection, norm = 0.0, 0.0
+    for k in range(n_low):
+        projection += w[k] * reference_low[k]
+        norm += w[k] * w[k]
+    for e in range(n_high):
+        total = 0.0
+        for k in range(n_low):
+            total += high_projection[k, e] * w[k]
+        v_high = -total / (high_eigenvalues[e] - mu)
+        projection += v_high * reference_high[e]
+        norm += v_high * v_high
+    return projection ** 2 / norm
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues, high_modes, reference_low, reference_high):
+def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low, reference_high, work):
     """Unit mode (v_L, v_E = (Lambda_E - mu)^-1 Phi_E^T f) with a positive projection on the (unit) reference,
-    its MAC, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude, without
-    cancellation)."""
-    v_high = _rmatvec(high_modes, force) / (high_eigenvalues - mu)
-    norm = np.sqrt(np.sum(v_low ** 2) + np.sum(v_high ** 2))
-    projection = (np.sum(v_low * reference_low) + np.sum(v_high * reference_high)) / norm
+    into work.v_low and work.v_high, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude,
+    without cancellation) into work.b, from x = (work.force, work.v_low). Returns the MAC."""
+    v_low, v_high = work.v_low, work.v_high
+    _rmatvec(high_modes, work.force, v_high)
+    squares, projection = 0.0, 0.0
+    for e in range(v_high.size):
+        v_high[e] /= high_eigenvalues[e] - mu
+        squares += v_high[e] * v_high[e]
+        projection += v_high[e] * reference_high[e]
+    for k in range(v_low.size):
+        squares += v_low[k] * v_low[k]
+        projection += v_low[k] * reference_low[k]
+    norm = np.sqrt(squares)
+    projection /= norm
     scale = (1.0 if projection >= 0.0 else -1.0) / norm
-    return v_low * scale, v_high * scale, projection ** 2, -inverse_stiffness * force * scale
+    for k in range(v_low.size):
+        v_low[k] *= scale
+    for e in range(v_high.size):
+        v_high[e] *= scale
+    for i in range(work.b.size):
+        work.b[i] = -inverse_stiffness[i] * work.force[i] * scale
+    return projection ** 2
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer,
-                  reference_low, reference_high, unambiguous_mac):
+                  reference_low, reference_high, unambiguous_mac, rows):
     """Tracked stuck mode and joint-space compliance for every design.
 
     joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in
@@ -379,8 +483,8 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     high_outer as in ``_high_flexibility``; reference_low/high: the unit reference mode split alike. Returns the
     eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
     joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
-    (n_designs, m, m), m/N, and found (n_designs,) bool (False where the root was not found to
-    ROOT_TOLERANCE).
+    on the joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, and found (n_designs,) bool (False where the root was not found to
+    ROOT_TOLERANCE). Work arrays are allocated once per call.
 
     Compliance, from the static problem at mu = 0 (load p on r; Z0, S0, X0 at mu = 0; W = K^-1 Z0):
 
@@ -396,43 +500,82 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     shape_high = np.empty((n_designs, n_high))
     joint_shape = np.empty((n_designs, m))
     mac = np.empty(n_designs)
-    compliance = np.empty((n_designs, m, m))
+    n_rows = rows.size
+    compliance = np.empty((n_designs, n_rows, n_rows))
     found = np.empty(n_designs, dtype=np.bool_)
-    static_flexibility = np.zeros((m, m))
+    work = _work(m, n_low, n_high)
+    inverse_stiffness = np.empty(m)
+    static_packed = np.empty(m * (m + 1) // 2)
+    static_flexibility = np.empty((m, m))
+    series = np.empty((m, n_rows))
+    low_share = np.empty((n_low, n_rows))
+    s0_factor = np.empty((n_low, n_low))
+    high0 = np.empty((n_low, n_high))
+    metric = np.empty((n_low, n_low))
+    metric_factor = np.empty((n_low, n_low))
+    projected = np.empty((n_low, n_low))
+    delta = np.empty(n_low)
+    estimates = np.empty((n_low, n_low))
+    inverse_square = np.empty(n_high)
+    _high_flexibility(0.0, high_eigenvalues, high_outer, inverse_square, static_packed)
+    for e in range(n_high):
+        inverse_square[e] *= inverse_square[e]
     p = 0
-    static_packed = _high_flexibility(0.0, high_eigenvalues, high_outer)
-    inverse_square = 1.0 / high_eigenvalues ** 2
     for i in range(m):
         for j in range(i + 1):
             static_flexibility[i, j] = static_flexibility[j, i] = static_packed[p]
             p += 1
     for d in range(n_designs):
-        inverse_stiffness = 1.0 / joint_stiffness[d]
-        _, factor, z0, s0 = _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed)
-        # Compliance.
-        series = _backward(factor, _forward(factor, static_flexibility.copy()))
-        low_share = _forward(_cholesky(s0), (z0 * inverse_stiffness.reshape((m, 1))).T.copy())
         for i in range(m):
-            for j in range(i + 1):
-                value = 0.5 * (inverse_stiffness[i] * series[i, j] + inverse_stiffness[j] * series[j, i])
+            inverse_stiffness[i] = 1.0 / joint_stiffness[d, i]
+        _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, work)
+        z0, s0 = work.z, work.s
+        # Compliance.
+        for i in range(m):
+            for b in range(n_rows):
+                series[i, b] = static_flexibility[i, rows[b]]
+        _backward(work.factor, _forward(work.factor, series))
+        _cholesky(s0, s0_factor)
+        for k in range(n_low):
+            for b in range(n_rows):
+                low_share[k, b] = z0[rows[b], k] * inverse_stiffness[rows[b]]
+        _forward(s0_factor, low_share)
+        for a in range(n_rows):
+            i = rows[a]
+            for b in range(a + 1):
+                j = rows[b]
+                value = 0.5 * (inverse_stiffness[i] * series[i, b] + inverse_stiffness[j] * series[j, a])
                 for k in range(n_low):
-                    value += low_share[k, i] * low_share[k, j]
-                compliance[d, i, j] = compliance[d, j, i] = value
+                    value += low_share[k, a] * low_share[k, b]
+                compliance[d, a, b] = compliance[d, b, a] = value
         # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
-        high0 = _high_projection(z0, high_modes)
-        metric = np.eye(n_low)  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
+        _high_projection(z0, high_modes, high0)
+        for k in range(n_low):  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
+            for j in range(n_low):
+                total = 1.0 if k == j else 0.0
+                for e in range(n_high):
+                    total += high0[k, e] * high0[j, e] * inverse_square[e]
+                metric[k, j] = total
+        _cholesky(metric, metric_factor)
+        projected[:] = s0
+        _forward(metric_factor, projected)
         for k in range(n_low):
             for j in range(n_low):
-                for e in range(n_high):
-                    metric[k, j] += high0[k, e] * high0[j, e] * inverse_square[e]
-        metric_factor = _cholesky(metric)
-        projected = _forward(metric_factor, _forward(metric_factor, s0.copy()).T.copy())
-        delta, vectors = symmetric_eigen(0.5 * (projected + projected.T))
-        estimates = _backward(metric_factor, vectors.copy())
+                work.small[k, j] = projected[j, k]
+        _forward(metric_factor, work.small)
+        for k in range(n_low):
+            for j in range(k + 1):
+                work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
+        _symmetric_eigen(work.small, delta, estimates)
+        _backward(metric_factor, estimates)
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
-            w = estimates[:, i] / np.sqrt(np.sum(estimates[:, i] ** 2))
-            candidate_mac = _estimate_mac(max(delta[i], 0.0), w, high0, high_eigenvalues, reference_low,
+            norm = 0.0
+            for k in range(n_low):
+                norm += estimates[k, i] * estimates[k, i]
+            for k in range(n_low):
+                work.w[k] = estimates[k, i] / np.sqrt(norm)
+            candidate_mac = _estimate_mac(max(delta[i], 0.0), work.w, high0, high_eigenvalues, reference_low,
                                           reference_high)
             if candidate_mac > best_mac:
                 best_branch, best_mac = i, candidate_mac
@@ -442,19 +585,28 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         best_mac = -1.0
         for attempt in range(-1, n_low if n_low > 1 else 0):
             branch = best_branch if attempt < 0 else attempt
-            w = estimates[:, branch] / np.sqrt(np.sum(estimates[:, branch] ** 2))
-            mu, z = delta[branch], _matvec(z0, w)
-            if attempt >= 0:
-                mu, w, z = _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes,
-                                        high_eigenvalues, high_modes, high_outer)
-            mu, force, v_low, converged = _polish(mu, -z, w.copy(), inverse_stiffness, low_eigenvalues, low_modes,
-                                                  high_eigenvalues, high_modes, high_outer)
-            v_low, v_high, candidate_mac, b = _mode_shape(mu, force, v_low, inverse_stiffness, high_eigenvalues,
-                                                          high_modes, reference_low, reference_high)
+            if attempt < 0:  # Z0 w, the static joint force of the estimate (work.z still holds Z0)
+                norm = 0.0
+                for k in range(n_low):
+                    norm += estimates[k, branch] * estimates[k, branch]
+                for k in range(n_low):
+                    work.w[k] = estimates[k, branch] / np.sqrt(norm)
+                _matvec(work.z, work.w, work.zw)
+                mu = delta[branch]
+            else:
+                mu = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues, low_modes,
+                                  high_eigenvalues, high_modes, high_outer, work)
+            for i in range(m):
+                work.force[i] = -work.zw[i]
+            work.v_low[:] = work.w
+            mu, converged = _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
+                                    high_modes, high_outer, work)
+            candidate_mac = _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low,
+                                        reference_high, work)
             if candidate_mac > best_mac:
                 best_mac = candidate_mac
-                eigenvalue[d], shape_low[d], shape_high[d], joint_shape[d] = mu, v_low, v_high, b
-                mac[d], found[d] = candidate_mac, converged
+                eigenvalue[d], mac[d], found[d] = mu, candidate_mac, converged
+                shape_low[d], shape_high[d], joint_shape[d] = work.v_low, work.v_high, work.b
             if best_mac >= unambiguous_mac:
                 break
     return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found
