@@ -119,6 +119,7 @@ def frictionless_contact(stiffness: sp.spmatrix, forces: np.ndarray, lower_nodes
                                      maxiter=2 * changed + 10, M=spla.LinearOperator(matrix.shape, preconditioner))
             solved, unknowns[held] = info == 0, 0.0
         if not solved:
+            preconditioner = None  # release the last factor before the next one is formed (peak memory)
             preconditioner = factorizer(matrix)
             unknowns = preconditioner(right_hand_side)
         displacement = to_gaps @ unknowns
