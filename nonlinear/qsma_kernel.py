@@ -8,10 +8,11 @@ x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
 
 the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i),
 convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1). Newton's step uses the slope of
-g clipped at K_T (which only changes stiction backbones that soften, keeping the Newton matrix positive
-semi-definite so the step descends E towards a stable state); only the elements that slip (slope > 0) enter
-its linear system, symmetric and solved by Cholesky where E is convex. For the convex laws (unique
-equilibrium) a full step that halves |R| is taken at once; otherwise its length is halved until E decreases
+g, clipped at K_T only where the true one (a stiction backbone that softens) would make the Newton matrix
+indefinite, keeping it positive semi-definite so the step descends E towards a stable state; only the
+elements that slip (slope > 0) enter its linear system, symmetric and solved by Cholesky where E is convex.
+For the convex laws (unique equilibrium) a full step that halves the smallest |R| of the level so far is taken
+at once (no cycling across a kink of the law); otherwise its length is halved until E decreases
 enough (Armijo) or, once E differences reach round-off, until |R| decreases (C^+ is formed only when E is
 first needed). Levels are solved in order, each starting from the quadratic extrapolation of the last three
 converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
@@ -209,30 +210,44 @@ def _cholesky_substitute(factor, b, n):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, right, active):
+def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, right, active, x, table):
     """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
     (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
 
         (diag(1 / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by Cholesky. Where it is not (the stiction law softening, or a singular joint), the
-    unsymmetric form (I - C diag(g')) du = -R is solved with pivoting instead. residual: R / phi; step: dx
-    (out); slip_step: w (m,) (out, N); matrix (m, m), right (m,) and active (m,) are work space. Returns True
-    if singular."""
+    1 / g' >= C), solved by Cholesky. Where a softening element's slope was clipped at K_T (five-parameter
+    Iwan, theta < 1, near macroslip) the true slope is tried first: where the matrix stays positive definite
+    with it the energy is locally convex, the step is Newton's own (a descent direction, and quadratic
+    convergence instead of a linear one at the rate of the clipping). Where it is not (the stiction law
+    softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is
+    solved with pivoting instead. residual: R / phi; step: dx (out); slip_step: w (m,) (out, N); matrix (m, m),
+    right (m,) and active (m,) are work space; x and table (``_law_table``): the iterate and its laws.
+    Returns True if singular."""
     m = residual.size
     n_active = 0
+    clipped = False
     for j in range(m):
         if slope[j] > 0.0:
             active[n_active] = j
             n_active += 1
-    for a in range(n_active):
-        i = active[a]
-        right[a] = -residual[i] * phi[i]
-        for b in range(a):
-            matrix[a, b] = -compliance[i, active[b]]
-        matrix[a, a] = phi[i] / slope[i] - compliance[i, i]
-    if _cholesky_factor(matrix, n_active):
+            clipped = clipped or (slope[j] == table[j, MACROSLIP_SLOPE] and abs(x[j]) < 1.0)
+    factored = False
+    for attempt in range(2 if clipped else 1):
+        for a in range(n_active):
+            i = active[a]
+            right[a] = -residual[i] * phi[i]
+            for b in range(a):
+                matrix[a, b] = -compliance[i, active[b]]
+            true_slope = slope[i]
+            if attempt == 0 and clipped and slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:
+                true_slope = table[i, 1] * abs(x[i]) ** table[i, 0] * table[i, 4]  # r |x|^(chi+1) (slope factor)
+            matrix[a, a] = phi[i] / true_slope - compliance[i, i]
+        factored = _cholesky_factor(matrix, n_active)
+        if factored:
+            break
+    if factored:
         _cholesky_substitute(matrix, right, n_active)
     else:
         for a in range(n_active):
@@ -268,10 +283,15 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
     _evaluate(x, table, deficit, slope, potential)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
     singular = False
+    # A full step is taken without the energy only if it halves the smallest |R| met so far in this level (not
+    # just the last one): such steps set ever smaller records and the others decrease E, so Newton cannot cycle
+    # around a kink of the slip law (e.g. an element next to macroslip whose steps alternate across |x| = 1).
+    smallest_norm = norm
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             break
-        singular = _newton_step(residual, compliance, phi, slope, step, work[SLIP_STEP], matrix, work[RIGHT], active)
+        singular = _newton_step(residual, compliance, phi, slope, step, work[SLIP_STEP], matrix, work[RIGHT], active,
+                                x, table)
         if singular:
             break
         energy_known = False
@@ -284,7 +304,7 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
             _evaluate(trial, table, trial_deficit, trial_slope, trial_potential)
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
-            if not (convex and length == 1.0 and trial_norm <= CONTRACTION * norm):
+            if not (convex and length == 1.0 and trial_norm <= CONTRACTION * smallest_norm):
                 if not energy_known:
                     if not pinv_formed:
                         pseudo_inverse(compliance, compliance_pinv, matrix)
@@ -301,6 +321,7 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
                     length *= 0.5
                     continue
             error, norm, accepted = trial_error, trial_norm, True
+            smallest_norm = min(smallest_norm, norm)
             for i in range(m):
                 x[i], residual[i] = trial[i], trial_residual[i]
                 deficit[i], slope[i], potential[i] = trial_deficit[i], trial_slope[i], trial_potential[i]
@@ -323,8 +344,8 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
     linear_per_level: (n_designs, m), the linear joint motion per unit level (m); compliance: (n_designs, m, m)
-    the tangential compliance (m/N) seen by the slip forces (without the tracked mode under amplitude
-    control); phi, r, s, chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear
+    the stuck structure's tangential compliance C (m/N); the slip forces see C - b b^T / lambda_1 under
+    amplitude control (the tracked mode removed, here, design by design), C under force control; phi, r, s, chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear
     elements (slip ratio 0); eigenvalue: (n_designs,) lambda_1;
     joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; convex: the laws have one equilibrium (no
     stiction drop), so a full step that halves |R| is taken without the energy test.
@@ -346,11 +367,17 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     work = np.empty((N_WORK_ROWS, m))
     matrix = np.empty((m, m))
     compliance_pinv = np.empty((m, m))
+    design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     active = np.empty(m, dtype=np.int64)
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         _law_table(r[d], s[d], chi[d], theta[d], table)
+        for i in range(m):
+            for j in range(m):
+                design_compliance[i, j] = compliance[d, i, j]
+                if amplitude_control:
+                    design_compliance[i, j] -= joint_shape[d, i] * joint_shape[d, j] / eigenvalue[d]
         pinv_formed = False
         previous, before, earliest = -1, -1, -1  # the last three converged levels
         for level in range(n_levels):
@@ -382,7 +409,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                     x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
-            code, pinv_formed = _solve_level(linear, compliance[d], phi[d], table, convex, work, matrix, active,
+            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, convex, work, matrix, active,
                                              compliance_pinv, pinv_formed)
             status[d, level] = code
             if code != CONVERGED:

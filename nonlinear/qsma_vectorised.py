@@ -41,15 +41,12 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     modes = stuck_modes(space, stuck_stiffness(elements), split, rows)
     b = np.ascontiguousarray(modes.joint_shape[:, rows])
     amplitude_control = amplitudes is not None
-    compliance = modes.compliance
-    if amplitude_control:  # the compliance without the tracked mode, C - b b^T / lambda_1
-        compliance -= b[:, :, None] * b[:, None, :] / modes.eigenvalue[:, None, None]
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)
     convex = tangential.law != "iwan5" or bool(np.all(tangential.theta == 1.0))
     joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
-        levels, np.ascontiguousarray(linear_per_level), np.ascontiguousarray(compliance),
+        levels, np.ascontiguousarray(linear_per_level), modes.compliance,
         *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), tangential.stuck, modes.eigenvalue, b,
         amplitude_control, float(linear_damping), convex)
 

@@ -146,3 +146,23 @@ def test_vectorised_low_amplitude_limit_is_the_linear_mode():
     stiffness = stuck_stiffness(patch_elements("jenkins", designs[unambiguous], space.superelement.patch_groups))
     full = np.array([full_target_mode(space, k)[0] for k in stiffness])
     np.testing.assert_allclose(frequency[:, 0], np.sqrt(full), rtol=1e-6)
+
+
+@pytest.mark.parametrize("model, design", [("iwan4_stuck", 3876), ("iwan5", 607), ("iwan4", 1847)])
+def test_vectorised_qsma_converges_where_newton_straddles_a_kink_of_the_slip_law(model, design):
+    """Designs of the benchmark (``benchmarks.qsma``: 4,000 designs, seed 0, 30 levels) on which the damped Newton
+    once failed: an element next to macroslip (chi = -0.97) whose iterates cycled across |x| = 1, the full steps
+    that halve |R| undoing the energy's descent; a softening stiction element (theta < 1) whose clipped slope
+    left Newton only linearly convergent; and one that crawls through 60 energy-descent steps unless full steps
+    that halve the level's smallest |R| are taken. Every level converges, equal to the oracle where it
+    converges (the oracle misses some of these levels)."""
+    space = cd1_space()
+    chosen = random_designs(model, 4000, 3, np.random.default_rng(0))[design]
+    amplitudes = np.geomspace(7e-6, 1.1e-4, 30)
+    vectorised = qsma_designs(space, model, chosen[None, :], amplitudes=amplitudes, linear_damping=1e-3)
+    oracle = qsma_reference(space, model, chosen, amplitudes=amplitudes, linear_damping=1e-3)
+    assert vectorised.converged.all()
+    both = oracle.converged
+    assert both.sum() >= 20
+    np.testing.assert_allclose(vectorised.frequency[0, both], oracle.frequency[both], rtol=1e-6)
+    np.testing.assert_allclose(vectorised.damping[0, both], oracle.damping[both], rtol=1e-5)
