@@ -11,8 +11,9 @@ convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1). New
 g, clipped at K_T only where the true one (a stiction backbone that softens) would make the Newton matrix
 indefinite, keeping it positive semi-definite so the step descends E towards a stable state; only the
 elements that slip (slope > 0) enter its linear system, symmetric and solved by Cholesky where E is convex.
-For the convex laws (unique equilibrium) a full step that halves the smallest |R| of the level so far is taken
-at once (no cycling across a kink of the law); otherwise its length is halved until E decreases
+For the convex laws (unique equilibrium) a full step that halves |R| is taken at once (after REVISITS of them
+that set no record of |R| in the level, only those that do: no cycling across a kink of the law); otherwise
+its length is halved until E decreases
 enough (Armijo) or, once E differences reach round-off, until |R| decreases (C^+ is formed only when E is
 first needed). Levels are solved in order, each starting from the quadratic extrapolation of the last three
 converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
@@ -38,7 +39,8 @@ TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below 
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
-CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws)
+CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws) ...
+REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
 CHOLESKY_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
@@ -234,19 +236,25 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
             n_active += 1
             clipped = clipped or (slope[j] == table[j, MACROSLIP_SLOPE] and abs(x[j]) < 1.0)
     factored = False
-    for attempt in range(2 if clipped else 1):
+    if clipped:  # the true slopes first
         for a in range(n_active):
             i = active[a]
-            right[a] = -residual[i] * phi[i]
             for b in range(a):
                 matrix[a, b] = -compliance[i, active[b]]
             true_slope = slope[i]
-            if attempt == 0 and clipped and slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:
+            if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:
                 true_slope = table[i, 1] * abs(x[i]) ** table[i, 0] * table[i, 4]  # r |x|^(chi+1) (slope factor)
             matrix[a, a] = phi[i] / true_slope - compliance[i, i]
         factored = _cholesky_factor(matrix, n_active)
-        if factored:
-            break
+    if not factored:
+        for a in range(n_active):
+            i = active[a]
+            for b in range(a):
+                matrix[a, b] = -compliance[i, active[b]]
+            matrix[a, a] = phi[i] / slope[i] - compliance[i, i]
+        factored = _cholesky_factor(matrix, n_active)
+    for a in range(n_active):
+        right[a] = -residual[active[a]] * phi[active[a]]
     if factored:
         _cholesky_substitute(matrix, right, n_active)
     else:
@@ -283,10 +291,13 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
     _evaluate(x, table, deficit, slope, potential)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
     singular = False
-    # A full step is taken without the energy only if it halves the smallest |R| met so far in this level (not
-    # just the last one): such steps set ever smaller records and the others decrease E, so Newton cannot cycle
-    # around a kink of the slip law (e.g. an element next to macroslip whose steps alternate across |x| = 1).
+    # A full step that halves |R| is taken without the energy, but after REVISITS such steps that set no record
+    # (|R| not below the smallest met so far in this level) only those that do: from then on such steps set
+    # ever smaller records and the others decrease E, so Newton cannot cycle around a kink of the slip law (e.g.
+    # an element next to macroslip whose steps alternate across |x| = 1, the full step from the worst point of
+    # the cycle halving |R| back to its best).
     smallest_norm = norm
+    revisits = 0
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             break
@@ -304,7 +315,10 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
             _evaluate(trial, table, trial_deficit, trial_slope, trial_potential)
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
-            if not (convex and length == 1.0 and trial_norm <= CONTRACTION * smallest_norm):
+            record = trial_norm < smallest_norm
+            if convex and length == 1.0 and trial_norm <= CONTRACTION * norm and (record or revisits < REVISITS):
+                revisits += 0 if record else 1
+            else:
                 if not energy_known:
                     if not pinv_formed:
                         pseudo_inverse(compliance, compliance_pinv, matrix)
@@ -345,8 +359,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
     linear_per_level: (n_designs, m), the linear joint motion per unit level (m); compliance: (n_designs, m, m)
     the stuck structure's tangential compliance C (m/N); the slip forces see C - b b^T / lambda_1 under
-    amplitude control (the tracked mode removed, here, design by design), C under force control; phi, r, s, chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear
-    elements (slip ratio 0); eigenvalue: (n_designs,) lambda_1;
+    amplitude control (the tracked mode removed, here, design by design), C under force control; phi, r, s,
+    chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear elements (slip ratio 0);
+    eigenvalue: (n_designs,) lambda_1;
     joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; convex: the laws have one equilibrium (no
     stiction drop), so a full step that halves |R| is taken without the energy test.
     Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
@@ -373,11 +388,10 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         _law_table(r[d], s[d], chi[d], theta[d], table)
+        mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
         for i in range(m):
             for j in range(m):
-                design_compliance[i, j] = compliance[d, i, j]
-                if amplitude_control:
-                    design_compliance[i, j] -= joint_shape[d, i] * joint_shape[d, j] / eigenvalue[d]
+                design_compliance[i, j] = compliance[d, i, j] - joint_shape[d, i] * joint_shape[d, j] * mode_share
         pinv_formed = False
         previous, before, earliest = -1, -1, -1  # the last three converged levels
         for level in range(n_levels):
