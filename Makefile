@@ -26,11 +26,11 @@ beams: $(STAMP)
 fe: beams
 	$(BIN)/surrogacy fe --beams build/beams --out build/fe
 
-# Mesh-convergence study of the tied first bending of the BRB (about 10 CPU minutes).
+# Mesh-convergence study of the tied first bending of the BRB (about 2 minutes).
 fe-convergence: $(STAMP)
 	$(BIN)/surrogacy fe-convergence --beam BRB --out results/fe-convergence
 
-# Joint springs of the BRB and the LBRB/SBRB geometry from the measured frequency ratios (about 15 CPU minutes).
+# Joint springs of the BRB and the LBRB/SBRB geometry from the measured frequency ratios (about 3 minutes).
 calibrate: $(STAMP)
 	$(BIN)/surrogacy calibrate --out results/calibration
 

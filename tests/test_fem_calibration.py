@@ -55,8 +55,8 @@ def test_joint_softens_monotonically_with_the_spring_stiffness(coarse_calibratio
 @pytest.mark.slow
 def test_calibrated_defaults_reproduce_the_measured_ratios(tmp_path):
     """The LBRB and SBRB defaults of geometry.parameters, with the BRB's springs found again at the calibration
-    mesh, give the measured first-bending ratios within 1 % (about 8 CPU minutes at 130k-200k DOF: a dozen BRB
-    eigen-solves for the springs, then one LBRB and one SBRB mesh; 10-25 minutes on the shared machine here)."""
+    mesh, give the measured first-bending ratios within 1 % (about 3 minutes at 130k-200k DOF with OpenBLAS: a
+    dozen BRB eigen-solves for the springs, then one LBRB and one SBRB mesh)."""
     sizes = scaled_sizes(MeshParameters(), MESH_FACTOR)
     brb = spring_beam(BEAMS["BRB"], sizes, tmp_path / "BRB")
     springs = joint_springs(calibrate_stiffness(brb, MEASURED_HZ["BRB"]))
