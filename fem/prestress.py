@@ -83,7 +83,7 @@ def prestressed_beam(beam_mesh: BeamMesh, beam, material: Material = Material(),
     lower, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
     supported = support_321(coordinates, np.unique(beam_mesh.volumes["lower_half"][:, :4]))
     contact = frictionless_contact(stiffness + bolts_stiffness(couplings, bolt, axial=False),
-                                   preload_forces(couplings, bolt), lower, upper, supported)
+                                   preload_forces(couplings, bolt), lower, upper, supported, method=method)
     stress_stiffness = (stress_stiffness_matrix(mesh, prestress_from_displacement(contact.displacement, material))
                         + assemble_shanks(couplings, shank_stress_stiffness(bolt.preload, beam.height))).tocsr()
     bolts = bolts_stiffness(couplings, bolt)

@@ -66,3 +66,19 @@ def test_contact_pressure_concentrates_around_the_bolts(preloaded):
     lap_end = np.abs(positions[:, 0]) > BEAM.lap_length / 2 - 0.01
     assert not solution.active[lap_end].any()
     assert 0.4 < solution.active.mean() < 0.8
+
+
+@pytest.mark.slow
+def test_superlu_fallback_gives_the_same_contact_state(coarse_brb, preloaded):
+    """The fallback factorisation (no symbolic reuse) reaches the same active set and contact forces (about 45 s:
+    SuperLU refactorises every active-set iteration)."""
+    coordinates, couplings, forces, lower, solution = preloaded
+    beam_mesh = coarse_brb
+    mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
+    _, upper = interface_quadratic_pairs(mesh, *interface_partners(beam_mesh))
+    supported = support_321(coordinates, np.unique(beam_mesh.volumes["lower_half"][:, :4]))
+    stiffness = stiffness_matrix(mesh, Material()) + bolts_stiffness(couplings, Bolt(), axial=False)
+    fallback = frictionless_contact(stiffness, forces, lower, upper, supported, method="superlu")
+    np.testing.assert_array_equal(fallback.active, solution.active)
+    np.testing.assert_allclose(fallback.normal_force, solution.normal_force, rtol=0,
+                               atol=1e-9 * solution.normal_force.max())
