@@ -7,13 +7,13 @@ x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
     R(x) = r - linear - C g(r) = 0,   g the slip deficits (``nonlinear.slip_laws``),
 
 the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i),
-convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1). Newton's step uses the slope of
-g, clipped at K_T only where the true one (a stiction backbone that softens) would make the Newton matrix
-indefinite, keeping it positive semi-definite so the step descends E towards a stable state; only the
-elements that slip (slope > 0) enter its linear system, symmetric and solved by Cholesky where E is convex.
-For the convex laws (unique equilibrium) a full step that halves |R| is taken at once (after REVISITS of them
-that set no record of |R| in the level, only those that do: no cycling across a kink of the law); otherwise
-its length is halved until E decreases
+convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1) and for the five-parameter one
+away from macroslip. Newton's step uses the slope of g, clipped at K_T only where the true one (a stiction
+backbone that softens) would make the Newton matrix indefinite, keeping it positive semi-definite so the step
+descends E towards a stable state; only the elements that slip (slope > 0) enter its linear system, symmetric
+and solved by an LDL^T factorisation where E is convex. Where E is convex on the step (``_convex_between``) a
+full step that halves |R| is taken at once (after REVISITS of them that set no record of |R| in the level,
+only those that do: no cycling across a kink of the law); otherwise its length is halved until E decreases
 enough (Armijo) or, once E differences reach round-off, until |R| decreases (C^+ is formed only when E is
 first needed). Levels are solved in order, each starting from the quadratic extrapolation of the last three
 converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
@@ -39,7 +39,7 @@ TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below 
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
-CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (convex laws) ...
+CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (E convex) ...
 REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
 CHOLESKY_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
@@ -65,7 +65,16 @@ def law_constants(r, s, chi, theta):
 
 
 N_LAW = 8
-MACROSLIP_SLOPE = 3  # column of the macroslip slope in a table of ``law_constants``
+# Columns of the macroslip slope and of the stiction drop in a table of ``law_constants``.
+MACROSLIP_SLOPE, STICTION = 3, 6
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _power(base, exponent):
+    """base^exponent for base >= 0, exponent > 0 as 2^(exponent log2 base): a third faster than libm's pow,
+    with a relative error of about (2 + |exponent log2 base|) units in the last place (1e-13 at base 1e-300,
+    far below the solver's tolerance)."""
+    return np.exp2(exponent * np.log2(base))
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -75,7 +84,7 @@ def _scaled_slip_law(x, exponent, r, shape, macroslip_slope, slope_factor, poten
     a = abs(x)
     xm = min(a, 1.0)
     beyond = max(a - 1.0, 0.0)
-    power = r if xm == 1.0 else r * xm ** exponent if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
+    power = r if xm == 1.0 else r * _power(xm, exponent) if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
     sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
     deficit = sign * (power * xm * shape + macroslip_slope * beyond + (stiction if a > 1.0 else 0.0))
     slope = power * slope_factor if a < 1.0 else macroslip_slope
@@ -144,15 +153,15 @@ def pseudo_inverse(matrix, inverse, factor):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
     eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
     (1-norm condition number, an upper bound of the spectral one, below CHOLESKY_CONDITION) no eigenvalue is
-    dropped and the inverse comes from its Cholesky factor (``factor``, same shape, is work space); otherwise
+    dropped and the inverse comes from its LDL^T factor (``factor``, same shape, is work space); otherwise
     from its eigen-decomposition."""
     n = matrix.shape[0]
     factor[:] = matrix
-    if _cholesky_factor(factor, n):
+    if _ldl_factor(factor, n):
         for k in range(n):
             for i in range(n):
                 inverse[k, i] = 1.0 if i == k else 0.0
-            _cholesky_substitute(factor, inverse[k], n)
+            _ldl_substitute(factor, inverse[k], n)
         if _norm_1(matrix) * _norm_1(inverse) < CHOLESKY_CONDITION:
             return
     values, vectors = np.linalg.eigh(matrix)
@@ -178,37 +187,57 @@ def _norm_1(matrix):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _cholesky_factor(a, n):
-    """Cholesky factor L of the leading n x n block of the symmetric ``a`` (its lower triangle is read), in
-    place, with the reciprocals of L's diagonal stored on the diagonal; returns False, leaving it spoiled, if
-    the block is not numerically positive definite. Row-oriented: each entry of L a dot product of two of its
-    rows (contiguous)."""
-    for i in range(n):
-        for j in range(i + 1):
-            total = a[i, j]
-            for k in range(j):
-                total -= a[i, k] * a[j, k]
-            if j < i:
-                a[i, j] = total * a[j, j]
-            elif total > 0.0 and np.isfinite(total):
-                a[i, i] = 1.0 / np.sqrt(total)
-            else:
-                return False
+def _ldl_factor(a, n):
+    """LDL^T factorisation of the leading n x n block of the symmetric ``a`` (its upper triangle is read), in
+    place: a[j, i] = d_j L[i, j] above the diagonal and 1 / d_j on it. Right-looking, along rows (contiguous),
+    no square roots (each would lengthen the chain of dependent operations: 2.5 times faster than Cholesky at
+    n = 10). Returns False, leaving the block spoiled, if it is not numerically positive definite (a pivot
+    not positive and finite)."""
+    for j in range(n):
+        pivot = a[j, j]
+        if not 0.0 < pivot < np.inf:
+            return False
+        inverse = 1.0 / pivot
+        a[j, j] = inverse
+        for k in range(j + 1, n):
+            multiplier = a[j, k] * inverse  # L[k, j]
+            for i in range(k, n):
+                a[k, i] -= multiplier * a[j, i]
     return True
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _cholesky_substitute(factor, b, n):
-    """Solve L L^T x = b[:n] in place for the factor of ``_cholesky_factor``."""
-    for i in range(n):  # L y = b
-        total = b[i]
-        for k in range(i):
-            total -= factor[i, k] * b[k]
-        b[i] = total * factor[i, i]
-    for i in range(n - 1, -1, -1):  # L^T x = y
-        b[i] *= factor[i, i]
-        for k in range(i):
-            b[k] -= factor[i, k] * b[i]
+def _ldl_substitute(factor, b, n):
+    """Solve L D L^T x = b[:n] in place for the factor of ``_ldl_factor``."""
+    for j in range(n):  # D^-1 L^-1 b, column by column of L (rows of the factor)
+        b[j] *= factor[j, j]
+        for i in range(j + 1, n):
+            b[i] -= factor[j, i] * b[j]
+    for j in range(n - 1, -1, -1):  # L^-T
+        total = 0.0
+        for i in range(j + 1, n):
+            total += factor[j, i] * b[i]
+        b[j] -= total * factor[j, j]
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix):
+    """The upper triangle of diag(phi_A / slopes) - C_AA into ``matrix`` (returned) for the n_active slipping
+    elements ``active[:n_active]`` (slopes in their order); read along contiguous rows of C where every element
+    slips (the common case for the Iwan laws)."""
+    if n_active == compliance.shape[0]:
+        for a in range(n_active):
+            for b in range(a + 1, n_active):
+                matrix[a, b] = -compliance[a, b]
+    else:
+        for a in range(n_active):
+            i = active[a]
+            for b in range(a + 1, n_active):
+                matrix[a, b] = -compliance[i, active[b]]
+    for a in range(n_active):
+        i = active[a]
+        matrix[a, a] = phi[i] / slopes[a] - compliance[i, i]
+    return matrix
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -219,13 +248,13 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
         (diag(1 / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by Cholesky. Where a softening element's slope was clipped at K_T (five-parameter
+    1 / g' >= C), solved by LDL^T. Where a softening element's slope was clipped at K_T (five-parameter
     Iwan, theta < 1, near macroslip) the true slope is tried first: where the matrix stays positive definite
     with it the energy is locally convex, the step is Newton's own (a descent direction, and quadratic
     convergence instead of a linear one at the rate of the clipping). Where it is not (the stiction law
     softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is
     solved with pivoting instead. residual: R / phi; step: dx (out); slip_step: w (m,) (out, N); matrix (m, m),
-    right (m,) and active (m,) are work space; x and table (``_law_table``): the iterate and its laws.
+    right (m,: the slopes, then the right-hand side) and active (m,) are work space; x and table (``_law_table``): the iterate and its laws.
     Returns True if singular."""
     m = residual.size
     n_active = 0
@@ -239,24 +268,19 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
     if clipped:  # the true slopes first
         for a in range(n_active):
             i = active[a]
-            for b in range(a):
-                matrix[a, b] = -compliance[i, active[b]]
             true_slope = slope[i]
             if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:
-                true_slope = table[i, 1] * abs(x[i]) ** table[i, 0] * table[i, 4]  # r |x|^(chi+1) (slope factor)
-            matrix[a, a] = phi[i] / true_slope - compliance[i, i]
-        factored = _cholesky_factor(matrix, n_active)
+                true_slope = table[i, 1] * _power(abs(x[i]), table[i, 0]) * table[i, 4]  # r |x|^(chi+1) (slope factor)
+            right[a] = true_slope
+        factored = _ldl_factor(_slipping_matrix(compliance, phi, right, active, n_active, matrix), n_active)
     if not factored:
         for a in range(n_active):
-            i = active[a]
-            for b in range(a):
-                matrix[a, b] = -compliance[i, active[b]]
-            matrix[a, a] = phi[i] / slope[i] - compliance[i, i]
-        factored = _cholesky_factor(matrix, n_active)
+            right[a] = slope[active[a]]
+        factored = _ldl_factor(_slipping_matrix(compliance, phi, right, active, n_active, matrix), n_active)
     for a in range(n_active):
         right[a] = -residual[active[a]] * phi[active[a]]
     if factored:
-        _cholesky_substitute(matrix, right, n_active)
+        _ldl_substitute(matrix, right, n_active)
     else:
         for a in range(n_active):
             i = active[a]
@@ -280,7 +304,23 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, compliance_pinv, pinv_formed):
+def _convex_between(x, trial, slope, trial_slope, table):
+    """Whether E is convex on the segment from x to trial: it is wherever each element's tangent stiffness
+    K_T - g' stays >= 0 (C^+ - diag(g') >= 0, C^+ holding the stuck tangents K_T) and its deficit is continuous.
+    Only an element with a stiction drop (five-parameter Iwan, theta < 1) can break either: its deficit jumps
+    at |x| = 1 and its microslip slope, increasing with |x|, may exceed K_T near it (then clipped). Along the
+    segment |x| is at most its larger end value, so both hold on it if, at both ends, |x| < 1 and the slope is
+    below the macroslip slope (not clipped)."""
+    for i in range(x.size):
+        if table[i, STICTION] != 0.0 and not (abs(x[i]) < 1.0 and abs(trial[i]) < 1.0
+                                              and slope[i] < table[i, MACROSLIP_SLOPE]
+                                              and trial_slope[i] < table[i, MACROSLIP_SLOPE]):
+            return False
+    return True
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
+def _solve_level(linear, compliance, phi, table, work, matrix, active, compliance_pinv, pinv_formed):
     """Damped Newton for one design at one level from work[X] (the start) to work[X]; table: the elements'
     ``law_constants`` (m, N_LAW). Returns (status, pinv_formed): C^+ is formed into compliance_pinv (m, m) the
     first time the energy is needed (pinv_formed False until then) and carried from level to level."""
@@ -316,7 +356,8 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
             record = trial_norm < smallest_norm
-            if convex and length == 1.0 and trial_norm <= CONTRACTION * norm and (record or revisits < REVISITS):
+            if (length == 1.0 and trial_norm <= CONTRACTION * norm and (record or revisits < REVISITS)
+                    and _convex_between(x, trial, slope, trial_slope, table)):
                 revisits += 0 if record else 1
             else:
                 if not energy_known:
@@ -353,7 +394,7 @@ def _solve_level(linear, compliance, phi, table, convex, work, matrix, active, c
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
-                 amplitude_control, linear_damping, convex):
+                 amplitude_control, linear_damping):
     """All designs, all levels, and their modal backbone.
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
@@ -362,8 +403,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     amplitude control (the tracked mode removed, here, design by design), C under force control; phi, r, s,
     chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear elements (slip ratio 0);
     eigenvalue: (n_designs,) lambda_1;
-    joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; convex: the laws have one equilibrium (no
-    stiction drop), so a full step that halves |R| is taken without the energy test.
+    joint_shape: (n_designs, m) b_t; linear_damping: zeta_0.
     Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
     (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha, frequency omega (rad/s),
     damping zeta, each (n_designs, L); NaN where not converged (the prescribed level is kept).
@@ -423,7 +463,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                     x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
-            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, convex, work, matrix, active,
+            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                              compliance_pinv, pinv_formed)
             status[d, level] = code
             if code != CONVERGED:

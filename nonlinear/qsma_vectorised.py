@@ -44,11 +44,10 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)
-    convex = tangential.law != "iwan5" or bool(np.all(tangential.theta == 1.0))
     joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
         levels, np.ascontiguousarray(linear_per_level), modes.compliance,
         *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), tangential.stuck, modes.eigenvalue, b,
-        amplitude_control, float(linear_damping), convex)
+        amplitude_control, float(linear_damping))
 
     converged = status == qsma_kernel.CONVERGED
     code = np.where(converged, 0, 1).astype(np.int8)
