@@ -42,12 +42,12 @@ MAX_HALVINGS = 40
 CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (E convex) ...
 REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
-CHOLESKY_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
+FACTORED_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
-# the scaled residual; then the Newton step in x and in the slip forces, the level's linear joint motion and
-# the slipping elements' Newton system's right-hand side.
+# the scaled residual; then the Newton step in x, the slopes in the Newton matrix, the level's linear joint
+# motion and the slipping elements' Newton system's right-hand side.
 X, TRIAL, DEFICIT, SLOPE, POTENTIAL, TRIAL_DEFICIT, TRIAL_SLOPE, TRIAL_POTENTIAL = range(8)
-RESIDUAL, TRIAL_RESIDUAL, STEP, SLIP_STEP, LINEAR, RIGHT = range(8, 14)
+RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT = range(8, 14)
 N_WORK_ROWS = 14
 
 
@@ -152,7 +152,7 @@ def _energy(x, linear, compliance_pinv, phi, potential):
 def pseudo_inverse(matrix, inverse, factor):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
     eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
-    (1-norm condition number, an upper bound of the spectral one, below CHOLESKY_CONDITION) no eigenvalue is
+    (1-norm condition number, an upper bound of the spectral one, below FACTORED_CONDITION) no eigenvalue is
     dropped and the inverse comes from its LDL^T factor (``factor``, same shape, is work space); otherwise
     from its eigen-decomposition."""
     n = matrix.shape[0]
@@ -162,7 +162,7 @@ def pseudo_inverse(matrix, inverse, factor):
             for i in range(n):
                 inverse[k, i] = 1.0 if i == k else 0.0
             _ldl_substitute(factor, inverse[k], n)
-        if _norm_1(matrix) * _norm_1(inverse) < CHOLESKY_CONDITION:
+        if _norm_1(matrix) * _norm_1(inverse) < FACTORED_CONDITION:
             return
     values, vectors = np.linalg.eigh(matrix)
     cutoff = PSEUDO_INVERSE_RCOND * np.max(np.abs(values))
@@ -241,21 +241,22 @@ def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, right, active, x, table):
+def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, table):
     """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
     (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
 
         (diag(1 / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by LDL^T. Where a softening element's slope was clipped at K_T (five-parameter
-    Iwan, theta < 1, near macroslip) the true slope is tried first: where the matrix stays positive definite
-    with it the energy is locally convex, the step is Newton's own (a descent direction, and quadratic
-    convergence instead of a linear one at the rate of the clipping). Where it is not (the stiction law
-    softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is
-    solved with pivoting instead. residual: R / phi; step: dx (out); slip_step: w (m,) (out, N); matrix (m, m),
-    right (m,: the slopes, then the right-hand side) and active (m,) are work space; x and table (``_law_table``): the iterate and its laws.
-    Returns True if singular."""
+    1 / g' >= C), solved by LDL^T. The same equations give du_A = w_A / g'_A directly; only the elements
+    that stick need C w (none for the Iwan laws, whose elements all slip). Where a softening element's slope
+    was clipped at K_T (five-parameter Iwan, theta < 1, near macroslip) the true slope is tried first: where
+    the matrix stays positive definite with it the energy is locally convex, the step is Newton's own (a
+    descent direction, and quadratic convergence instead of a linear one at the rate of the clipping). Where
+    it is not (the stiction law softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R
+    with the clipped slope is solved with pivoting instead. residual: R / phi; step: dx (out); newton_slope
+    (m,: the slopes in the matrix, in the order of A), matrix (m, m), right (m,) and active (m,) are work
+    space; x and table (``_law_table``): the iterate and its laws. Returns True if singular."""
     m = residual.size
     n_active = 0
     clipped = False
@@ -268,19 +269,20 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
     if clipped:  # the true slopes first
         for a in range(n_active):
             i = active[a]
-            true_slope = slope[i]
-            if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:
-                true_slope = table[i, 1] * _power(abs(x[i]), table[i, 0]) * table[i, 4]  # r |x|^(chi+1) (slope factor)
-            right[a] = true_slope
-        factored = _ldl_factor(_slipping_matrix(compliance, phi, right, active, n_active, matrix), n_active)
+            newton_slope[a] = slope[i]
+            if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:  # r |x|^(chi+1) (slope factor)
+                newton_slope[a] = table[i, 1] * _power(abs(x[i]), table[i, 0]) * table[i, 4]
+        factored = _ldl_factor(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active)
     if not factored:
         for a in range(n_active):
-            right[a] = slope[active[a]]
-        factored = _ldl_factor(_slipping_matrix(compliance, phi, right, active, n_active, matrix), n_active)
-    for a in range(n_active):
-        right[a] = -residual[active[a]] * phi[active[a]]
+            newton_slope[a] = slope[active[a]]
+        factored = _ldl_factor(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active)
     if factored:
+        for a in range(n_active):
+            right[a] = -residual[active[a]] * phi[active[a]]
         _ldl_substitute(matrix, right, n_active)
+        for a in range(n_active):  # dx_A = w_A / (phi_A g'_A)
+            step[active[a]] = right[a] / newton_slope[a]
     else:
         for a in range(n_active):
             i = active[a]
@@ -290,16 +292,17 @@ def _newton_step(residual, compliance, phi, slope, step, slip_step, matrix, righ
                 matrix[a, b] = (1.0 if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
         if solve_dense(matrix, right, n_active):
             return True
-        for a in range(n_active):  # from dx_A to w_A
+        for a in range(n_active):  # dx_A, and from it w_A
+            step[active[a]] = right[a]
             right[a] *= slope[active[a]]
-    slip_step[:] = 0.0
-    for a in range(n_active):
-        slip_step[active[a]] = right[a]
-    for i in range(m):
-        coupling = 0.0
-        for j in range(m):
-            coupling += compliance[i, j] * slip_step[j]
-        step[i] = coupling / phi[i] - residual[i]
+    if n_active < m:  # the sticking elements: du = C w - R
+        for i in range(m):
+            if slope[i] > 0.0:
+                continue
+            coupling = 0.0
+            for a in range(n_active):
+                coupling += compliance[i, active[a]] * right[a]
+            step[i] = coupling / phi[i] - residual[i]
     return False
 
 
@@ -341,7 +344,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             break
-        singular = _newton_step(residual, compliance, phi, slope, step, work[SLIP_STEP], matrix, work[RIGHT], active,
+        singular = _newton_step(residual, compliance, phi, slope, step, work[NEWTON_SLOPE], matrix, work[RIGHT], active,
                                 x, table)
         if singular:
             break
