@@ -313,11 +313,15 @@ def _convex_between(x, trial, slope, trial_slope, table):
     Only an element with a stiction drop (five-parameter Iwan, theta < 1) can break either: its deficit jumps
     at |x| = 1 and its microslip slope, increasing with |x|, may exceed K_T near it (then clipped). Along the
     segment |x| is at most its larger end value, so both hold on it if, at both ends, |x| < 1 and the slope is
-    below the macroslip slope (not clipped)."""
+    below the macroslip slope (not clipped); and beyond macroslip (tangent 0, deficit continuous) if both ends
+    are beyond it on the same side."""
     for i in range(x.size):
-        if table[i, STICTION] != 0.0 and not (abs(x[i]) < 1.0 and abs(trial[i]) < 1.0
-                                              and slope[i] < table[i, MACROSLIP_SLOPE]
-                                              and trial_slope[i] < table[i, MACROSLIP_SLOPE]):
+        if table[i, STICTION] == 0.0:
+            continue
+        microslip = (abs(x[i]) < 1.0 and abs(trial[i]) < 1.0 and slope[i] < table[i, MACROSLIP_SLOPE]
+                     and trial_slope[i] < table[i, MACROSLIP_SLOPE])
+        macroslip = (x[i] > 1.0 and trial[i] > 1.0) or (x[i] < -1.0 and trial[i] < -1.0)
+        if not (microslip or macroslip):
             return False
     return True
 
