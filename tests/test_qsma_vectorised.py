@@ -20,7 +20,7 @@ from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_tangent)
 from nonlinear.qsma import MACROSLIP, qsma_reference
-from nonlinear.qsma_kernel import slip_law
+from nonlinear.qsma_kernel import MACROSLIP_SLOPE, N_LAW, STICTION, _convex_between, _law_table, slip_law
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import asb_data_folder, read_asb_superelement
 from test_qsma import REDUCED_MASS, two_body_space
@@ -131,6 +131,39 @@ def test_compiled_slip_law_is_the_slip_laws_module(model):
     slope = np.minimum(slip_laws.slip_deficit_slope(x, *constants), constants[1] + constants[0] / (constants[2] + 1))
     np.testing.assert_allclose(fused[:, 1], slope, rtol=1e-13, atol=0)
     np.testing.assert_allclose(fused[:, 2], slip_laws.slip_deficit_potential(x, *constants), rtol=1e-13, atol=0)
+
+
+def test_energy_is_convex_where_the_kernel_skips_the_energy_test():
+    """Where ``_convex_between`` says a five-parameter Iwan element (theta < 1) is convex between two slips, its
+    share of the energy, h(x) = K_T phi_max x^2 / 2 - G(x), is convex on the segment (h' = K_T phi_max x - g
+    non-decreasing on a fine grid; C^+ >= diag(K_T), so E is then convex too); a segment across the stiction
+    drop at |x| = 1 is never passed."""
+    designs = random_designs("iwan5", 300, 3, np.random.default_rng(11))
+    law = scaled_law(tangential_elements(patch_elements("iwan5", designs)))
+    constants = [np.ravel(a) for a in law[1:]]
+    table = np.empty((constants[0].size, N_LAW))
+    _law_table(*constants, table)
+    rng = np.random.default_rng(12)
+    ends = rng.choice([-1, 1], (2, constants[0].size)) * np.exp(rng.uniform(np.log(0.05), np.log(3.0),
+                                                                              (2, constants[0].size)))
+    passed = crossing = 0
+    for i, (start, end) in enumerate(ends.T):
+        values = [slip_law(x, *(c[i] for c in constants)) for x in (start, end)]
+        convex = _convex_between(np.array([start]), np.array([end]), np.array([values[0][1]]),
+                                 np.array([values[1][1]]), table[i:i + 1])
+        straddles = min(abs(start), abs(end)) < 1.0 < max(abs(start), abs(end)) or start * end < 0 and max(
+            abs(start), abs(end)) > 1.0
+        crossing += straddles
+        if not convex:
+            continue
+        assert not (straddles and table[i, STICTION] > 0.0)
+        passed += 1
+        grid = np.linspace(start, end, 2001) * (1 - 1e-12)
+        derivative = table[i, MACROSLIP_SLOPE] * grid - np.array([slip_law(x, *(c[i] for c in constants))[0]
+                                                                   for x in grid])
+        increments = np.diff(derivative) * np.sign(end - start)
+        assert increments.min() >= -1e-12 * np.abs(derivative).max()
+    assert passed > 100 and crossing > 30
 
 
 def test_vectorised_low_amplitude_limit_is_the_linear_mode():
