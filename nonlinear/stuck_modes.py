@@ -85,13 +85,20 @@ def _matvec(a, x, out):
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _rmatvec(a, x, out):
-    """out = a^T x for a small dense matrix."""
-    rows, columns = a.shape
+    """out = a^T x for a small dense matrix, summed in the order of the rows, four rows of ``a`` per pass over
+    ``out`` (a quarter of its loads and stores: the 40 x 120 product of ``_high_flexibility`` 1.5 times
+    faster)."""
+    rows = a.shape[0]
     out[:] = 0.0
-    for i in range(rows):
-        xi = x[i]
-        for j in range(columns):
-            out[j] += a[i, j] * xi
+    for i in range(0, rows - 3, 4):
+        x0, x1, x2, x3 = x[i], x[i + 1], x[i + 2], x[i + 3]
+        a0, a1, a2, a3 = a[i], a[i + 1], a[i + 2], a[i + 3]
+        for j in range(out.size):
+            out[j] = (((out[j] + a0[j] * x0) + a1[j] * x1) + a2[j] * x2) + a3[j] * x3
+    for i in range(rows - rows % 4, rows):
+        xi, ai = x[i], a[i]
+        for j in range(out.size):
+            out[j] += ai[j] * xi
     return out
 
 
@@ -149,6 +156,35 @@ def _backward(upper, b):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
+def _symmetric_solve(augmented, n):
+    """A^-1 B for the symmetric positive definite A in the upper triangle of the leading n x n block of
+    ``augmented`` (n, n + k) and the k right-hand sides B in its last k columns, in place (the solution there;
+    the block is left holding the eliminated factor). Symmetric Gaussian elimination (LDL^T: no square roots,
+    which would lengthen the chain of dependent operations) with the right-hand sides carried along the
+    contiguous rows, then back substitution column by column of the factor. The inner loops run over row
+    views from index 0, so that the compiler sees non-negative indices (no wrap-around test) and vectorises
+    them: 1.6 to 2 times as fast as indexing from a row's diagonal."""
+    for j in range(n):
+        inverse = 1.0 / augmented[j, j]
+        augmented[j, j] = inverse
+        for k in range(j + 1, n):
+            multiplier = augmented[j, k] * inverse  # L[k, j]
+            target, source = augmented[k, k:], augmented[j, k:]
+            for i in range(target.size):
+                target[i] -= multiplier * source[i]
+    for j in range(n - 1, -1, -1):
+        solution = augmented[j, n:]
+        inverse = augmented[j, j]
+        for c in range(solution.size):
+            solution[c] *= inverse
+        for k in range(j):
+            multiplier = augmented[k, j]
+            target = augmented[k, n:]
+            for c in range(target.size):
+                target[c] -= multiplier * solution[c]
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def _symmetric_eigen(a, values, vectors):
     """Eigenvalues (ascending, into ``values``) and orthonormal eigenvectors (columns, into ``vectors``) of a
     small symmetric matrix ``a`` (overwritten) by cyclic Jacobi rotations, until every off-diagonal entry is
@@ -163,8 +199,8 @@ def _symmetric_eigen(a, values, vectors):
     for _ in range(MAX_JACOBI_SWEEPS):
         rotated = False
         for p in range(n - 1):
-            for q in range(p + 1, n):
-                if abs(a[p, q]) <= threshold:
+            for q in range(n):  # q > p, counted from 0: the compiler sees non-negative indices
+                if q <= p or abs(a[p, q]) <= threshold:
                     continue
                 rotated = True
                 angle = (a[q, q] - a[p, p]) / (2.0 * a[p, q])
@@ -247,13 +283,12 @@ class _Work(NamedTuple):
 
     packed: np.ndarray  # F(mu) packed, (m (m+1) / 2,)
     weights: np.ndarray  # 1 / (lambda_E - mu), (n_E,)
-    flexibility: np.ndarray  # X(mu), (m, m)
-    factor: np.ndarray  # its Cholesky factor, (m, m)
+    augmented: np.ndarray  # [X(mu), Phi_L, F'(mu) f] for ``_low_problem``, (m, m + n_L + 1)
     z: np.ndarray  # X^-1 Phi_L, (m, n_L)
     s: np.ndarray  # S(mu), (n_L, n_L)
     high: np.ndarray  # (n_E,) high-mode products
     modal: np.ndarray  # (n_E,)
-    rhs: np.ndarray  # (m, 1)
+    product: np.ndarray  # (m,) F'(mu) f
     low: np.ndarray  # (n_L,)
     small: np.ndarray  # (n_L, n_L): a copy of S for the pivoted solve, or the eigen-solve's matrix
     vectors: np.ndarray  # (n_L, n_L) eigenvectors
@@ -269,9 +304,9 @@ class _Work(NamedTuple):
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _work(m, n_low, n_high):
     """``_Work`` for m joint rows, n_low low and n_high high modes."""
-    return _Work(np.empty(m * (m + 1) // 2), np.empty(n_high), np.empty((m, m)), np.empty((m, m)),
+    return _Work(np.empty(m * (m + 1) // 2), np.empty(n_high), np.empty((m, m + n_low + 1)),
                  np.empty((m, n_low)), np.empty((n_low, n_low)), np.empty(n_high), np.empty(n_high),
-                 np.empty((m, 1)), np.empty(n_low), np.empty((n_low, n_low)), np.empty((n_low, n_low)),
+                 np.empty(m), np.empty(n_low), np.empty((n_low, n_low)), np.empty((n_low, n_low)),
                  np.empty(n_low), np.empty(m), np.empty(n_low), np.empty(n_low), np.empty(m), np.empty(n_high),
                  np.empty(m))
 
@@ -288,21 +323,25 @@ def _high_flexibility(mu, high_eigenvalues, high_outer, weights, packed):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, work):
-    """X(mu) (m, m), its Cholesky factor, Z = X^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L) into ``work``, from the
-    high modes' flexibility F(mu) packed by ``_high_flexibility``."""
+def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augmented, work):
+    """Z = X(mu)^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L) into ``work``, from the high modes' flexibility F(mu)
+    packed by ``_high_flexibility``. ``augmented`` (m, m + n_L + k) is work space whose last k columns hold
+    further right-hand sides (set by the caller), solved against X(mu) alongside (X^-1 times them is left
+    there)."""
     m, n_low = low_modes.shape
-    flexibility, z, s = work.flexibility, work.z, work.s
+    z, s = work.z, work.s
     p = 0
     for i in range(m):
         for j in range(i + 1):
-            flexibility[i, j] = packed[p]
-            flexibility[j, i] = packed[p]
+            augmented[j, i] = packed[p]
             p += 1
-        flexibility[i, i] += inverse_stiffness[i]
-    _cholesky(flexibility, work.factor)
-    z[:] = low_modes
-    _backward(work.factor, _forward(work.factor, z))
+        augmented[i, i] += inverse_stiffness[i]
+        for k in range(n_low):
+            augmented[i, m + k] = low_modes[i, k]
+    _symmetric_solve(augmented, m)
+    for i in range(m):
+        for k in range(n_low):
+            z[i, k] = augmented[i, m + k]
     for i in range(n_low):
         for j in range(n_low):
             total = 0.0
@@ -327,9 +366,10 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     if not lower_bound < mu < upper_bound:
         mu = 0.5 * upper_bound if np.isfinite(upper_bound) else 1.0
     step = 0.0
+    work.augmented[:, -1] = 0.0  # no further right-hand side
     for _ in range(MAX_NEWTON_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, high_outer, work.weights, work.packed)
-        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work)
+        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work.augmented, work)
         work.small[:] = work.s
         _symmetric_eigen(work.small, work.values, work.vectors)
         work.w[:] = work.vectors[:, branch]
@@ -358,48 +398,52 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         B(mu) = [[X(mu), Phi_L], [Phi_L^T, mu - Lambda_L]],   dB/dmu = [[F'(mu), 0], [0, I]],
 
     (m + n_L square; its Schur complement on v_L is -S(mu)): x <- B^-1 B' x (inverse iteration, solved through
-    the Cholesky factor of X and S), mu <- mu - x^T B x / x^T B' x. B holds only compliances and the low
+    the LDL^T factor of X and S), mu <- mu - x^T B x / x^T B' x. B holds only compliances and the low
     modes' stiffness offsets lambda_L - mu: no joint stiffness and no 1 / (lambda - mu) near a pole, so
     x^T B x has no cancellation beyond eps mu. Quadratic from the estimate. x starts from, and ends in,
     work.force and work.v_low. Returns (mu, converged)."""
     m, n_low = low_modes.shape
     force, v_low, weights, high, modal, low = work.force, work.v_low, work.weights, work.high, work.modal, work.low
-    solution = work.rhs[:, 0]
+    product, augmented = work.product, work.augmented
     last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, high_outer, weights, work.packed)
-        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work)
         _rmatvec(high_modes, force, high)
         for e in range(weights.size):
             high[e] *= weights[e] * weights[e]
-        _matvec(high_modes, high, solution)  # F'(mu) f
-        _rmatvec(work.z, solution, low)
+        _matvec(high_modes, high, product)  # F'(mu) f, also solved against X(mu)
+        augmented[:, m + n_low] = product
+        _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, augmented, work)
+        _rmatvec(work.z, product, low)
         for k in range(n_low):
             low[k] -= v_low[k]
         work.small[:] = work.s
         if solve_dense(work.small, low, n_low):  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF
             return mu, True                      # joint): keep x
-        _backward(work.factor, _forward(work.factor, work.rhs))
         norm = 0.0
         for i in range(m):
             coupling = 0.0
             for k in range(n_low):
                 coupling += work.z[i, k] * low[k]
-            solution[i] -= coupling
-            norm += solution[i] * solution[i]
+            force[i] = augmented[i, m + n_low] - coupling
+            norm += force[i] * force[i]
         inverse_norm = 1.0 / np.sqrt(norm + _dot(low, low))
         for i in range(m):
-            force[i] = solution[i] * inverse_norm
+            force[i] *= inverse_norm
         for k in range(n_low):
             v_low[k] = low[k] * inverse_norm
         _rmatvec(high_modes, force, modal)
         for e in range(weights.size):
             modal[e] *= weights[e]
         value = 0.0
-        for i in range(m):  # f^T X f + 2 f^T Phi_L v_L
+        p = 0
+        for i in range(m):  # f^T X f + 2 f^T Phi_L v_L, X from the packed lower triangle of F
             total = 0.0
-            for j in range(m):
-                total += work.flexibility[i, j] * force[j]
+            for j in range(i):
+                total += work.packed[p + j] * force[j]
+            p += i
+            total = 2.0 * total + (work.packed[p] + inverse_stiffness[i]) * force[i]
+            p += 1
             for k in range(n_low):
                 total += 2.0 * low_modes[i, k] * v_low[k]
             value += force[i] * total
@@ -428,21 +472,18 @@ def _high_projection(z, high_modes, projection):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, reference_high):
-    """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w, from the
-    high modes' projection Z^T Phi_E (n_L, n_E) of ``_high_projection``."""
-    n_low, n_high = high_projection.shape
+def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, reference_high, v_high):
+    """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w (into
+    ``v_high``, (n_E,)), from the high modes' projection Z^T Phi_E (n_L, n_E) of ``_high_projection``."""
     projection, norm = 0.0, 0.0
-    for k in range(n_low):
+    for k in range(w.size):
         projection += w[k] * reference_low[k]
         norm += w[k] * w[k]
-    for e in range(n_high):
-        total = 0.0
-        for k in range(n_low):
-            total += high_projection[k, e] * w[k]
-        v_high = -total / (high_eigenvalues[e] - mu)
-        projection += v_high * reference_high[e]
-        norm += v_high * v_high
+    _rmatvec(high_projection, w, v_high)
+    for e in range(v_high.size):
+        v_high[e] /= mu - high_eigenvalues[e]
+        projection += v_high[e] * reference_high[e]
+        norm += v_high[e] * v_high[e]
     return projection ** 2 / norm
 
 
@@ -507,7 +548,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     inverse_stiffness = np.empty(m)
     static_packed = np.empty(m * (m + 1) // 2)
     static_flexibility = np.empty((m, m))
-    series = np.empty((m, n_rows))
+    static_augmented = np.empty((m, m + n_low + n_rows))  # [X0, Phi_L, F(0) on the rows]
     low_share = np.empty((n_low, n_rows))
     s0_factor = np.empty((n_low, n_low))
     high0 = np.empty((n_low, n_high))
@@ -528,13 +569,12 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     for d in range(n_designs):
         for i in range(m):
             inverse_stiffness[i] = 1.0 / joint_stiffness[d, i]
-        _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, work)
-        z0, s0 = work.z, work.s
-        # Compliance.
         for i in range(m):
             for b in range(n_rows):
-                series[i, b] = static_flexibility[i, rows[b]]
-        _backward(work.factor, _forward(work.factor, series))
+                static_augmented[i, m + n_low + b] = static_flexibility[i, rows[b]]
+        _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, static_augmented, work)
+        z0, s0 = work.z, work.s
+        # Compliance (X0^-1 F(0) on the rows in static_augmented's last columns).
         _cholesky(s0, s0_factor)
         for k in range(n_low):
             for b in range(n_rows):
@@ -544,7 +584,8 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             i = rows[a]
             for b in range(a + 1):
                 j = rows[b]
-                value = 0.5 * (inverse_stiffness[i] * series[i, b] + inverse_stiffness[j] * series[j, a])
+                value = 0.5 * (inverse_stiffness[i] * static_augmented[i, m + n_low + b]
+                               + inverse_stiffness[j] * static_augmented[j, m + n_low + a])
                 for k in range(n_low):
                     value += low_share[k, a] * low_share[k, b]
                 compliance[d, a, b] = compliance[d, b, a] = value
@@ -576,7 +617,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             for k in range(n_low):
                 work.w[k] = estimates[k, i] / np.sqrt(norm)
             candidate_mac = _estimate_mac(max(delta[i], 0.0), work.w, high0, high_eigenvalues, reference_low,
-                                          reference_high)
+                                          reference_high, work.v_high)
             if candidate_mac > best_mac:
                 best_branch, best_mac = i, candidate_mac
         # The estimate is within about 1e-3: polish it directly. Only one stuck mode can have a MAC above 0.5,
