@@ -1,10 +1,12 @@
 """Benchmark of the vectorised QSMA: design evaluations per second per core for each friction model.
 
-Run as ``python -m benchmarks.qsma [--designs N] [--levels L] [--repeats R] [--configuration CD1]``. Each design is
+Run as ``python -m benchmarks.qsma [--designs N] [--levels L] [--repeats R] [--configuration CD1] [--models ...]``.
+Each design is
 evaluated at L modal amplitudes (amplitude control, log-spaced over the ASB's measured range) on one core
 (BLAS limited to one thread). The table gives the CPU time of the process (``time.process_time``, so other
 work on the machine does not count; the compiled kernels are loaded before timing; the shortest of
-``--repeats`` runs, since contention for a shared machine's caches still lengthens it), designs per CPU-second,
+``--repeats`` runs, the models taking turns within each, since contention for a shared machine's caches still
+lengthens it, by +-10 % from one minute to the next here), designs per CPU-second,
 the projected time of the paper's full scale (6 x 10^7 design evaluations) on two such cores, were they all
 of that model, the CPU time per design split into the condensation (element parameters and the stuck
 modes, ``nonlinear.condensation.stuck_modes``, timed alone) and the rest (the levels: the compiled kernel),
@@ -31,7 +33,8 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 import numpy as np  # noqa: E402
 
 from nonlinear.condensation import joint_space, modal_split, stuck_modes  # noqa: E402
-from nonlinear.joint import FRICTION_MODELS, patch_elements, random_designs, stuck_stiffness  # noqa: E402
+from nonlinear.joint import (FRICTION_MODELS, patch_elements, random_designs, stuck_stiffness,  # noqa: E402
+                             tangential_rows)
 from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
 from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
 
@@ -40,33 +43,49 @@ CHUNK = 1000  # designs per vectorised call
 PAPER_EVALUATIONS = 6e7  # 5 x 10^6 designs per beam and model (paper section 4.3), three beams, four models
 
 
-def benchmark(model: str, space, n_designs: int, n_levels: int, repeats: int = 1, seed: int = 0) -> dict:
-    """Evaluate ``n_designs`` random Table 3 designs ``repeats`` times; return the shortest CPU time (other
-    processes on a shared machine only ever lengthen it), the shortest CPU time of the condensation alone
-    (element parameters and stuck modes) and the non-convergence counts."""
+def _timed_pass(model: str, space, designs, amplitudes, split) -> tuple:
+    """One pass over ``designs``: the CPU time of the whole evaluation, the CPU time of the condensation alone
+    (element parameters and stuck modes, as ``qsma_designs`` forms them) and the designs not converged, by
+    reason."""
+    rows = tangential_rows(space.superelement.n_patches)
+    reasons = Counter()
+    start = time.process_time()
+    for first in range(0, len(designs), CHUNK):
+        result = qsma_designs(space, model, designs[first:first + CHUNK], amplitudes=amplitudes,
+                              linear_damping=1e-3, split=split)
+        failed = ~result.converged.all(axis=1)
+        reasons.update(next(reason for reason in row if reason) for row in result.reason[failed])
+    seconds = time.process_time() - start
+    start = time.process_time()
+    for first in range(0, len(designs), CHUNK):
+        elements = patch_elements(model, designs[first:first + CHUNK], space.superelement.patch_groups)
+        stuck_modes(space, stuck_stiffness(elements), split, rows)
+    return seconds, time.process_time() - start, reasons
+
+
+def benchmark(models, space, n_designs: int, n_levels: int, repeats: int = 1, seed: int = 0) -> list:
+    """Evaluate ``n_designs`` random Table 3 designs of each model ``repeats`` times, the models in turn within
+    each repetition (so that a busy spell of a shared machine slows every model alike); per model, the shortest
+    CPU time (other processes only ever lengthen it), the shortest CPU time of the condensation alone and the
+    non-convergence counts."""
     n_groups = max(space.superelement.patch_groups) + 1
-    designs = random_designs(model, n_designs, n_groups, np.random.default_rng(seed))
     amplitudes = np.geomspace(*AMPLITUDE_RANGE, n_levels)
     split = modal_split(space)
-    qsma_designs(space, model, designs[:2], amplitudes=amplitudes, split=split)  # load the compiled kernels
-    seconds = condensation_seconds = np.inf
+    designs = {model: random_designs(model, n_designs, n_groups, np.random.default_rng(seed)) for model in models}
+    for model in models:  # load the compiled kernels
+        qsma_designs(space, model, designs[model][:2], amplitudes=amplitudes, split=split)
+    seconds = dict.fromkeys(models, np.inf)
+    condensation_seconds = dict.fromkeys(models, np.inf)
+    reasons = {}
     for _ in range(repeats):
-        reasons = Counter()
-        start = time.process_time()
-        for first in range(0, n_designs, CHUNK):
-            result = qsma_designs(space, model, designs[first:first + CHUNK], amplitudes=amplitudes,
-                                  linear_damping=1e-3, split=split)
-            failed = ~result.converged.all(axis=1)
-            reasons.update(next(reason for reason in row if reason) for row in result.reason[failed])
-        seconds = min(seconds, time.process_time() - start)
-        start = time.process_time()
-        for first in range(0, n_designs, CHUNK):
-            elements = patch_elements(model, designs[first:first + CHUNK], space.superelement.patch_groups)
-            stuck_modes(space, stuck_stiffness(elements), split)
-        condensation_seconds = min(condensation_seconds, time.process_time() - start)
-    return {"model": model, "designs": n_designs, "seconds": seconds, "rate": n_designs / seconds,
-            "condensation": condensation_seconds / n_designs, "levels": (seconds - condensation_seconds) / n_designs,
-            "failed": sum(reasons.values()) / n_designs, "reasons": reasons}
+        for model in models:
+            total, condensation, reasons[model] = _timed_pass(model, space, designs[model], amplitudes, split)
+            seconds[model] = min(seconds[model], total)
+            condensation_seconds[model] = min(condensation_seconds[model], condensation)
+    return [{"model": model, "designs": n_designs, "seconds": seconds[model], "rate": n_designs / seconds[model],
+             "condensation": condensation_seconds[model] / n_designs,
+             "levels": (seconds[model] - condensation_seconds[model]) / n_designs,
+             "failed": sum(reasons[model].values()) / n_designs, "reasons": reasons[model]} for model in models]
 
 
 def _timed_share(model: str, configuration: str, n_designs: int, n_levels: int, repeats: int, seed: int,
@@ -121,8 +140,8 @@ def main(argv=None) -> None:
           f"{len(space.eigenvalues)} modes), {arguments.levels} amplitude levels, one core")
     print(f"{'model':<12} {'designs':>8} {'CPU s':>8} {'designs/s':>10} {'6e7 on 2 cores':>15} "
           f"{'us/design: condensation + levels':>33} {'not converged':>14}  reasons")
-    for model in arguments.models:
-        row = benchmark(model, space, arguments.designs, arguments.levels, arguments.repeats)
+    for row in benchmark(arguments.models, space, arguments.designs, arguments.levels, arguments.repeats):
+        model = row["model"]
         reasons = "; ".join(f"{reason}: {count}" for reason, count in row["reasons"].items()) or "-"
         full_scale = PAPER_EVALUATIONS / (2 * row["rate"]) / 60
         stages = f"{1e6 * row['condensation']:.1f} + {1e6 * row['levels']:.1f}"
