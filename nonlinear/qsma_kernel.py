@@ -30,7 +30,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.stuck_modes import FAST_MATH, solve_dense
+from nonlinear.stuck_modes import FAST_MATH, ldl_eliminate, solve_dense
 
 # The functions called per level and per Newton step are inlined into ``solve_levels`` by numba itself (not
 # left to LLVM): every call of a compiled function otherwise costs atomic reference-count updates of its array
@@ -163,7 +163,7 @@ def pseudo_inverse(matrix, inverse, factor):
     from its eigen-decomposition."""
     n = matrix.shape[0]
     factor[:] = matrix
-    if _ldl_factor(factor, n):
+    if ldl_eliminate(factor, n, n):
         for k in range(n):
             for i in range(n):
                 inverse[k, i] = 1.0 if i == k else 0.0
@@ -193,28 +193,8 @@ def _norm_1(matrix):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _ldl_factor(a, n):
-    """LDL^T factorisation of the leading n x n block of the symmetric ``a`` (its upper triangle is read), in
-    place: a[j, i] = d_j L[i, j] above the diagonal and 1 / d_j on it. Right-looking, along rows (contiguous),
-    no square roots (each would lengthen the chain of dependent operations: 2.5 times faster than Cholesky at
-    n = 10). Returns False, leaving the block spoiled, if it is not numerically positive definite (a pivot
-    not positive and finite)."""
-    for j in range(n):
-        pivot = a[j, j]
-        if not 0.0 < pivot < np.inf:
-            return False
-        inverse = 1.0 / pivot
-        a[j, j] = inverse
-        for k in range(j + 1, n):
-            multiplier = a[j, k] * inverse  # L[k, j]
-            for i in range(k, n):
-                a[k, i] -= multiplier * a[j, i]
-    return True
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _ldl_substitute(factor, b, n):
-    """Solve L D L^T x = b[:n] in place for the factor of ``_ldl_factor``."""
+    """Solve L D L^T x = b[:n] in place for the factor of ``ldl_eliminate(factor, n, n)``."""
     for j in range(n):  # D^-1 L^-1 b, column by column of L (rows of the factor)
         b[j] *= factor[j, j]
         for i in range(j + 1, n):
@@ -278,11 +258,13 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             newton_slope[a] = slope[i]
             if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:  # r |x|^(chi+1) (slope factor)
                 newton_slope[a] = table[i, 1] * _power(abs(x[i]), table[i, 0]) * table[i, 4]
-        factored = _ldl_factor(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active)
+        factored = ldl_eliminate(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active,
+                                 n_active)
     if not factored:
         for a in range(n_active):
             newton_slope[a] = slope[active[a]]
-        factored = _ldl_factor(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active)
+        factored = ldl_eliminate(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active,
+                                 n_active)
     if factored:
         for a in range(n_active):
             right[a] = -residual[active[a]] * phi[active[a]]

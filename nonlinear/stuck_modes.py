@@ -155,23 +155,36 @@ def _backward(upper, b):
     return b
 
 
+@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
+def ldl_eliminate(a, n, width):
+    """Symmetric Gaussian elimination (LDL^T: no square roots, which would lengthen the chain of dependent
+    operations) of the symmetric positive definite leading n x n block of ``a`` (its upper triangle is read),
+    in place, each row carried to column ``width``: a[j, i] = d_j L[i, j] above the diagonal and 1 / d_j on it,
+    and columns n to width (right-hand sides B) left holding L^-1 B. The inner loops run over row views from
+    index 0, so that the compiler sees non-negative indices (no wrap-around test) and vectorises them: 1.6 to
+    2 times as fast as indexing from a row's diagonal at n = 15. Returns False, leaving ``a`` spoiled, where a
+    pivot is not positive and finite (the block not numerically positive definite)."""
+    for j in range(n):
+        pivot = a[j, j]
+        if not 0.0 < pivot < np.inf:
+            return False
+        inverse = 1.0 / pivot
+        a[j, j] = inverse
+        for k in range(j + 1, n):
+            multiplier = a[j, k] * inverse  # L[k, j]
+            target, source = a[k, k:width], a[j, k:width]
+            for i in range(target.size):
+                target[i] -= multiplier * source[i]
+    return True
+
+
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _symmetric_solve(augmented, n):
     """A^-1 B for the symmetric positive definite A in the upper triangle of the leading n x n block of
     ``augmented`` (n, n + k) and the k right-hand sides B in its last k columns, in place (the solution there;
-    the block is left holding the eliminated factor). Symmetric Gaussian elimination (LDL^T: no square roots,
-    which would lengthen the chain of dependent operations) with the right-hand sides carried along the
-    contiguous rows, then back substitution column by column of the factor. The inner loops run over row
-    views from index 0, so that the compiler sees non-negative indices (no wrap-around test) and vectorises
-    them: 1.6 to 2 times as fast as indexing from a row's diagonal."""
-    for j in range(n):
-        inverse = 1.0 / augmented[j, j]
-        augmented[j, j] = inverse
-        for k in range(j + 1, n):
-            multiplier = augmented[j, k] * inverse  # L[k, j]
-            target, source = augmented[k, k:], augmented[j, k:]
-            for i in range(target.size):
-                target[i] -= multiplier * source[i]
+    the block is left holding the eliminated factor): ``ldl_eliminate`` with the right-hand sides carried
+    along the contiguous rows, then back substitution column by column of the factor."""
+    ldl_eliminate(augmented, n, augmented.shape[1])
     for j in range(n - 1, -1, -1):
         solution = augmented[j, n:]
         inverse = augmented[j, j]
