@@ -15,7 +15,9 @@ and solved by an LDL^T factorisation where E is convex. Where E is convex on the
 full step that halves |R| is taken at once (after REVISITS of them that set no record of |R| in the level,
 only those that do: no cycling across a kink of the law); otherwise its length is halved until E decreases
 enough (Armijo) or, once E differences reach round-off, until |R| decreases (C^+ is formed only when E is
-first needed). Levels are solved in order, each starting from the quadratic extrapolation of the last three
+first needed). A trial's slip powers r |x|^(chi+1) come from the iterate's by a binomial series where |x|
+changed by less than NEAR, as it does in the one Newton step most levels take (no logarithm and exponential
+there). Levels are solved in order, each starting from the quadratic extrapolation of the last three
 converged ones (continuation). The modal backbone (paper Eqs. 23-25) is evaluated in the same pass:
 
     amplitude control: alpha = lambda_1 q - b^T g;  force control: q = (alpha + b^T g) / lambda_1;
@@ -47,12 +49,13 @@ CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken with
 REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
 FACTORED_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
-# Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential and
-# the scaled residual; then the Newton step in x, the slopes in the Newton matrix, the level's linear joint
-# motion and the slipping elements' Newton system's right-hand side.
+NEAR = 1e-4  # a slip power within this relative change of |x| comes from the iterate's by a series (``_slip_power``)
+# Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential, the
+# scaled residual and the slip power r min(|x|, 1)^(chi+1); then the Newton step in x, the slopes in the Newton
+# matrix, the level's linear joint motion and the slipping elements' Newton solution w_A.
 X, TRIAL, DEFICIT, SLOPE, POTENTIAL, TRIAL_DEFICIT, TRIAL_SLOPE, TRIAL_POTENTIAL = range(8)
-RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT = range(8, 14)
-N_WORK_ROWS = 14
+RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT, POWER, TRIAL_POWER = range(8, 16)
+N_WORK_ROWS = 16
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -82,13 +85,27 @@ def _power(base, exponent):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _scaled_slip_law(x, exponent, r, shape, macroslip_slope, slope_factor, potential_factor, stiction,
-                     beyond_potential):
-    """``slip_law`` from the constants of ``law_constants``."""
+def _slip_power(x, exponent, r, base=None, base_power=None):
+    """The slip power r min(|x|, 1)^(chi+1) of one element (N per unit scaled slip; exponent = chi + 1). Given
+    its value base_power at a nearby base (a Newton trial from the iterate, |x| within NEAR of |base|, both in
+    microslip) it comes from the binomial series of (1 + delta)^exponent, delta = |x| / |base| - 1, to the
+    third power: the first omitted term is below exponent (1 - exponent) (2 - exponent) (3 - exponent) / 24
+    NEAR^4 < 1e-17 of it, and four multiply-adds replace the logarithm and exponential."""
+    a = abs(x)
+    if base is not None and r != 0.0 and a < 1.0 and 0.0 < abs(base) < 1.0:
+        delta = (a - abs(base)) / abs(base)
+        if abs(delta) <= NEAR:
+            return base_power * (1.0 + exponent * delta * (1.0 + (exponent - 1.0) * delta / 2.0
+                                                           * (1.0 + (exponent - 2.0) * delta / 3.0)))
+    return r if a >= 1.0 else r * _power(a, exponent) if r != 0.0 else 0.0
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _scaled_slip_law(x, power, shape, macroslip_slope, slope_factor, potential_factor, stiction, beyond_potential):
+    """``slip_law`` from the slip power (``_slip_power``) and the constants of ``law_constants``."""
     a = abs(x)
     xm = min(a, 1.0)
     beyond = max(a - 1.0, 0.0)
-    power = r if xm == 1.0 else r * _power(xm, exponent) if r != 0.0 else 0.0  # r min(|x|, 1)^(chi+1)
     sign = 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
     deficit = sign * (power * xm * shape + macroslip_slope * beyond + (stiction if a > 1.0 else 0.0))
     slope = power * slope_factor if a < 1.0 else macroslip_slope
@@ -103,7 +120,8 @@ def slip_law(x, r, s, chi, theta):
     evaluated together with a single power |x|^(chi+1) (none for Jenkins, r = 0, or beyond macroslip)."""
     exponent, r, shape, macroslip_slope, slope_factor, potential_factor, stiction, beyond = law_constants(r, s, chi,
                                                                                                           theta)
-    return _scaled_slip_law(x, exponent, r, shape, macroslip_slope, slope_factor, potential_factor, stiction, beyond)
+    return _scaled_slip_law(x, _slip_power(x, exponent, r), shape, macroslip_slope, slope_factor, potential_factor,
+                            stiction, beyond)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -116,12 +134,16 @@ def _law_table(r, s, chi, theta, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _evaluate(x, table, deficit, slope, potential):
-    """The slip law at every element of x (constants in ``table``, see ``_law_table``) into the three arrays."""
+def _evaluate(x, table, deficit, slope, potential, power, base=None, base_power=None):
+    """The slip law at every element of x (constants in ``table``, see ``_law_table``) into the four arrays;
+    where a nearby base and its slip powers are given, powers from them (``_slip_power``)."""
     for i in range(x.size):
-        deficit[i], slope[i], potential[i] = _scaled_slip_law(x[i], table[i, 0], table[i, 1], table[i, 2],
-                                                              table[i, 3], table[i, 4], table[i, 5],
-                                                              table[i, 6], table[i, 7])
+        if base is None:
+            power[i] = _slip_power(x[i], table[i, 0], table[i, 1])
+        else:
+            power[i] = _slip_power(x[i], table[i, 0], table[i, 1], base[i], base_power[i])
+        deficit[i], slope[i], potential[i] = _scaled_slip_law(x[i], power[i], table[i, 2], table[i, 3], table[i, 4],
+                                                              table[i, 5], table[i, 6], table[i, 7])
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
@@ -227,22 +249,32 @@ def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, table):
+def _factor_with_right_side(compliance, phi, slopes, residual, active, n_active, matrix):
+    """``_slipping_matrix`` with -R_A in column n_active, eliminated by ``ldl_eliminate``; False if the matrix
+    is not positive definite."""
+    for a in range(n_active):
+        matrix[a, n_active] = -residual[active[a]] * phi[active[a]]
+    return ldl_eliminate(_slipping_matrix(compliance, phi, slopes, active, n_active, matrix), n_active, n_active + 1)
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, power, table):
     """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
     (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
 
         (diag(1 / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by LDL^T. The same equations give du_A = w_A / g'_A directly; only the elements
+    1 / g' >= C), solved by LDL^T with the right-hand side carried along as the matrix's last column. The same equations give du_A = w_A / g'_A directly; only the elements
     that stick need C w (none for the Iwan laws, whose elements all slip). Where a softening element's slope
     was clipped at K_T (five-parameter Iwan, theta < 1, near macroslip) the true slope is tried first: where
     the matrix stays positive definite with it the energy is locally convex, the step is Newton's own (a
     descent direction, and quadratic convergence instead of a linear one at the rate of the clipping). Where
     it is not (the stiction law softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R
     with the clipped slope is solved with pivoting instead. residual: R / phi; step: dx (out); newton_slope
-    (m,: the slopes in the matrix, in the order of A), matrix (m, m), right (m,) and active (m,) are work
-    space; x and table (``_law_table``): the iterate and its laws. Returns True if singular."""
+    (m,: the slopes in the matrix, in the order of A), matrix (m, m + 1), right (m,) and active (m,) are work
+    space; x, power and table (``_law_table``): the iterate, its slip powers and the laws.
+    Returns True if singular."""
     m = residual.size
     n_active = 0
     clipped = False
@@ -257,18 +289,18 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             i = active[a]
             newton_slope[a] = slope[i]
             if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:  # r |x|^(chi+1) (slope factor)
-                newton_slope[a] = table[i, 1] * _power(abs(x[i]), table[i, 0]) * table[i, 4]
-        factored = ldl_eliminate(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active,
-                                 n_active)
+                newton_slope[a] = power[i] * table[i, 4]
+        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix)
     if not factored:
         for a in range(n_active):
             newton_slope[a] = slope[active[a]]
-        factored = ldl_eliminate(_slipping_matrix(compliance, phi, newton_slope, active, n_active, matrix), n_active,
-                                 n_active)
+        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix)
     if factored:
-        for a in range(n_active):
-            right[a] = -residual[active[a]] * phi[active[a]]
-        _ldl_substitute(matrix, right, n_active)
+        for j in range(n_active - 1, -1, -1):  # w_A = L^-T D^-1 (L^-1 (-R_A)), the last held in column n_active
+            total = matrix[j, n_active]
+            for i in range(j + 1, n_active):
+                total -= matrix[j, i] * right[i]
+            right[j] = total * matrix[j, j]
         for a in range(n_active):  # dx_A = w_A / (phi_A g'_A)
             step[active[a]] = right[a] / newton_slope[a]
     else:
@@ -323,7 +355,8 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     x, trial, residual, trial_residual, step = work[X], work[TRIAL], work[RESIDUAL], work[TRIAL_RESIDUAL], work[STEP]
     deficit, slope, potential = work[DEFICIT], work[SLOPE], work[POTENTIAL]
     trial_deficit, trial_slope, trial_potential = work[TRIAL_DEFICIT], work[TRIAL_SLOPE], work[TRIAL_POTENTIAL]
-    _evaluate(x, table, deficit, slope, potential)
+    power, trial_power = work[POWER], work[TRIAL_POWER]
+    _evaluate(x, table, deficit, slope, potential, power)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
     singular = False
     # A full step that halves |R| is taken without the energy, but after REVISITS such steps that set no record
@@ -337,7 +370,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
         if error <= TARGET_TOLERANCE:
             break
         singular = _newton_step(residual, compliance, phi, slope, step, work[NEWTON_SLOPE], matrix, work[RIGHT], active,
-                                x, table)
+                                x, power, table)
         if singular:
             break
         energy_known = False
@@ -347,7 +380,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
         for _ in range(MAX_HALVINGS):
             for i in range(m):
                 trial[i] = x[i] + length * step[i]
-            _evaluate(trial, table, trial_deficit, trial_slope, trial_potential)
+            _evaluate(trial, table, trial_deficit, trial_slope, trial_potential, trial_power, x, power)
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
             record = trial_norm < smallest_norm
@@ -357,7 +390,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             else:
                 if not energy_known:
                     if not pinv_formed:
-                        pseudo_inverse(compliance, compliance_pinv, matrix)
+                        pseudo_inverse(compliance, compliance_pinv, matrix[:, :m])
                         pinv_formed = True
                     energy, energy_terms = _energy(x, linear, compliance_pinv, phi, potential)
                     for i in range(m):
@@ -375,6 +408,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             for i in range(m):
                 x[i], residual[i] = trial[i], trial_residual[i]
                 deficit[i], slope[i], potential[i] = trial_deficit[i], trial_slope[i], trial_potential[i]
+                power[i] = trial_power[i]
             break
         if not accepted:
             break
@@ -415,7 +449,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     frequency = np.full((n_designs, n_levels), np.nan)
     damping = np.full((n_designs, n_levels), np.nan)
     work = np.empty((N_WORK_ROWS, m))
-    matrix = np.empty((m, m))
+    matrix = np.empty((m, m + 1))
     compliance_pinv = np.empty((m, m))
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))

@@ -20,7 +20,8 @@ from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_tangent)
 from nonlinear.qsma import MACROSLIP, qsma_reference
-from nonlinear.qsma_kernel import MACROSLIP_SLOPE, N_LAW, STICTION, _convex_between, _law_table, slip_law
+from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table, _slip_power,
+                                   slip_law)
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import asb_data_folder, read_asb_superelement
 from test_qsma import REDUCED_MASS, two_body_space
@@ -131,6 +132,28 @@ def test_compiled_slip_law_is_the_slip_laws_module(model):
     slope = np.minimum(slip_laws.slip_deficit_slope(x, *constants), constants[1] + constants[0] / (constants[2] + 1))
     np.testing.assert_allclose(fused[:, 1], slope, rtol=1e-13, atol=0)
     np.testing.assert_allclose(fused[:, 2], slip_laws.slip_deficit_potential(x, *constants), rtol=1e-13, atol=0)
+
+
+def test_slip_power_from_a_nearby_base_is_the_power_itself():
+    """The Newton trial's slip power r |x|^(chi+1) from the iterate's by the binomial series is as accurate as
+    the direct power (``qsma_kernel._power``: within (2 + |(chi+1) log2 |x||) ulp of the exact value, here
+    x87 extended precision, and one more for the factor r), give or take 2 ulp, for every exponent of Table 3's range and relative changes of
+    |x| up to NEAR (either sign, either side of the base); where the change is larger or an end is in
+    macroslip it is the direct power."""
+    rng = np.random.default_rng(6)
+    for _ in range(2000):
+        exponent, r = rng.uniform(1e-3, 1.0), 10 ** rng.uniform(-20, 37)
+        base = rng.choice([-1, 1]) * 10 ** rng.uniform(-12, -1e-3)
+        delta = rng.choice([-1, 1]) * 10 ** rng.uniform(-16, np.log10(NEAR))
+        x = base * (1 + delta)
+        exact = float(np.longdouble(r) * np.abs(np.longdouble(x)) ** np.longdouble(exponent))
+        bound = (3 + abs(exponent * np.log2(abs(x)))) * np.spacing(exact)
+        assert abs(_slip_power(x, exponent, r) - exact) <= bound
+        series = _slip_power(x, exponent, r, base, _slip_power(base, exponent, r))
+        assert abs(series - exact) <= bound + 2 * np.spacing(exact), (exponent, base, delta)
+    base = 0.5
+    for x in (base * (1 + 3 * NEAR), 1.0 + 1e-9):  # too far, or in macroslip: the direct power, exactly
+        assert _slip_power(x, 0.4, 2.0, base, 123.0) == _slip_power(x, 0.4, 2.0)
 
 
 def test_energy_is_convex_where_the_kernel_skips_the_energy_test():
