@@ -265,13 +265,14 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
         (diag(1 / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by LDL^T with the right-hand side carried along as the matrix's last column. The same equations give du_A = w_A / g'_A directly; only the elements
-    that stick need C w (none for the Iwan laws, whose elements all slip). Where a softening element's slope
-    was clipped at K_T (five-parameter Iwan, theta < 1, near macroslip) the true slope is tried first: where
-    the matrix stays positive definite with it the energy is locally convex, the step is Newton's own (a
-    descent direction, and quadratic convergence instead of a linear one at the rate of the clipping). Where
-    it is not (the stiction law softening, or a singular joint), the unsymmetric form (I - C diag(g')) du = -R
-    with the clipped slope is solved with pivoting instead. residual: R / phi; step: dx (out); newton_slope
+    1 / g' >= C), solved by LDL^T with the right-hand side carried along as the matrix's last column. The same
+    equations give du_A = w_A / g'_A directly; only the elements that stick need C w (none for the Iwan laws,
+    whose elements all slip). Where a softening element's slope was clipped at K_T (five-parameter Iwan,
+    theta < 1, near macroslip) the true slope is tried first: where the matrix stays positive definite with it
+    the energy is locally convex, the step is Newton's own (a descent direction, and quadratic convergence
+    instead of a linear one at the rate of the clipping). Where it is not (the stiction law softening, or a
+    singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is solved with
+    pivoting instead. residual: R / phi; step: dx (out); newton_slope
     (m,: the slopes in the matrix, in the order of A), matrix (m, m + 1), right (m,) and active (m,) are work
     space; x, power and table (``_law_table``): the iterate, its slip powers and the laws.
     Returns True if singular."""

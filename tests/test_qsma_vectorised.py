@@ -20,8 +20,8 @@ from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_tangent)
 from nonlinear.qsma import MACROSLIP, qsma_reference
-from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table, _slip_power,
-                                   slip_law)
+from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table,
+                                   _slip_power, slip_law)
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import asb_data_folder, read_asb_superelement
 from test_qsma import REDUCED_MASS, two_body_space
@@ -137,9 +137,9 @@ def test_compiled_slip_law_is_the_slip_laws_module(model):
 def test_slip_power_from_a_nearby_base_is_the_power_itself():
     """The Newton trial's slip power r |x|^(chi+1) from the iterate's by the binomial series is as accurate as
     the direct power (``qsma_kernel._power``: within (2 + |(chi+1) log2 |x||) ulp of the exact value, here
-    x87 extended precision, and one more for the factor r), give or take 2 ulp, for every exponent of Table 3's range and relative changes of
-    |x| up to NEAR (either sign, either side of the base); where the change is larger or an end is in
-    macroslip it is the direct power."""
+    x87 extended precision, and one more for the factor r), give or take 2 ulp, for every exponent of Table
+    3's range and relative changes of |x| up to NEAR (either sign, either side of the base); where the change
+    is larger or an end is in macroslip it is the direct power."""
     rng = np.random.default_rng(6)
     for _ in range(2000):
         exponent, r = rng.uniform(1e-3, 1.0), 10 ** rng.uniform(-20, 37)
