@@ -32,7 +32,7 @@ import numpy as np
 import scipy.linalg
 
 from nonlinear.stuck_modes import stuck_designs
-from reduction.superelement import Superelement
+from reduction.superelement import Superelement, tied_modes
 
 RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
 # Above 0.5 only one mode can match the reference (the MACs of M-orthonormal modes against it sum to 1);
@@ -65,7 +65,7 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
     """Unjoined modes of ``superelement`` without the joint-free rigid-body modes, and the reference mode.
 
     reference_mode: (n,) shape in the superelement's coordinates to track; default the first elastic mode
-    of the structure with all relative patch translations tied.
+    of the structure with all relative patch translations tied (``reduction.superelement.tied_modes``).
     """
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
     joint = superelement.relative_translation
@@ -80,19 +80,10 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
         eigenvalues = np.concatenate([np.zeros(moves_joint.sum()), eigenvalues[~rigid]])
     joint_modes = joint @ modes
     if reference_mode is None:
-        reference = tied_mode(eigenvalues, joint_modes, rigid_frequency)
+        reference = tied_modes(eigenvalues, joint_modes, rigid_frequency=rigid_frequency)[1][:, 0]
     else:
         reference = modes.T @ superelement.mass @ np.asarray(reference_mode, dtype=float)
     return JointSpace(eigenvalues, modes, joint_modes, reference / np.linalg.norm(reference), superelement)
-
-
-def tied_mode(eigenvalues, joint_modes, rigid_frequency: float = RIGID_FREQUENCY, index: int = 0) -> np.ndarray:
-    """Mode ``index`` above ``rigid_frequency`` with all relative patch translations held at zero, in modal
-    coordinates (unit norm): the upper-bound (rigid-joint) mode shape."""
-    null_basis = scipy.linalg.null_space(joint_modes)
-    tied_eigenvalues, tied_shapes = np.linalg.eigh(null_basis.T @ (eigenvalues[:, None] * null_basis))
-    elastic = np.flatnonzero(tied_eigenvalues > (2.0 * np.pi * rigid_frequency) ** 2)
-    return null_basis @ tied_shapes[:, elastic[index]]
 
 
 def stuck_stiffness_matrix(space: JointSpace, joint_stiffness) -> np.ndarray:

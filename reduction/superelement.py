@@ -146,16 +146,31 @@ def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch
     )
 
 
+def tied_modes(eigenvalues, joint_modes, n_modes: int = 1, rigid_frequency: float = 1.0) -> tuple:
+    """The lowest flexible modes with every relative patch translation held at zero, in the unjoined modal
+    coordinates: eigenvalues (n_modal,) rad^2/s^2 and joint_modes (3 n_patches, n_modal) m, the relative
+    translations per unit modal coordinate. The stiffness is diagonal there, so the held problem (projected on
+    the null space of joint_modes) keeps the accuracy of the unjoined eigenvalues.
+
+    Returns (eigenvalues (n_modes,) rad^2/s^2, shapes (n_modal, n_modes), unit norm = mass-normalised); modes
+    below ``rigid_frequency`` Hz (rigid motions the tied joint leaves free) are skipped.
+    """
+    null_basis = scipy.linalg.null_space(joint_modes)
+    tied_eigenvalues, tied_shapes = np.linalg.eigh(null_basis.T @ (eigenvalues[:, None] * null_basis))
+    flexible = np.flatnonzero(tied_eigenvalues > (2 * np.pi * rigid_frequency) ** 2)[:n_modes]
+    return tied_eigenvalues[flexible], null_basis @ tied_shapes[:, flexible]
+
+
 def stuck_joint_modes(superelement: Superelement, n_modes: int = 1,
                       rigid_frequency: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """The lowest flexible modes with the joint stuck: every relative patch translation (where the joint elements
-    act) held at zero, the upper bound of any joint design's low-amplitude frequencies.
+    act) held at zero, the upper bound of any joint design's low-amplitude frequencies (``tied_modes`` on the
+    unjoined modes).
 
     Returns (frequencies (n_modes,) Hz, shapes (n, n_modes) in the superelement's coordinates, mass-normalised);
     modes below ``rigid_frequency`` Hz (rigid motions the stuck joint leaves free) are skipped.
     """
-    held = scipy.linalg.null_space(superelement.relative_translation)
-    eigenvalues, shapes = scipy.linalg.eigh(held.T @ superelement.stiffness @ held,
-                                            held.T @ superelement.mass @ held)
-    flexible = np.flatnonzero(eigenvalues > (2 * np.pi * rigid_frequency) ** 2)[:n_modes]
-    return np.sqrt(eigenvalues[flexible]) / (2 * np.pi), held @ shapes[:, flexible]
+    eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
+    tied_eigenvalues, shapes = tied_modes(eigenvalues, superelement.relative_translation @ modes, n_modes,
+                                          rigid_frequency)
+    return np.sqrt(tied_eigenvalues) / (2 * np.pi), modes @ shapes
