@@ -181,15 +181,16 @@ def pseudo_inverse(matrix, inverse, factor):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
     eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
     (1-norm condition number, an upper bound of the spectral one, below FACTORED_CONDITION) no eigenvalue is
-    dropped and the inverse comes from its LDL^T factor (``factor``, same shape, is work space); otherwise
-    from its eigen-decomposition."""
+    dropped and the inverse comes from its LDL^T factor, the identity carried along (``factor``, (n, 2 n), is
+    work space); otherwise from its eigen-decomposition."""
     n = matrix.shape[0]
-    factor[:] = matrix
-    if ldl_eliminate(factor, n, n):
-        for k in range(n):
-            for i in range(n):
-                inverse[k, i] = 1.0 if i == k else 0.0
-            _ldl_substitute(factor, inverse[k], n)
+    for i in range(n):
+        for j in range(n):
+            factor[i, j] = matrix[i, j]
+            factor[i, n + j] = 1.0 if i == j else 0.0
+    if ldl_eliminate(factor, n, 2 * n):
+        for k in range(n):  # column k of the (symmetric) inverse
+            _ldl_back_substitute(factor, n, n + k, inverse[k])
         if _norm_1(matrix) * _norm_1(inverse) < FACTORED_CONDITION:
             return
     values, vectors = np.linalg.eigh(matrix)
@@ -215,17 +216,14 @@ def _norm_1(matrix):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _ldl_substitute(factor, b, n):
-    """Solve L D L^T x = b[:n] in place for the factor of ``ldl_eliminate(factor, n, n)``."""
-    for j in range(n):  # D^-1 L^-1 b, column by column of L (rows of the factor)
-        b[j] *= factor[j, j]
+def _ldl_back_substitute(factor, n, column, out):
+    """The solution x = L^-T D^-1 c of L D L^T x = b into out[:n], from ``ldl_eliminate(factor, n, width)``
+    having carried b along in ``column`` (which then holds c = L^-1 b)."""
+    for j in range(n - 1, -1, -1):
+        total = factor[j, column]
         for i in range(j + 1, n):
-            b[i] -= factor[j, i] * b[j]
-    for j in range(n - 1, -1, -1):  # L^-T
-        total = 0.0
-        for i in range(j + 1, n):
-            total += factor[j, i] * b[i]
-        b[j] -= total * factor[j, j]
+            total -= factor[j, i] * out[i]
+        out[j] = total * factor[j, j]
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
@@ -272,10 +270,9 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
     the energy is locally convex, the step is Newton's own (a descent direction, and quadratic convergence
     instead of a linear one at the rate of the clipping). Where it is not (the stiction law softening, or a
     singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is solved with
-    pivoting instead. residual: R / phi; step: dx (out); newton_slope
-    (m,: the slopes in the matrix, in the order of A), matrix (m, m + 1), right (m,) and active (m,) are work
-    space; x, power and table (``_law_table``): the iterate, its slip powers and the laws.
-    Returns True if singular."""
+    pivoting instead. residual: R / phi; step: dx (out); newton_slope (m,: the slopes in the matrix, in the
+    order of A), matrix (m, m + 1 or wider), right (m,) and active (m,) are work space; x, power and table
+    (``_law_table``): the iterate, its slip powers and the laws. Returns True if singular."""
     m = residual.size
     n_active = 0
     clipped = False
@@ -297,11 +294,7 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             newton_slope[a] = slope[active[a]]
         factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix)
     if factored:
-        for j in range(n_active - 1, -1, -1):  # w_A = L^-T D^-1 (L^-1 (-R_A)), the last held in column n_active
-            total = matrix[j, n_active]
-            for i in range(j + 1, n_active):
-                total -= matrix[j, i] * right[i]
-            right[j] = total * matrix[j, j]
+        _ldl_back_substitute(matrix, n_active, n_active, right)  # w_A
         for a in range(n_active):  # dx_A = w_A / (phi_A g'_A)
             step[active[a]] = right[a] / newton_slope[a]
     else:
@@ -391,7 +384,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             else:
                 if not energy_known:
                     if not pinv_formed:
-                        pseudo_inverse(compliance, compliance_pinv, matrix[:, :m])
+                        pseudo_inverse(compliance, compliance_pinv, matrix)
                         pinv_formed = True
                     energy, energy_terms = _energy(x, linear, compliance_pinv, phi, potential)
                     for i in range(m):
@@ -450,7 +443,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     frequency = np.full((n_designs, n_levels), np.nan)
     damping = np.full((n_designs, n_levels), np.nan)
     work = np.empty((N_WORK_ROWS, m))
-    matrix = np.empty((m, m + 1))
+    matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
     compliance_pinv = np.empty((m, m))
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
