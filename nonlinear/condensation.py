@@ -86,6 +86,42 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
     return JointSpace(eigenvalues, modes, joint_modes, reference / np.linalg.norm(reference), superelement)
 
 
+class JointMechanisms(NamedTuple):
+    """Relative rigid motions of the halves that move the joint only tangentially (a uniform slide in x or y,
+    the twist about the normal; DESIGN.md section 5.1, deep macroslip): with every tangential element in
+    macroslip nothing but the slip forces holds them, so their equilibrium is a balance of slip forces.
+
+    tangential: (k, 2 n_patches) orthonormal tangential joint motions d_j (m per unit coordinate), (x, y) per
+    patch; rigid: (k, n_modes) the same motions in the joint space's modal coordinates (zero on the elastic
+    modes), so that a design's mode shape psi loads mechanism j by alpha (rigid_j . psi) (paper Eq. 10 projected
+    on the rigid motion: d_j^T f_t = alpha rigid_j^T psi, f_t the tangential element forces).
+    """
+
+    tangential: np.ndarray
+    rigid: np.ndarray
+
+
+def joint_mechanisms(space: JointSpace, rigid_frequency: float = RIGID_FREQUENCY) -> JointMechanisms:
+    """The tangential mechanisms of ``space``: combinations of its rigid-body modes whose normal joint
+    translations vanish (to 1e-9 of the largest joint motion), orthonormalised in the tangential joint motion."""
+    rigid = np.flatnonzero(space.eigenvalues < (2.0 * np.pi * rigid_frequency) ** 2)
+    n_patches = space.superelement.n_patches
+    rows = (np.arange(n_patches)[:, None] * 3 + np.arange(3)).reshape(n_patches, 3)
+    tangential_rows, normal_rows = rows[:, :2].ravel(), rows[:, 2]
+    motion = space.joint_modes[:, rigid]
+    scale = np.abs(motion).max() if motion.size else 1.0
+    _, singular_values, right = np.linalg.svd(motion[normal_rows], full_matrices=True)
+    rank = int(np.sum(singular_values > 1e-9 * scale))
+    combinations = right[rank:].T  # (n_rigid, k): no normal joint motion
+    tangential = motion[tangential_rows] @ combinations
+    left, values, rotation = np.linalg.svd(tangential, full_matrices=False)
+    keep = values > 1e-9 * scale
+    orthonormal = combinations @ rotation[keep].T / values[keep]  # tangential motion of these: left[:, keep]
+    modal = np.zeros((int(keep.sum()), space.eigenvalues.size))
+    modal[:, rigid] = orthonormal.T
+    return JointMechanisms(np.ascontiguousarray(left[:, keep].T), modal)
+
+
 def stuck_stiffness_matrix(space: JointSpace, joint_stiffness) -> np.ndarray:
     """A = diag(lambda) + Phi^T diag(k) Phi, (..., n_modes, n_modes) N/m per unit modal mass, for joint
     tangents k of shape (..., 3 n_patches)."""

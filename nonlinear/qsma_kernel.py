@@ -40,11 +40,20 @@ from nonlinear.stuck_modes import FAST_MATH, ldl_eliminate, solve_dense
 INLINE = "always"
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
 # macroslip (or the Newton matrix is singular): the halves slide freely.
-CONVERGED, NOT_CONVERGED, UNRESTRAINED = 0, 1, 2
+# UNBALANCED: the condensed residual vanishes but the slip forces do not balance the load on a mechanism.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED = 0, 1, 2, 3
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
+FORCE_TARGET = 1e-12  # ... and until the slip forces balance the load on the mechanisms to this ...
+FORCE_ACCEPT = 1e-9  # ... accept below this (``_mechanism_imbalance``: round-off eps x slip ratio, 1e-11 at 1e4)
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
+# A Newton step longer than STEP_LIMIT (1 + max|x|) in scaled slip is shortened to it and the Newton matrix is
+# shifted (``_newton_step``) from then on in the level: along a mechanism whose elements all slip the matrix is
+# singular and the full step runs off to |x| ~ 1e16, where E's round-off hides every change. The shift starts at
+# SHIFT, grows tenfold on each step the line search shortens and shrinks tenfold on each full step.
+STEP_LIMIT = 4.0
+SHIFT = 1e-6
 CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken without the energy (E convex) ...
 REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
@@ -52,10 +61,10 @@ FACTORED_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenval
 NEAR = 1e-4  # a slip power within this relative change of |x| comes from the iterate's by a series (``_slip_power``)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential, the
 # scaled residual and the slip power r min(|x|, 1)^(chi+1); then the Newton step in x, the slopes in the Newton
-# matrix, the level's linear joint motion and the slipping elements' Newton solution w_A.
+# matrix, the level's linear joint motion, the slipping elements' Newton solution w_A and the element forces.
 X, TRIAL, DEFICIT, SLOPE, POTENTIAL, TRIAL_DEFICIT, TRIAL_SLOPE, TRIAL_POTENTIAL = range(8)
-RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT, POWER, TRIAL_POWER = range(8, 16)
-N_WORK_ROWS = 16
+RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT, POWER, TRIAL_POWER, FORCE = range(8, 17)
+N_WORK_ROWS = 17
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -227,10 +236,10 @@ def _ldl_back_substitute(factor, n, column, out):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix):
-    """The upper triangle of diag(phi_A / slopes) - C_AA into ``matrix`` (returned) for the n_active slipping
-    elements ``active[:n_active]`` (slopes in their order); read along contiguous rows of C where every element
-    slips (the common case for the Iwan laws)."""
+def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix, shift):
+    """The upper triangle of diag((1 + shift) phi_A / slopes) - C_AA into ``matrix`` (returned) for the n_active
+    slipping elements ``active[:n_active]`` (slopes in their order); read along contiguous rows of C where every
+    element slips (the common case for the Iwan laws)."""
     if n_active == compliance.shape[0]:
         for a in range(n_active):
             for b in range(a + 1, n_active):
@@ -242,34 +251,39 @@ def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix):
                 matrix[a, b] = -compliance[i, active[b]]
     for a in range(n_active):
         i = active[a]
-        matrix[a, a] = phi[i] / slopes[a] - compliance[i, i]
+        matrix[a, a] = (1.0 + shift) * phi[i] / slopes[a] - compliance[i, i]
     return matrix
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _factor_with_right_side(compliance, phi, slopes, residual, active, n_active, matrix):
+def _factor_with_right_side(compliance, phi, slopes, residual, active, n_active, matrix, shift):
     """``_slipping_matrix`` with -R_A in column n_active, eliminated by ``ldl_eliminate``; False if the matrix
     is not positive definite."""
     for a in range(n_active):
         matrix[a, n_active] = -residual[active[a]] * phi[active[a]]
-    return ldl_eliminate(_slipping_matrix(compliance, phi, slopes, active, n_active, matrix), n_active, n_active + 1)
+    return ldl_eliminate(_slipping_matrix(compliance, phi, slopes, active, n_active, matrix, shift), n_active,
+                         n_active + 1)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, power, table):
-    """Newton step of R(u) = u - linear - C g(u) in u = phi x, through the slipping elements A only
-    (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), du = C w - R and
+def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, power, table,
+                 shift):
+    """Newton step of R(u) = u - linear - C g(u) in u = phi x, shifted by ``shift`` (a Levenberg-Marquardt
+    step, the Jacobian I - C g' replaced by (1 + shift) I - C g'), through the slipping elements A only
+    (g'_i = slope_i / phi_i > 0): with w = g' du (zero off A), (1 + shift) du = C w - R and
 
-        (diag(1 / g'_A) - C_AA) w_A = -R_A,
+        (diag((1 + shift) / g'_A) - C_AA) w_A = -R_A,
 
     a symmetric matrix, positive definite wherever the energy is convex (C^-1 >= g' is equivalent to
-    1 / g' >= C), solved by LDL^T with the right-hand side carried along as the matrix's last column. The same
+    1 / g' >= C) and the shift positive (then also along a mechanism on which every element slips, where the
+    unshifted matrix is singular; as the shift grows the step turns towards -R / (1 + shift) = -C grad E / (1 +
+    shift), a descent direction), solved by LDL^T with the right-hand side carried along as the matrix's last column. The same
     equations give du_A = w_A / g'_A directly; only the elements that stick need C w (none for the Iwan laws,
     whose elements all slip). Where a softening element's slope was clipped at K_T (five-parameter Iwan,
     theta < 1, near macroslip) the true slope is tried first: where the matrix stays positive definite with it
     the energy is locally convex, the step is Newton's own (a descent direction, and quadratic convergence
     instead of a linear one at the rate of the clipping). Where it is not (the stiction law softening, or a
-    singular joint), the unsymmetric form (I - C diag(g')) du = -R with the clipped slope is solved with
+    singular joint), the unsymmetric form ((1 + shift) I - C diag(g')) du = -R with the clipped slope is solved with
     pivoting instead. residual: R / phi; step: dx (out); newton_slope (m,: the slopes in the matrix, in the
     order of A), matrix (m, m + 1 or wider), right (m,) and active (m,) are work space; x, power and table
     (``_law_table``): the iterate, its slip powers and the laws. Returns True if singular."""
@@ -288,11 +302,11 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             newton_slope[a] = slope[i]
             if slope[i] == table[i, MACROSLIP_SLOPE] and abs(x[i]) < 1.0:  # r |x|^(chi+1) (slope factor)
                 newton_slope[a] = power[i] * table[i, 4]
-        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix)
+        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix, shift)
     if not factored:
         for a in range(n_active):
             newton_slope[a] = slope[active[a]]
-        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix)
+        factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix, shift)
     if factored:
         _ldl_back_substitute(matrix, n_active, n_active, right)  # w_A
         for a in range(n_active):  # dx_A = w_A / (phi_A g'_A)
@@ -303,20 +317,20 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             right[a] = -residual[i]
             for b in range(n_active):
                 j = active[b]
-                matrix[a, b] = (1.0 if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
+                matrix[a, b] = (1.0 + shift if i == j else 0.0) - compliance[i, j] * slope[j] / phi[i]
         if solve_dense(matrix, right, n_active):
             return True
         for a in range(n_active):  # dx_A, and from it w_A
             step[active[a]] = right[a]
             right[a] *= slope[active[a]]
-    if n_active < m:  # the sticking elements: du = C w - R
+    if n_active < m:  # the sticking elements: du = (C w - R) / (1 + shift)
         for i in range(m):
             if slope[i] > 0.0:
                 continue
             coupling = 0.0
             for a in range(n_active):
                 coupling += compliance[i, active[a]] * right[a]
-            step[i] = coupling / phi[i] - residual[i]
+            step[i] = (coupling / phi[i] - residual[i]) / (1.0 + shift)
     return False
 
 
@@ -341,10 +355,49 @@ def _convex_between(x, trial, slope, trial_slope, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _solve_level(linear, compliance, phi, table, work, matrix, active, compliance_pinv, pinv_formed):
+def _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load, modal_force, force):
+    """How far the element forces are from balancing the load on the joint's mechanisms: the full equations
+    (paper Eq. 10) projected on each relative rigid motion d_j that moves the joint only tangentially
+    (``nonlinear.condensation.joint_mechanisms``) read d_j^T f = alpha rigid_j^T psi, in newtons, with no term
+    that grows with the motion along d_j. Returns max_j |d_j^T f - alpha rigid_j^T psi| over
+    sum_i |f_i| + alpha sum_j |rigid_j^T psi| (a scale of the forces, not of the displacements: an iterate that
+    ran off along a mechanism, where the condensed residual is lost under the round-off of |r|, is off by a whole
+    slip force here).
+
+    The element force f = K_T phi x - g (N) is formed without cancellation beyond macroslip, where it is the
+    constant K_T phi - r shape - stiction drop; stiffness: K_T phi (N per unit scaled slip; K_T for stuck
+    elements, whose law constants vanish); mechanisms: (k, m); mechanism_load: (k,) rigid_j^T psi; modal_force:
+    alpha; force: (m,) work row for f."""
+    size = 0.0
+    for i in range(x.size):
+        if abs(x[i]) < 1.0 or table[i, MACROSLIP_SLOPE] == 0.0:
+            force[i] = stiffness[i] * x[i] - deficit[i]
+        else:
+            force[i] = (table[i, MACROSLIP_SLOPE] - power[i] * table[i, 2] - table[i, STICTION]) * (
+                1.0 if x[i] > 0.0 else -1.0)
+        size += abs(force[i])
+    for j in range(mechanisms.shape[0]):
+        size += abs(modal_force * mechanism_load[j])
+    worst = 0.0
+    for j in range(mechanisms.shape[0]):
+        total = -modal_force * mechanism_load[j]
+        for i in range(x.size):
+            total += mechanisms[j, i] * force[i]
+        worst = max(worst, abs(total))
+    return worst / max(size, 1e-300)
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _solve_level(linear, compliance, phi, table, work, matrix, active, compliance_pinv, pinv_formed, stiffness,
+                 mechanisms, mechanism_load, joint_shape, stuck_force, amplitude_control):
     """Damped Newton for one design at one level from work[X] (the start) to work[X]; table: the elements'
     ``law_constants`` (m, N_LAW). Returns (status, pinv_formed): C^+ is formed into compliance_pinv (m, m) the
-    first time the energy is needed (pinv_formed False until then) and carried from level to level."""
+    first time the energy is needed (pinv_formed False until then) and carried from level to level.
+
+    Converged means both: the condensed residual within ACCEPT_TOLERANCE of its largest term, and the element
+    forces balancing the load on every mechanism within FORCE_ACCEPT (``_mechanism_imbalance``; stiffness,
+    mechanisms, mechanism_load as there; the modal force is stuck_force - b^T g under amplitude control, with
+    stuck_force = lambda_1 q, and stuck_force itself under force control)."""
     m = linear.size
     x, trial, residual, trial_residual, step = work[X], work[TRIAL], work[RESIDUAL], work[TRIAL_RESIDUAL], work[STEP]
     deficit, slope, potential = work[DEFICIT], work[SLOPE], work[POTENTIAL]
@@ -352,6 +405,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     power, trial_power = work[POWER], work[TRIAL_POWER]
     _evaluate(x, table, deficit, slope, potential, power)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
+    imbalance = 1.0
     singular = False
     # A full step that halves |R| is taken without the energy, but after REVISITS such steps that set no record
     # (|R| not below the smallest met so far in this level) only those that do: from then on such steps set
@@ -360,13 +414,26 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     # the cycle halving |R| back to its best).
     smallest_norm = norm
     revisits = 0
+    shift = 0.0
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
-            break
+            imbalance = _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load,
+                                             _modal_force(stuck_force, joint_shape, deficit, amplitude_control),
+                                             work[FORCE])
+            if imbalance <= FORCE_TARGET:
+                break
         singular = _newton_step(residual, compliance, phi, slope, step, work[NEWTON_SLOPE], matrix, work[RIGHT], active,
-                                x, power, table)
+                                x, power, table, shift)
         if singular:
             break
+        largest_step, largest_slip = 0.0, 0.0
+        for i in range(m):
+            largest_step = max(largest_step, abs(step[i]))
+            largest_slip = max(largest_slip, abs(x[i]))
+        capped = largest_step > STEP_LIMIT * (1.0 + largest_slip)
+        if capped:
+            for i in range(m):
+                step[i] *= STEP_LIMIT * (1.0 + largest_slip) / largest_step
         energy_known = False
         energy, energy_terms, descent = 0.0, 0.0, 0.0
         length = 1.0
@@ -378,7 +445,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             trial_error, trial_norm = _residual(trial, linear, compliance, phi, trial_deficit, trial_residual)
             smaller = trial_norm < (1.0 - 1e-4 * length) * norm
             record = trial_norm < smallest_norm
-            if (length == 1.0 and trial_norm <= CONTRACTION * norm and (record or revisits < REVISITS)
+            if (length == 1.0 and not capped and trial_norm <= CONTRACTION * norm and (record or revisits < REVISITS)
                     and _convex_between(x, trial, slope, trial_slope, table)):
                 revisits += 0 if record else 1
             else:
@@ -406,8 +473,15 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             break
         if not accepted:
             break
+        if capped or length < 1.0:
+            shift = max(10.0 * shift, SHIFT)
+        elif shift > 0.0:
+            shift = 0.1 * shift if shift > SHIFT else 0.0
     if error <= ACCEPT_TOLERANCE:
-        return CONVERGED, pinv_formed
+        imbalance = _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load,
+                                         _modal_force(stuck_force, joint_shape, deficit, amplitude_control),
+                                         work[FORCE])
+        return (CONVERGED if imbalance <= FORCE_ACCEPT else UNBALANCED), pinv_formed
     beyond_macroslip = True
     for i in range(m):
         if table[i, MACROSLIP_SLOPE] > 0.0 and linear[i] != 0.0 and abs(x[i]) < 1.0:
@@ -415,9 +489,20 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, pinv_formed
 
 
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
+    """alpha = lambda_1 q - b^T g under amplitude control (stuck_force = lambda_1 q), else the level itself."""
+    if not amplitude_control:
+        return stuck_force
+    modal_deficit = 0.0
+    for i in range(deficit.size):
+        modal_deficit += joint_shape[i] * deficit[i]
+    return stuck_force - modal_deficit
+
+
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
-                 amplitude_control, linear_damping):
+                 amplitude_control, linear_damping, stiffness, mechanisms, mechanism_load):
     """All designs, all levels, and their modal backbone.
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
@@ -426,7 +511,12 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     amplitude control (the tracked mode removed, here, design by design), C under force control; phi, r, s,
     chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear elements (slip ratio 0);
     eigenvalue: (n_designs,) lambda_1;
-    joint_shape: (n_designs, m) b_t; linear_damping: zeta_0.
+    joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; stiffness: (n_designs, m) the elements' stuck
+    tangents K_T (N/m); mechanisms: (k, m) the joint's tangential mechanisms d_j and mechanism_load:
+    (n_designs, k) rigid_j^T psi (``nonlinear.condensation.joint_mechanisms``), for the force balance on them.
+    Each level starts from the parabola through the last three converged levels, or fewer, never across a level
+    that failed (after one, from the last converged level scaled to this one); a level that fails from there is
+    solved again from the stuck solution.
     Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
     (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha, frequency omega (rad/s),
     damping zeta, each (n_designs, L); NaN where not converged (the prescribed level is kept).
@@ -447,10 +537,13 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     compliance_pinv = np.empty((m, m))
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
+    stiffness_scaled = np.empty(m)
     active = np.empty(m, dtype=np.int64)
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         _law_table(r[d], s[d], chi[d], theta[d], table)
+        for i in range(m):
+            stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
         mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
         for i in range(m):
             for j in range(m):
@@ -486,10 +579,19 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                     x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
+            stuck_force = eigenvalue[d] * value if amplitude_control else value
             code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                             compliance_pinv, pinv_formed)
+                                             compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
+                                             mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
+            if code != CONVERGED and previous >= 0:
+                for i in range(m):
+                    x[i] = linear[i] / phi[d, i]
+                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
+                                                 compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
+                                                 mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             status[d, level] = code
             if code != CONVERGED:
+                earliest, before = -1, -1
                 continue
             earliest, before, previous = before, previous, level
             modal_deficit, dissipation = 0.0, 0.0

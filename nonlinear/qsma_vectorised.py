@@ -13,14 +13,17 @@ from __future__ import annotations
 import numpy as np
 
 from nonlinear import qsma_kernel
-from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, stuck_modes
+from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, joint_mechanisms, stuck_modes
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, MACROSLIP, NOT_CONVERGED, QSMAResult
 
 NO_STUCK_MODE = "no stuck mode found below the modal split's cutoff"
-# Reason codes 0 to 4 (converged, kernel failure, macroslip, ambiguous target, no stuck mode) and their texts,
-# an object array: indexing it with the codes gives the reason strings without copying them.
-REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE], dtype=object)
+UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma_kernel.FORCE_ACCEPT:g} of the "
+              "forces (deep macroslip)")
+# Reason codes 0 to 5 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
+# mechanism) and their texts, an object array: indexing it with the codes gives the reason strings without
+# copying them.
+REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED], dtype=object)
 
 
 def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces=None,
@@ -44,15 +47,18 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)
+    mechanisms = joint_mechanisms(space)
     joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
         levels, np.ascontiguousarray(linear_per_level), modes.compliance,
         *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), tangential.stuck, modes.eigenvalue, b,
-        amplitude_control, float(linear_damping))
+        amplitude_control, float(linear_damping), np.ascontiguousarray(tangential.stiffness),
+        mechanisms.tangential, np.ascontiguousarray(modes.shape @ mechanisms.rigid.T))
 
     converged = status == qsma_kernel.CONVERGED
     code = np.where(converged, 0, 1).astype(np.int8)
     if not amplitude_control:
         code[status == qsma_kernel.UNRESTRAINED] = 2
+    code[status == qsma_kernel.UNBALANCED] = 5
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
     converged &= code == 0
