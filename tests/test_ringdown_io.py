@@ -13,8 +13,8 @@ import pyuff
 import pytest
 import scipy.io
 
-from nonlinear.measured_backbone import measured_backbone
-from nonlinear.ringdown_io import STANDARD_GRAVITY, RingDownFileError, read_ringdown
+from experiment.backbone import measured_backbone
+from experiment.ringdown_files import STANDARD_GRAVITY, RingDownFileError, read_ringdown
 from pipeline.cli import main
 
 SAMPLE_RATE = 2000.0  # Hz

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from nonlinear.condensation import joint_space
-from nonlinear.decay_cycles import decay_cycles
-from nonlinear.hilbert import average_backbones, freevib
-from nonlinear.modal_filter import band_pass, modal_coordinates
+from experiment.decay_cycles import decay_cycles
+from experiment.hilbert import average_backbones, freevib
+from experiment.modal_filter import band_pass, modal_coordinates
 from nonlinear.qsma import qsma_reference
 from nonlinear.transient import Hammer, hammer_impulse, ring_down, sensor_modes
 from reduction.superelement import asb_data_folder, read_asb_superelement

@@ -1,4 +1,4 @@
-"""Subcommands of the nonlinear stage for the ``surrogacy`` console script.
+"""Subcommands of the experiment stage for the ``surrogacy`` console script.
 
 ``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
 measured ring-down (paper section 3.1, Fig. 3), written as a CSV with units, a PNG plot and a JSON sidecar with
@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nonlinear.hilbert import freevib
-from nonlinear.measured_backbone import measured_backbone, plot_backbone, write_backbone_csv
-from nonlinear.ringdown_io import RingDownFileError
+from experiment.hilbert import freevib
+from experiment.backbone import measured_backbone, plot_backbone, write_backbone_csv
+from experiment.ringdown_files import RingDownFileError
 from pipeline.files import sha256_file, write_json
 
 
@@ -55,7 +55,7 @@ def run_freevib(arguments: argparse.Namespace) -> None:
 
 
 def register(subparsers) -> None:
-    """Add the nonlinear stage's subcommands to the ``surrogacy`` argument parser."""
+    """Add the experiment stage's subcommands to the ``surrogacy`` argument parser."""
     defaults = keyword_defaults(freevib) | keyword_defaults(measured_backbone)
     command = subparsers.add_parser(
         "freevib", help="amplitude-dependent frequency and damping from a ring-down (Hilbert / FreeVib)",

@@ -172,7 +172,7 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
             noise_floor_factor: float = 3.0, feldman: bool = False) -> InstantaneousBackbone:
     """Instantaneous natural frequency and damping along a single-mode free decay (paper Eqs. 1-4).
 
-    time: (n,) s, uniformly sampled. signal: (n,) one mode only (filter first: :mod:`nonlinear.modal_filter`),
+    time: (n,) s, uniformly sampled. signal: (n,) one mode only (filter first: :mod:`experiment.modal_filter`),
     a displacement, velocity or acceleration as given by ``quantity``. mode_frequency_hz: a guess of the
     mode's natural frequency, Hz, which sets the time scales below.
     smoothing_periods: Savitzky-Golay window of the derivatives, in periods.

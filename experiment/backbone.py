@@ -2,9 +2,9 @@
 
 Paper section 3.1 and Fig. 3: the ring-downs of several hammer hits are filtered to one mode, the Hilbert
 (FreeVib) estimator gives natural frequency and damping against displacement amplitude, and the hits are
-averaged on one amplitude grid. The cycle-by-cycle estimator (:mod:`nonlinear.decay_cycles`) runs on the same
+averaged on one amplitude grid. The cycle-by-cycle estimator (:mod:`experiment.decay_cycles`) runs on the same
 filtered data as an independent check. Problems with a file or with one of its channels raise
-:class:`~nonlinear.ringdown_io.RingDownFileError` naming the file and the channel.
+:class:`~experiment.ringdown_files.RingDownFileError` naming the file and the channel.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from nonlinear.decay_cycles import decay_cycles
-from nonlinear.hilbert import (Backbone, InstantaneousBackbone, RingDownSignalError, amplitude_grid,
+from experiment.decay_cycles import decay_cycles
+from experiment.hilbert import (Backbone, InstantaneousBackbone, RingDownSignalError, amplitude_grid,
                                average_backbones, freevib)
-from nonlinear.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
-from nonlinear.ringdown_io import RingDown, RingDownFileError, read_ringdown
+from experiment.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
+from experiment.ringdown_files import RingDown, RingDownFileError, read_ringdown
 from pipeline.files import atomic_path
 
 
@@ -56,7 +56,7 @@ def mode_signals(record: RingDown, mode_frequency_hz: float, band_hz: tuple[floa
 
     With ``mode_shapes`` (n_channels, n_modes) the hit is modally filtered (pseudo-inverse) and column
     ``mode_index`` kept; otherwise the channels are band-passed and the mode's shape is estimated from them
-    (:func:`~nonlinear.modal_filter.dominant_shape`). ``per_channel`` keeps each channel divided by its shape
+    (:func:`~experiment.modal_filter.dominant_shape`). ``per_channel`` keeps each channel divided by its shape
     entry as a separate record (a check of consistency between sensors) instead of one modal coordinate.
     """
     low, high = band_hz
@@ -95,7 +95,7 @@ def measured_backbone(path: Path, mode_frequency_hz: float, *, band_hz: tuple[fl
     0.7 and 1.3 times the guess). mode_shapes: (n_channels, n_modes) shapes at the selected channels for modal
     filtering, or None to estimate the shape. channels: names to use (default all). grid_points: size of the
     log-spaced amplitude grid. cycles: window of the cycle estimator. freevib_options: passed to
-    :func:`~nonlinear.hilbert.freevib` (smoothing_periods, trim_periods, feldman, ...).
+    :func:`~experiment.hilbert.freevib` (smoothing_periods, trim_periods, feldman, ...).
     """
     band_hz = band_hz or (0.7 * mode_frequency_hz, 1.3 * mode_frequency_hz)
     hits = [selected_channels(hit, channels) for hit in read_ringdown(path)] if channels else read_ringdown(path)
@@ -147,7 +147,7 @@ def write_backbone_csv(backbone: MeasuredBackbone, destination: Path) -> None:
     """Write the averaged backbones as CSV, header ``name [unit]``.
 
     spread: standard deviation over records (hits, channels); uncertainty: spread and the estimator's
-    standard error within the amplitude bin in quadrature (:class:`~nonlinear.hilbert.Backbone`).
+    standard error within the amplitude bin in quadrature (:class:`~experiment.hilbert.Backbone`).
     """
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         writer = csv.writer(stream)
