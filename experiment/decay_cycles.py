@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiment.hilbert import DISPLACEMENT_ORDER, InstantaneousBackbone, RingDownSignalError
+from experiment.hilbert import InstantaneousBackbone, RingDownSignalError
+from experiment.ringdown import DISPLACEMENT_ORDER
 
 
 def zero_crossings(time: np.ndarray, signal: np.ndarray) -> np.ndarray:

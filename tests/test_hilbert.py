@@ -12,8 +12,9 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.special import ellipk
 
+from experiment.backbone import average_backbones
 from experiment.decay_cycles import decay_cycles
-from experiment.hilbert import average_backbones, freevib
+from experiment.hilbert import freevib
 from experiment.modal_filter import band_pass, modal_coordinates
 
 SAMPLE_RATE = 4000.0  # Hz: 40 samples per period of the 100 Hz test mode
