@@ -26,12 +26,14 @@ UFF 58
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
 import scipy.io
 
 from experiment.ringdown import RingDown, RingDownError
+from pipeline.files import atomic_path
 
 STANDARD_GRAVITY = 9.80665
 """m/s^2, for accelerations recorded in g."""
@@ -46,6 +48,9 @@ SIGNAL_UNITS = {
     "mm/s^2": ("acceleration", 1e-3), "g": ("acceleration", STANDARD_GRAVITY),
 }
 """Signal unit label -> (measured quantity, factor to SI: m, m/s or m/s^2)."""
+
+SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+"""Quantity -> the SI unit label the writers use."""
 
 UFF_SPECIFIC_DATA_TYPE = {8: "displacement", 11: "velocity", 12: "acceleration"}
 """UFF 58 ordinate specific data type codes of the quantities a ring-down may hold."""
@@ -267,3 +272,54 @@ def read_ringdown(path: Path) -> list[RingDown]:
     if reader is None:
         raise RingDownError(path, "file", f"unknown suffix '{path.suffix}' (known: {sorted(READERS)})")
     return reader(path)
+
+
+def common_layout(ring_downs: list[RingDown]) -> RingDown:
+    """The first hit, after checking that every hit has its channels, quantity and sample times (the layout a
+    .mat struct with one column per hit needs)."""
+    first = ring_downs[0]
+    for hit in ring_downs[1:]:
+        if (hit.channels, hit.quantity) != (first.channels, first.quantity) or not np.array_equal(hit.time,
+                                                                                                   first.time):
+            raise RingDownError(hit.source, hit.hit, "channels, quantity or sample times differ from the first hit's")
+    return first
+
+
+def write_ringdown_csv(ring_downs: list[RingDown], destination: Path) -> None:
+    """Write hits as one CSV (layout in the module docstring): a ``hit`` column numbering them from 1, time in s,
+    signals in SI units, every number in Python's shortest round-tripping form."""
+    first = common_layout(ring_downs)
+    with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["hit", "time [s]", *(f"{name} [{SI_UNITS[first.quantity]}]" for name in first.channels)])
+        for number, hit in enumerate(ring_downs, start=1):
+            writer.writerows([number, *row] for row in np.column_stack([hit.time, hit.signals.T]).tolist())
+
+
+def write_ringdown_mat(ring_downs: list[RingDown], destination: Path, struct: str = "ringdown") -> None:
+    """Write hits as one MATLAB struct (layout in the module docstring): ``time``, ``units`` and one
+    (n_samples, n_hits) matrix per channel. Channel names become MATLAB field names (characters other than
+    letters, digits and ``_`` replaced by ``_``)."""
+    first = common_layout(ring_downs)
+    fields = {"time": first.time, "units": f"s, {SI_UNITS[first.quantity]}"}
+    for row, name in enumerate(first.channels):
+        fields[re.sub(r"\W", "_", name)] = np.column_stack([hit.signals[row] for hit in ring_downs])
+    with atomic_path(destination) as temporary:
+        scipy.io.savemat(temporary, {struct: fields})
+
+
+def write_ringdown_uff58(ring_downs: list[RingDown], destination: Path) -> None:
+    """Write hits as UFF 58 time-response records (function type 1, ASCII): load case = hit number from 1,
+    response node = channel number from 1 (direction 1), the channel name in ID line 1, SI units."""
+    import pyuff
+
+    data_type = {quantity: code for code, quantity in UFF_SPECIFIC_DATA_TYPE.items()}
+    datasets = [pyuff.prepare_58(func_type=1, load_case_id=number, rsp_node=node, rsp_dir=1, ref_node=0, ref_dir=0,
+                                 id1=name, x=hit.time, data=signal, abscissa_spacing=1, abscissa_spec_data_type=17,
+                                 abscissa_axis_units_lab="s", ordinate_axis_units_lab=SI_UNITS[hit.quantity],
+                                 ordinate_spec_data_type=data_type[hit.quantity],
+                                 orddenom_spec_data_type=0, z_axis_spec_data_type=0, binary=0)
+                for number, hit in enumerate(ring_downs, start=1)
+                for node, (name, signal) in enumerate(zip(hit.channels, hit.signals), start=1)]
+    with atomic_path(destination) as temporary:
+        pyuff.UFF(str(temporary)).write_sets(datasets, mode="overwrite")

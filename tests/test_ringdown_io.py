@@ -14,8 +14,9 @@ import pytest
 import scipy.io
 
 from experiment.backbone import ringdown_backbone
-from experiment.ringdown import RingDownError
-from experiment.ringdown_files import STANDARD_GRAVITY, read_ringdown
+from experiment.ringdown import RingDown, RingDownError
+from experiment.ringdown_files import (STANDARD_GRAVITY, read_ringdown, write_ringdown_csv, write_ringdown_mat,
+                                       write_ringdown_uff58)
 from pipeline.cli import main
 
 SAMPLE_RATE = 2000.0  # Hz
@@ -193,3 +194,19 @@ def test_unknown_channel_is_refused(tmp_path, time):
     with pytest.raises(RingDownError) as error:
         ringdown_backbone(read_ringdown(path), FREQUENCY_HZ, channels=["root"])
     assert_names(error, path, "root", "no such channel")
+
+
+@pytest.mark.parametrize("suffix, rtol", [(".csv", 0.0), (".mat", 0.0), (".uff", 1e-6)])
+def test_written_ring_downs_read_back(tmp_path, time, suffix, rtol):
+    """Two hits of two channels written by the writer of each format read back with their times and signals
+    (UFF 58 ASCII keeps about 12 digits)."""
+    hits = [RingDown(time, np.array([acceleration_decay(time, level), 0.5 * acceleration_decay(time, level)]),
+                     ("tip", "root"), "acceleration", "synthetic", f"hit {k + 1}")
+            for k, level in enumerate((1.0, 0.7))]
+    writer = {".csv": write_ringdown_csv, ".mat": write_ringdown_mat, ".uff": write_ringdown_uff58}[suffix]
+    writer(hits, tmp_path / f"hits{suffix}")
+    records = read_ringdown(tmp_path / f"hits{suffix}")
+    assert len(records) == 2 and all(record.quantity == "acceleration" for record in records)
+    for record, hit in zip(records, hits):
+        np.testing.assert_allclose(record.time, hit.time, rtol=rtol)
+        np.testing.assert_allclose(record.signals, hit.signals, rtol=rtol)
