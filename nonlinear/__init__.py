@@ -1,0 +1,20 @@
+"""Joint model and its nonlinear modal analysis: friction elements, QSMA, transient ring-down.
+
+DESIGN.md section 5. Ring-downs (measured, or simulated here) are processed into backbones by ``experiment``.
+
+Friction elements (:mod:`nonlinear.jenkins`, :mod:`nonlinear.iwan`, :mod:`nonlinear.sliders`)
+    jenkins.backbone, .tangent, .dissipation          Jenkins element in closed form
+    iwan.four_parameter_*, iwan.five_parameter_*      Segalman's 4-parameter and the 5-parameter Iwan element
+    jenkins_sliders, iwan_sliders, slider_response    the same elements as parallel sliders, for time stepping
+Joint (:mod:`nonlinear.joint`, :mod:`nonlinear.parameters`)
+    patch_elements, random_designs, stuck_stiffness   a design's elements on the patches (Table 3 parameters)
+Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuck_modes`)
+    joint_space                 unjoined modes of a superelement and the joint's relative motion in them
+    stuck_modes, stuck_designs  linear modes with the joint stuck: one design, many designs (compiled)
+QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
+    qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
+    qsma_designs                the same over many designs at once
+Transient (:mod:`nonlinear.transient`)
+    ring_down                   Newmark free decay; its sensors are an ``experiment.ringdown.RingDown``
+    Hammer, hammer_impulse, sensor_modes
+"""

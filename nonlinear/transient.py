@@ -29,6 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from experiment.ringdown import RingDown
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import patch_elements, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import stuck_target_mode
@@ -38,14 +39,18 @@ NEWTON_TOLERANCE = 1e-10  # residual force relative to the largest inertia, stif
 MAX_NEWTON_ITERATIONS = 40
 
 
-class RingDown(NamedTuple):
-    """Sampled response: time (steps,) s; sensors (steps, n_sensors) m; modal_amplitude (steps,) the
-    projection q = phi_0^T M u on the tracked stuck mode (m kg^0.5); joint_displacement (steps,
-    3 n_patches) m; stuck_frequency omega_0 rad/s; unconverged_steps: steps whose Newton iterations
-    did not reach the tolerance (0 for a trustworthy run)."""
+class TransientResponse(NamedTuple):
+    """Sampled response of a simulated ring-down, samples along the last axis as in a measured one.
 
-    time: np.ndarray
-    sensors: np.ndarray
+    sensors: the sensor displacements as a :class:`~experiment.ringdown.RingDown` (signals (n_sensors,
+    n_samples) m, time (n_samples,) s), processed like a measured file by
+    :func:`experiment.backbone.ringdown_backbone`. modal_amplitude: (n_samples,) the projection
+    q = phi_0^T M u on the tracked stuck mode (m kg^0.5). joint_displacement: (3 n_patches, n_samples) m.
+    stuck_frequency: omega_0, rad/s. unconverged_steps: steps whose Newton iterations did not reach the
+    tolerance (0 for a trustworthy run).
+    """
+
+    sensors: RingDown
     modal_amplitude: np.ndarray
     joint_displacement: np.ndarray
     stuck_frequency: float
@@ -135,14 +140,14 @@ def sensor_modes(space: JointSpace, model: str, design, stuck_group: int | None 
 def ring_down(space: JointSpace, model: str, design, duration: float, time_step: float,
               initial_modal_velocity: float = 0.0, initial_modal_amplitude: float = 0.0,
               initial_velocity: np.ndarray | None = None, hammer: Hammer | None = None, linear_damping: float = 0.0,
-              stuck_group: int | None = None) -> RingDown:
+              stuck_group: int | None = None) -> TransientResponse:
     """Free decay of one design from an initial state.
 
     Modal start, in the shape of the tracked stuck mode phi_0: u(0) = initial_modal_amplitude phi_0 (an
     initial-condition start) and/or u'(0) = initial_modal_velocity phi_0 (m kg^0.5 / s). Physical start:
     initial_velocity (n_modes,) m kg^0.5 / s in the unjoined modal coordinates, added to the modal start, e.g.
     ``hammer_impulse`` for an ideal impulse at one point; or a ``hammer`` pulse from t = 0, integrated as a
-    load. duration, time_step: s. Returns every sample.
+    load. duration, time_step: s. Returns every sample; the sensors as a ring-down of displacements.
     """
     superelement = space.superelement
     elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
@@ -201,10 +206,13 @@ def ring_down(space: JointSpace, model: str, design, duration: float, time_step:
             unconverged += 1
         eta, velocity, acceleration, states = predicted, new_velocity, new_acceleration, trial_states
         history[step] = eta
-    return RingDown(
-        time=np.arange(n_steps) * time_step,
-        sensors=history @ (superelement.sensors @ space.modes).T,
+    recovery = superelement.sensors @ space.modes
+    return TransientResponse(
+        sensors=RingDown(np.arange(n_steps) * time_step, recovery @ history.T,
+                         tuple(f"sensor {k + 1}" for k in range(recovery.shape[0])), "displacement",
+                         f"transient ring-down of {superelement.name} ({model})",
+                         "initial state" if hammer is None else "hammer"),
         modal_amplitude=history @ shape,
-        joint_displacement=history @ phi.T,
+        joint_displacement=phi @ history.T,
         stuck_frequency=float(np.sqrt(stuck.eigenvalue)),
         unconverged_steps=unconverged)

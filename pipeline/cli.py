@@ -10,7 +10,7 @@ import argparse
 import importlib
 import sys
 
-STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "nonlinear.commands")
+STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands")
 
 
 def parser() -> argparse.ArgumentParser:

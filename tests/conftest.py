@@ -10,6 +10,7 @@ import pytest  # noqa: E402
 from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
 from geometry.beams import make_beam  # noqa: E402
 from geometry.parameters import BEAMS, MeshParameters  # noqa: E402
+from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
 
 COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
 
@@ -19,3 +20,18 @@ def coarse_brb(tmp_path_factory) -> BeamMesh:
     """The BRB meshed at coarse sizes (about 26k quadratic DOF), once per test session."""
     sidecar = make_beam(BEAMS["BRB"], COARSE, tmp_path_factory.mktemp("coarse"), render=False)
     return read_beam_mesh(sidecar.with_suffix(".msh"))
+
+
+@pytest.fixture(scope="session")
+def asb_superelement():
+    """Reader of the external ASB reduced models (``MAT_NULLRED_<configuration>.mat`` in ../shared/data beside
+    the repository): ``asb_superelement("CD1", coupling=...)`` gives the Superelement. Skips the test, with the
+    path in the reason, where the shared data folder is absent."""
+
+    def read(configuration: str, **options):
+        path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
+        if not path.exists():
+            pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
+        return read_asb_superelement(path, **options)
+
+    return read

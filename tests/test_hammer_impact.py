@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nonlinear.measured_backbone import measured_backbone
-from nonlinear.ringdown_io import read_ringdown
+from experiment.backbone import ringdown_backbone
+from experiment.ringdown_files import read_ringdown
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "chen2022-brb-hammer" / "HammerImpact.mat"
 MODE_HZ = 80.5  # first spectral peak of all three channels (data README)
@@ -23,7 +23,7 @@ pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"measured data not f
 
 @pytest.fixture(scope="module")
 def per_channel():
-    return measured_backbone(DATA, MODE_HZ, per_channel=True)
+    return ringdown_backbone(read_ringdown(DATA), MODE_HZ, per_channel=True)
 
 
 def test_file_holds_three_accelerometers_at_12800_hz():

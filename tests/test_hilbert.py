@@ -12,9 +12,10 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.special import ellipk
 
-from nonlinear.decay_cycles import decay_cycles
-from nonlinear.hilbert import average_backbones, freevib
-from nonlinear.modal_filter import band_pass, modal_coordinates
+from experiment.backbone import average_backbones
+from experiment.decay_cycles import decay_cycles
+from experiment.hilbert import freevib
+from experiment.modal_filter import band_pass, modal_coordinates
 
 SAMPLE_RATE = 4000.0  # Hz: 40 samples per period of the 100 Hz test mode
 NOISE = 1e-4  # sensor noise, standard deviation relative to the initial amplitude (80 dB dynamic range)

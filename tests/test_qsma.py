@@ -11,7 +11,7 @@ from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space, stuck_stiffness
 from nonlinear.joint import BRB_PATCH_GROUPS, parameter_names, patch_elements, random_designs, stuck_stiffness
 from nonlinear.parameters import FrictionParameterError
 from nonlinear.qsma import qsma_reference
-from reduction.superelement import Superelement, asb_data_folder, read_asb_superelement
+from reduction.superelement import Superelement
 
 LOWER_MASS, UPPER_MASS_X, UPPER_MASS_Y = 2.0, 3.0, 5.0  # kg
 
@@ -30,13 +30,6 @@ def two_body_superelement():
 def two_body_space():
     x_mode = np.array([-UPPER_MASS_X, 0, 0, LOWER_MASS, 0, 0])
     return joint_space(two_body_superelement(), reference_mode=x_mode)
-
-
-def asb(configuration):
-    path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
-    if not path.exists():
-        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
-    return read_asb_superelement(path)
 
 
 REDUCED_MASS = LOWER_MASS * UPPER_MASS_X / (LOWER_MASS + UPPER_MASS_X)
@@ -82,8 +75,9 @@ def plain_stuck_frequencies(superelement, design, model):
     ("jenkins", [2.0e3, 3.0e8, 1.0e9], 1e-3),      # stuck below slip: exactly linear
     ("iwan4", [2.0e3, 3.0e8, -0.1, 0.5, 1.0e9], 1e-8),  # microslip softening ~ x^(chi+1) = 1e-7.2
 ])
-def test_low_amplitude_limit_is_the_stuck_linear_mode(configuration, model, design_per_group, slip_scale):
-    superelement = asb(configuration)
+def test_low_amplitude_limit_is_the_stuck_linear_mode(configuration, model, design_per_group, slip_scale,
+                                                     asb_superelement):
+    superelement = asb_superelement(configuration)
     n_groups = max(superelement.patch_groups) + 1
     design = np.tile(design_per_group, n_groups)
     q = slip_scale * 2.0e3 / 3.0e8 * np.array([0.1, 1.0])  # modal amplitude per unit joint motion ~ 1
@@ -97,14 +91,14 @@ def test_low_amplitude_limit_is_the_stuck_linear_mode(configuration, model, desi
 
 
 @pytest.mark.parametrize("configuration, beam_like", [("C1", False), ("CD1", True)])
-def test_tracked_mode_is_the_bending_mode_even_above_rocking_modes(configuration, beam_like):
+def test_tracked_mode_is_the_bending_mode_even_above_rocking_modes(configuration, beam_like, asb_superelement):
     """1000 Table 3 designs. The mode tracked by shape is unambiguous (MAC > 0.5: no other mode can match the
     reference) except for rare veering pairs, and in some designs it is not the first stuck mode, so
     selection by index would be wrong. On the beam-like CD1 (five patches in a row), designs whose first
     mode is a rigid rocking of the halves on soft joint springs (under 5 % of its energy in the halves)
     track an elastic bending mode (over half of its energy in the halves). On the square-lap C1 the bending
     mode itself is a rotation at the joint, carried mostly by the joint springs when they are soft."""
-    superelement = asb(configuration)
+    superelement = asb_superelement(configuration)
     space = joint_space(superelement)
     designs = random_designs("iwan4", 1000, max(superelement.patch_groups) + 1, np.random.default_rng(6))
     k = stuck_stiffness(patch_elements("iwan4", designs, superelement.patch_groups))
@@ -126,8 +120,8 @@ def test_tracked_mode_is_the_bending_mode_even_above_rocking_modes(configuration
 
 
 @pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5"])
-def test_amplitude_and_force_control_give_the_same_backbone(model):
-    superelement = asb("CD1")
+def test_amplitude_and_force_control_give_the_same_backbone(model, asb_superelement):
+    superelement = asb_superelement("CD1")
     space = joint_space(superelement)
     design = {"jenkins": [200.0, 1e8, 1e9, 500.0, 3e8, 1e10, 800.0, 1e9, 1e9],
               "iwan4": [200.0, 1e8, -0.3, 0.1, 1e9, 500.0, 3e8, -0.6, 1.0, 1e10, 800.0, 1e9, -0.8, 0.01, 1e9],

@@ -23,7 +23,6 @@ from nonlinear.qsma import MACROSLIP, qsma_reference
 from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table,
                                    _slip_power, slip_law)
 from nonlinear.qsma_vectorised import qsma_designs
-from reduction.superelement import asb_data_folder, read_asb_superelement
 from test_qsma import REDUCED_MASS, two_body_space
 from test_stuck_modes import full_target_mode
 
@@ -31,11 +30,9 @@ AMPLITUDES = np.logspace(-7, -4, 10)  # m kg^0.5: the ASB's measured range is 7e
 LINEAR_DAMPING = 7e-4
 
 
-def cd1_space():
-    path = asb_data_folder() / "MAT_NULLRED_CD1.mat"
-    if not path.exists():
-        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
-    return joint_space(read_asb_superelement(path))
+@pytest.fixture
+def cd1_space(asb_superelement):
+    return joint_space(asb_superelement("CD1"))
 
 
 def unique_equilibrium(model, designs, result, patch_groups):
@@ -49,8 +46,7 @@ def unique_equilibrium(model, designs, result, patch_groups):
     return np.cumprod(rising, axis=1).astype(bool)
 
 
-def compare_with_oracle(model, n_designs, seed):
-    space = cd1_space()
+def compare_with_oracle(space, model, n_designs, seed):
     designs = random_designs(model, n_designs, 3, np.random.default_rng(seed))
     vectorised = qsma_designs(space, model, designs, amplitudes=AMPLITUDES, linear_damping=LINEAR_DAMPING)
     oracle = [qsma_reference(space, model, design, amplitudes=AMPLITUDES, linear_damping=LINEAR_DAMPING)
@@ -72,17 +68,17 @@ def compare_with_oracle(model, n_designs, seed):
 
 
 @pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
-def test_vectorised_qsma_equals_oracle_on_table3_designs(model):
+def test_vectorised_qsma_equals_oracle_on_table3_designs(model, cd1_space):
     """60 designs per model (about 10 s in all)."""
-    compare_with_oracle(model, 60, seed=11)
+    compare_with_oracle(cd1_space, model, 60, seed=11)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
-def test_vectorised_qsma_equals_oracle_on_1000_table3_designs(model):
+def test_vectorised_qsma_equals_oracle_on_1000_table3_designs(model, cd1_space):
     """1,000 designs per model: 11 s (Jenkins) to 45 s (five-parameter Iwan) per model on one core, nearly all
     of it the oracle."""
-    compare_with_oracle(model, 1000, seed=12)
+    compare_with_oracle(cd1_space, model, 1000, seed=12)
 
 
 def test_vectorised_force_control_flags_macroslip():
@@ -104,10 +100,10 @@ def test_vectorised_force_control_flags_macroslip():
 
 
 @pytest.mark.parametrize("model", ["jenkins", "iwan4"])
-def test_vectorised_force_control_retraces_amplitude_control(model):
+def test_vectorised_force_control_retraces_amplitude_control(model, cd1_space):
     """Each design loaded by the modal forces that amplitude control found returns the same amplitudes,
     frequencies and damping (the convex laws have one equilibrium per force below macroslip)."""
-    space = cd1_space()
+    space = cd1_space
     designs = random_designs(model, 40, 3, np.random.default_rng(5))
     by_amplitude = qsma_designs(space, model, designs, amplitudes=AMPLITUDES, linear_damping=LINEAR_DAMPING)
     assert by_amplitude.converged.mean() > 0.99
@@ -189,10 +185,10 @@ def test_energy_is_convex_where_the_kernel_skips_the_energy_test():
     assert passed > 100 and crossing > 30
 
 
-def test_vectorised_low_amplitude_limit_is_the_linear_mode():
+def test_vectorised_low_amplitude_limit_is_the_linear_mode(cd1_space):
     """Jenkins joints below their smallest slip displacement (Table 3: F_S / K_T >= 1e-13 m; here r ~ 1e-16 m)
     are linear: omega equals the stuck eigenfrequency, which equals the full eigen-solve's (within 1e-6)."""
-    space = cd1_space()
+    space = cd1_space
     designs = random_designs("jenkins", 40, 3, np.random.default_rng(8))
     result = qsma_designs(space, "jenkins", designs, amplitudes=[1e-16, 2e-16])
     unambiguous = result.mac > UNAMBIGUOUS_MAC  # the others are flagged
@@ -205,14 +201,14 @@ def test_vectorised_low_amplitude_limit_is_the_linear_mode():
 
 
 @pytest.mark.parametrize("model, design", [("iwan4_stuck", 3876), ("iwan5", 607), ("iwan4", 1847)])
-def test_vectorised_qsma_converges_where_newton_straddles_a_kink_of_the_slip_law(model, design):
+def test_vectorised_qsma_converges_where_newton_straddles_a_kink_of_the_slip_law(model, design, cd1_space):
     """Designs of the benchmark (``benchmarks.qsma``: 4,000 designs, seed 0, 30 levels) on which the damped Newton
     once failed: an element next to macroslip (chi = -0.97) whose iterates cycled across |x| = 1, the full steps
     that halve |R| undoing the energy's descent; a softening stiction element (theta < 1) whose clipped slope
     left Newton only linearly convergent; and one that crawls through 60 energy-descent steps unless full steps
     that halve the level's smallest |R| are taken. Every level converges, equal to the oracle where it
     converges (the oracle misses some of these levels)."""
-    space = cd1_space()
+    space = cd1_space
     chosen = random_designs(model, 4000, 3, np.random.default_rng(0))[design]
     amplitudes = np.geomspace(7e-6, 1.1e-4, 30)
     vectorised = qsma_designs(space, model, chosen[None, :], amplitudes=amplitudes, linear_damping=1e-3)

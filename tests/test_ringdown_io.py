@@ -13,8 +13,10 @@ import pyuff
 import pytest
 import scipy.io
 
-from nonlinear.measured_backbone import measured_backbone
-from nonlinear.ringdown_io import STANDARD_GRAVITY, RingDownFileError, read_ringdown
+from experiment.backbone import ringdown_backbone
+from experiment.ringdown import RingDown, RingDownError
+from experiment.ringdown_files import (STANDARD_GRAVITY, read_ringdown, write_ringdown_csv, write_ringdown_mat,
+                                       write_ringdown_uff58)
 from pipeline.cli import main
 
 SAMPLE_RATE = 2000.0  # Hz
@@ -78,7 +80,7 @@ def test_backbone_of_several_hits_is_the_linear_mode(tmp_path, time):
     rows = [(hit, t, a) for hit, level in ((1, 1.0), (2, 0.8), (3, 0.65))
             for t, a in zip(time, acceleration_decay(time, level))]
     path = write_csv(tmp_path / "hits.csv", ["hit", "time [s]", "tip [m/s^2]"], rows)
-    backbone = measured_backbone(path, FREQUENCY_HZ, grid_points=12)
+    backbone = ringdown_backbone(read_ringdown(path), FREQUENCY_HZ, grid_points=12)
     seen = backbone.hilbert.n_records == 3
     assert np.count_nonzero(seen) >= 3
     assert np.max(np.abs(backbone.hilbert.natural_frequency_hz[seen] / FREQUENCY_HZ - 1)) < 1e-3
@@ -97,7 +99,7 @@ def test_nan_samples_are_refused(tmp_path, time):
     signal = acceleration_decay(time)
     signal[100] = np.nan
     path = write_csv(tmp_path / "nan.csv", ["time [s]", "tip [m/s^2]"], zip(time, signal))
-    with pytest.raises(RingDownFileError) as error:
+    with pytest.raises(RingDownError) as error:
         read_ringdown(path)
     assert_names(error, path, "tip", "NaN")
 
@@ -107,7 +109,7 @@ def test_time_running_backwards_is_refused(tmp_path, time):
     backwards[[50, 51]] = backwards[[51, 50]]
     path = tmp_path / "backwards.mat"
     scipy.io.savemat(path, {"time": backwards, "acc": acceleration_decay(time), "units": "s, m/s^2"})
-    with pytest.raises(RingDownFileError) as error:
+    with pytest.raises(RingDownError) as error:
         read_ringdown(path)
     assert_names(error, path, "time", "not strictly increasing")
 
@@ -115,7 +117,7 @@ def test_time_running_backwards_is_refused(tmp_path, time):
 @pytest.mark.parametrize("unit", ["N", "V", "m/s^3"])
 def test_unit_that_is_not_a_motion_is_refused(tmp_path, time, unit):
     path = write_csv(tmp_path / "force.csv", ["time [s]", f"tip [{unit}]"], zip(time, acceleration_decay(time)))
-    with pytest.raises(RingDownFileError) as error:
+    with pytest.raises(RingDownError) as error:
         read_ringdown(path)
     assert_names(error, path, "tip", f"unit '{unit}'")
 
@@ -128,7 +130,7 @@ def test_uff_units_contradicting_the_data_type_are_refused(tmp_path, time):
                                binary=0)
     path = tmp_path / "mislabelled.uff"
     pyuff.UFF(str(path)).write_sets([dataset], mode="overwrite")
-    with pytest.raises(RingDownFileError) as error:
+    with pytest.raises(RingDownError) as error:
         read_ringdown(path)
     assert_names(error, path, "node 4 dir 3", "contradict")
 
@@ -136,16 +138,16 @@ def test_uff_units_contradicting_the_data_type_are_refused(tmp_path, time):
 def test_record_too_short_for_the_mode_is_refused(tmp_path):
     short = np.arange(0, 0.3, 1 / SAMPLE_RATE)  # 15 periods of the 50 Hz mode
     path = write_csv(tmp_path / "short.csv", ["time [s]", "tip [m/s^2]"], zip(short, acceleration_decay(short)))
-    with pytest.raises(RingDownFileError) as error:
-        measured_backbone(path, FREQUENCY_HZ)
+    with pytest.raises(RingDownError) as error:
+        ringdown_backbone(read_ringdown(path), FREQUENCY_HZ)
     assert_names(error, path, "hit 1: modal", "too short")
 
 
 def test_signal_without_decay_is_refused(tmp_path, time):
     steady = np.cos(2 * np.pi * FREQUENCY_HZ * time)
     path = write_csv(tmp_path / "steady.csv", ["time [s]", "tip [m]"], zip(time, steady))
-    with pytest.raises(RingDownFileError) as error:
-        measured_backbone(path, FREQUENCY_HZ)
+    with pytest.raises(RingDownError) as error:
+        ringdown_backbone(read_ringdown(path), FREQUENCY_HZ)
     assert_names(error, path, "hit 1: modal", "no decay")
 
 
@@ -189,6 +191,22 @@ def test_command_separates_close_modes_with_given_shapes(tmp_path, time):
 
 def test_unknown_channel_is_refused(tmp_path, time):
     path = write_csv(tmp_path / "hit.csv", ["time [s]", "tip [m/s^2]"], zip(time, acceleration_decay(time)))
-    with pytest.raises(RingDownFileError) as error:
-        measured_backbone(path, FREQUENCY_HZ, channels=["root"])
+    with pytest.raises(RingDownError) as error:
+        ringdown_backbone(read_ringdown(path), FREQUENCY_HZ, channels=["root"])
     assert_names(error, path, "root", "no such channel")
+
+
+@pytest.mark.parametrize("suffix, rtol", [(".csv", 0.0), (".mat", 0.0), (".uff", 1e-6)])
+def test_written_ring_downs_read_back(tmp_path, time, suffix, rtol):
+    """Two hits of two channels written by the writer of each format read back with their times and signals
+    (UFF 58 ASCII keeps about 12 digits)."""
+    hits = [RingDown(time, np.array([acceleration_decay(time, level), 0.5 * acceleration_decay(time, level)]),
+                     ("tip", "root"), "acceleration", "synthetic", f"hit {k + 1}")
+            for k, level in enumerate((1.0, 0.7))]
+    writer = {".csv": write_ringdown_csv, ".mat": write_ringdown_mat, ".uff": write_ringdown_uff58}[suffix]
+    writer(hits, tmp_path / f"hits{suffix}")
+    records = read_ringdown(tmp_path / f"hits{suffix}")
+    assert len(records) == 2 and all(record.quantity == "acceleration" for record in records)
+    for record, hit in zip(records, hits):
+        np.testing.assert_allclose(record.time, hit.time, rtol=rtol)
+        np.testing.assert_allclose(record.signals, hit.signals, rtol=rtol)

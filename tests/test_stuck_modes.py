@@ -15,14 +15,6 @@ from nonlinear.condensation import (CUTOFF_FACTOR, UNAMBIGUOUS_MAC, joint_space,
                                     stuck_stiffness_matrix)
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
 from nonlinear.qsma import stuck_target_mode
-from reduction.superelement import asb_data_folder, read_asb_superelement
-
-
-def asb_space(configuration):
-    path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
-    if not path.exists():
-        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
-    return joint_space(read_asb_superelement(path))
 
 
 def full_target_mode(space, joint_stiffness):
@@ -33,10 +25,10 @@ def full_target_mode(space, joint_stiffness):
 
 
 @pytest.mark.parametrize("configuration", ["CD1", "C1"])
-def test_small_eigen_solve_equals_the_full_eigen_solve(configuration):
+def test_small_eigen_solve_equals_the_full_eigen_solve(configuration, asb_superelement):
     """Random Table 3 designs (joint stiffnesses 1e2 to 1e14 N/m): same target eigenvalue within 1e-9, same
     shape (MAC > 0.999999) where the target is unambiguous, and the same MAC against the reference."""
-    space = asb_space(configuration)
+    space = joint_space(asb_superelement(configuration))
     groups = space.superelement.patch_groups
     designs = random_designs("iwan4", 60, max(groups) + 1, np.random.default_rng(21))
     stiffness = stuck_stiffness(patch_elements("iwan4", designs, groups))
@@ -51,11 +43,11 @@ def test_small_eigen_solve_equals_the_full_eigen_solve(configuration):
         assert small.mac[design] == pytest.approx(mac, abs=1e-6)
 
 
-def test_ambiguous_targets_are_the_best_match_among_all_branches():
+def test_ambiguous_targets_are_the_best_match_among_all_branches(asb_superelement):
     """Where no stuck mode matches the reference with MAC > 0.5 (veering modes, one to three per thousand of
     CD1's Table 3 designs), every branch of the small problem is solved and the best match kept: the same mode
     as the full eigen-solve's largest MAC (a MAC <= 1 / CUTOFF_FACTOR above the cutoff cannot win here)."""
-    space = asb_space("CD1")
+    space = joint_space(asb_superelement("CD1"))
     groups = space.superelement.patch_groups
     designs = random_designs("jenkins", 1500, max(groups) + 1, np.random.default_rng(3))
     stiffness = stuck_stiffness(patch_elements("jenkins", designs, groups))

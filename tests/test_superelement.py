@@ -12,18 +12,10 @@ import pytest
 import scipy.io
 
 from nonlinear.condensation import joint_space
-from reduction.superelement import (Superelement, asb_data_folder, load_superelement, read_asb_superelement,
-                                    save_superelement)
+from reduction.superelement import Superelement, load_superelement, save_superelement
 
 MEASURED = Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-backbones"
 CONFIGURATIONS = ["C1", "C2", "C3", "C4", "C4a", "CD1"]
-
-
-def asb_path(configuration):
-    path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
-    if not path.exists():
-        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
-    return path
 
 
 def measured_low_amplitude_frequency(configuration):
@@ -40,8 +32,8 @@ def tied_frequency(superelement):
 
 
 @pytest.mark.parametrize("configuration", CONFIGURATIONS)
-def test_asb_reader_gives_symmetric_model_with_file_patch_layout(configuration):
-    superelement = read_asb_superelement(asb_path(configuration))
+def test_asb_reader_gives_symmetric_model_with_file_patch_layout(configuration, asb_superelement):
+    superelement = asb_superelement(configuration)
     n = superelement.mass.shape[0]
     assert superelement.n_patches == (5 if configuration == "CD1" else 4)
     assert superelement.patch_motion.shape == (6 * superelement.n_patches, n)
@@ -52,15 +44,15 @@ def test_asb_reader_gives_symmetric_model_with_file_patch_layout(configuration):
 
 
 @pytest.mark.parametrize("configuration", ["C1", "C3", "CD1"])
-def test_rigid_joint_bounds_the_measured_frequency_only_with_distributed_coupling(configuration):
+def test_rigid_joint_bounds_the_measured_frequency_only_with_distributed_coupling(configuration, asb_superelement):
     """A rigid joint is the stiffest design: it must lie above the measurement for any design to fit.
 
     (C2, C4 and C4a are left out: their measured backbones, 250-298 Hz, lie above the first tied mode of
     their reduced models, 174-201 Hz, with either coupling, so they describe another mode.)
     """
     measured = measured_low_amplitude_frequency(configuration)
-    assert tied_frequency(read_asb_superelement(asb_path(configuration))) > measured
-    assert tied_frequency(read_asb_superelement(asb_path(configuration), coupling="virtual_node")) < measured
+    assert tied_frequency(asb_superelement(configuration)) > measured
+    assert tied_frequency(asb_superelement(configuration, coupling="virtual_node")) < measured
 
 
 def test_superelement_refuses_inconsistent_shapes():
@@ -72,8 +64,8 @@ def test_superelement_refuses_inconsistent_shapes():
                      patch_areas=np.ones(1), patch_groups=(0,), sensors=np.eye(6))
 
 
-def test_superelement_file_round_trip_keeps_every_field(tmp_path):
-    superelement = read_asb_superelement(asb_path("CD1"))
+def test_superelement_file_round_trip_keeps_every_field(tmp_path, asb_superelement):
+    superelement = asb_superelement("CD1")
     save_superelement(superelement, tmp_path / "cd1.npz")
     loaded = load_superelement(tmp_path / "cd1.npz")
     for field in ("mass", "stiffness", "patch_motion", "patch_areas", "sensors", "preload"):

@@ -20,13 +20,11 @@ bins reach 11 %.
 import numpy as np
 import pytest
 
+from experiment.backbone import average_backbones, ringdown_backbone
+from experiment.decay_cycles import decay_cycles
 from nonlinear.condensation import joint_space
-from nonlinear.decay_cycles import decay_cycles
-from nonlinear.hilbert import average_backbones, freevib
-from nonlinear.modal_filter import band_pass, modal_coordinates
 from nonlinear.qsma import qsma_reference
 from nonlinear.transient import Hammer, hammer_impulse, ring_down, sensor_modes
-from reduction.superelement import asb_data_folder, read_asb_superelement
 
 IWAN_DESIGN = [200.0, 1e8, -0.3, 0.1, 1e9, 500.0, 3e8, -0.6, 1.0, 1e10, 800.0, 1e9, -0.8, 0.01, 1e9]
 JENKINS_DESIGN = [200.0, 1e8, 1e9, 500.0, 3e8, 1e10, 800.0, 1e9, 1e9]
@@ -36,21 +34,15 @@ HIT_IMPULSE = 1.0  # N s: the joint softens the mode by 0.75-1 % over the kept d
 CONTACT_TIME = 3e-3  # s: a soft tip, first spectral zero at 500 Hz
 
 
-def cd1_space():
-    path = asb_data_folder() / "MAT_NULLRED_CD1.mat"
-    if not path.exists():
-        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
-    return joint_space(read_asb_superelement(path))
+@pytest.fixture
+def cd1_space(asb_superelement):
+    return joint_space(asb_superelement("CD1"))
 
 
-def filtered_target(time, sensors, frequencies, shapes, target):
-    """The tracked mode's modal amplitude (m kg^0.5) from (steps, n_sensors) sensor displacements, as for
-    measured data: modal filter with the linear modes nearest the target in frequency (one per sensor), then a
-    zero-phase band-pass of +-30 % around it."""
-    nearest = np.argsort(np.abs(frequencies - frequencies[target]))[:sensors.shape[1]]
-    modal = modal_coordinates(sensors.T, shapes[:, nearest])[0]
-    frequency_hz = frequencies[target] / (2 * np.pi)
-    return band_pass(modal, 1 / (time[1] - time[0]), 0.7 * frequency_hz, 1.3 * frequency_hz)
+def modal_filter_shapes(frequencies, shapes, target, n_sensors):
+    """Mode shapes at the sensors (n_sensors, n_sensors) for the modal filter, as a modal test would give them:
+    the linear modes nearest the target in frequency, one per sensor, the target first."""
+    return shapes[:, np.argsort(np.abs(frequencies - frequencies[target]))[:n_sensors]]
 
 
 def modulation_periods(frequencies, target):
@@ -60,9 +52,9 @@ def modulation_periods(frequencies, target):
     return frequencies[target] / abs(3 * frequencies[target] - frequencies[third])
 
 
-def test_stuck_jenkins_ring_down_is_the_linear_mode():
+def test_stuck_jenkins_ring_down_is_the_linear_mode(cd1_space):
     """Amplitude 1e-7 m kg^0.5 keeps every Jenkins element below 5 % of its slip displacement."""
-    space = cd1_space()
+    space = cd1_space
     zeta = 2e-3
     stuck = qsma_reference(space, "jenkins", JENKINS_DESIGN, amplitudes=[1e-7])
     assert stuck.slip_ratio.max() < 0.05
@@ -70,17 +62,17 @@ def test_stuck_jenkins_ring_down_is_the_linear_mode():
     decay = ring_down(space, "jenkins", JENKINS_DESIGN, duration=20 / frequency, time_step=1 / (100 * frequency),
                       initial_modal_velocity=1e-7 * stuck.stuck_frequency, linear_damping=zeta)
     assert decay.unconverged_steps == 0
-    cycles = decay_cycles(decay.time, decay.modal_amplitude, cycles=4)
+    cycles = decay_cycles(decay.sensors.time, decay.modal_amplitude, cycles=4)
     # Newmark's average acceleration lengthens the period by (omega dt)^2 / 12 = 3.3e-4.
     np.testing.assert_allclose(cycles.natural_frequency_hz, frequency, rtol=5e-4)
     np.testing.assert_allclose(cycles.damping_ratio, zeta, rtol=0.02)
 
 
-def test_ideal_impulse_sets_the_momentum_of_every_mode():
+def test_ideal_impulse_sets_the_momentum_of_every_mode(cd1_space):
     """An ideal hit of I at a sensor gives the structure the momentum I along the sensor's axis: the sensor's
     velocity just after it is I times the point's flexibility to impulses, sum over modes of (influence^T psi)^2
     (the inverse of the point's apparent mass), positive and independent of the joint."""
-    space = cd1_space()
+    space = cd1_space
     sensor = space.superelement.sensors[HIT_SENSOR]
     velocity = hammer_impulse(space, sensor, 2.0)
     point_modes = sensor @ space.modes
@@ -88,27 +80,33 @@ def test_ideal_impulse_sets_the_momentum_of_every_mode():
 
 
 @pytest.fixture(scope="module")
-def hammer_ring_down():
+def hammer_ring_down(asb_superelement):
     """60 periods of the 200 Hz mode after a soft hammer hit at an accelerometer (about 30 s): the decay the
-    Hilbert stage needs (12 periods trimmed at each end, 2 x 10 for its noise-floor blocks)."""
-    space = cd1_space()
+    Hilbert stage needs (12 periods trimmed at each end, 2 x 10 for its noise-floor blocks). Its sensor
+    signals go through the same function as a measured file: modal filter with the linear modes at the
+    sensors, band-pass of +-30 %, FreeVib, and the cycle estimator on the interval FreeVib keeps, both
+    averaging over one modulation period. Returns the space, the decay and its one record."""
+    space = joint_space(asb_superelement("CD1"))
     frequencies, shapes, target = sensor_modes(space, "iwan4", IWAN_DESIGN)
     period = 2 * np.pi / frequencies[target]
     hammer = Hammer(space.superelement.sensors[HIT_SENSOR], HIT_IMPULSE, CONTACT_TIME)
     decay = ring_down(space, "iwan4", IWAN_DESIGN, duration=60 * period, time_step=period / SAMPLES_PER_PERIOD,
                       hammer=hammer)
-    return (space, decay, filtered_target(decay.time, decay.sensors, frequencies, shapes, target),
-            frequencies[target] / (2 * np.pi), modulation_periods(frequencies, target))
+    smoothing = modulation_periods(frequencies, target)
+    mode_shapes = modal_filter_shapes(frequencies, shapes, target, len(decay.sensors.channels))
+    backbone = ringdown_backbone([decay.sensors], frequencies[target] / (2 * np.pi), mode_shapes=mode_shapes,
+                                 smoothing_periods=smoothing, cycles=int(round(smoothing)))
+    return space, decay, backbone.records[0]
 
 
 def test_hammer_ring_down_processed_by_hilbert_follows_qsma(hammer_ring_down):
     """Frequency within 0.5 % and damping within 10 % of QSMA on eight amplitude bins spanning the samples
     that FreeVib keeps (after the envelope maximum, 12 periods trimmed at both ends: the clean decay)."""
-    space, decay, target, frequency_hz, smoothing = hammer_ring_down
+    space, decay, record = hammer_ring_down
     assert decay.unconverged_steps == 0
-    record = freevib(decay.time, target, frequency_hz, smoothing_periods=smoothing)
-    grid = np.geomspace(record.amplitude.min() * 1.05, record.amplitude.max() / 1.05, 8)
-    backbone = average_backbones([record], grid)
+    hilbert = record.hilbert
+    grid = np.geomspace(hilbert.amplitude.min() * 1.05, hilbert.amplitude.max() / 1.05, 8)
+    backbone = average_backbones([hilbert], grid)
     qsma = qsma_reference(space, "iwan4", IWAN_DESIGN, amplitudes=grid)
     assert qsma.converged.all()
     assert qsma.frequency.max() < 0.995 * qsma.stuck_frequency  # softer than the tolerance: nonlinear range
@@ -120,10 +118,8 @@ def test_hammer_ring_down_processed_by_hilbert_follows_qsma(hammer_ring_down):
 def test_cycle_estimator_on_the_hammer_ring_down_follows_qsma(hammer_ring_down):
     """The zero-crossing / log-decrement estimator on the same filtered decay and interval, windows of one
     modulation period, agrees too."""
-    space, decay, target, frequency_hz, smoothing = hammer_ring_down
-    record = freevib(decay.time, target, frequency_hz, smoothing_periods=smoothing)
-    kept = (decay.time >= record.time[0]) & (decay.time <= record.time[-1])
-    cycles = decay_cycles(decay.time[kept], target[kept], cycles=int(round(smoothing)))
+    space, decay, record = hammer_ring_down
+    cycles = record.cycles
     qsma = qsma_reference(space, "iwan4", IWAN_DESIGN, amplitudes=cycles.amplitude[::-1])
     assert qsma.converged.all()
     np.testing.assert_allclose(cycles.natural_frequency_hz, qsma.frequency[::-1] / (2 * np.pi), rtol=5e-3)

@@ -1,4 +1,4 @@
-"""Subcommands of the nonlinear stage for the ``surrogacy`` console script.
+"""Subcommands of the experiment stage for the ``surrogacy`` console script.
 
 ``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
 measured ring-down (paper section 3.1, Fig. 3), written as a CSV with units, a PNG plot and a JSON sidecar with
@@ -13,9 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from nonlinear.hilbert import freevib
-from nonlinear.measured_backbone import measured_backbone, plot_backbone, write_backbone_csv
-from nonlinear.ringdown_io import RingDownFileError
+from experiment.backbone import ringdown_backbone
+from experiment.backbone_files import plot_backbone, write_freevib_table
+from experiment.hilbert import freevib
+from experiment.ringdown import RingDownError
+from experiment.ringdown_files import read_ringdown
 from pipeline.files import sha256_file, write_json
 
 
@@ -30,21 +32,21 @@ def read_mode_shapes(path: Path) -> np.ndarray:
     try:
         return np.loadtxt(path, delimiter=",", ndmin=2, comments="#")
     except (OSError, ValueError) as error:
-        raise RingDownFileError(path, "mode shapes", f"not a readable table of numbers: {error}") from error
+        raise RingDownError(path, "mode shapes", f"not a readable table of numbers: {error}") from error
 
 
 def run_freevib(arguments: argparse.Namespace) -> None:
     """Extract, write and plot the backbone of one mode of a ring-down file."""
     source = Path(arguments.file)
-    backbone = measured_backbone(
-        source, arguments.mode_hz, band_hz=tuple(arguments.band) if arguments.band else None,
+    backbone = ringdown_backbone(
+        read_ringdown(source), arguments.mode_hz, band_hz=tuple(arguments.band) if arguments.band else None,
         mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
         mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
         grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
         trim_periods=arguments.trim_periods, feldman=arguments.feldman)
     out = Path(arguments.out)
     stem = f"{source.stem}_mode_{arguments.mode_hz:g}Hz"
-    write_backbone_csv(backbone, out / f"{stem}.csv")
+    write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
     settings = {key: value for key, value in vars(arguments).items() if key != "run"}
     write_json(out / f"{stem}.json", {
@@ -55,8 +57,8 @@ def run_freevib(arguments: argparse.Namespace) -> None:
 
 
 def register(subparsers) -> None:
-    """Add the nonlinear stage's subcommands to the ``surrogacy`` argument parser."""
-    defaults = keyword_defaults(freevib) | keyword_defaults(measured_backbone)
+    """Add the experiment stage's subcommands to the ``surrogacy`` argument parser."""
+    defaults = keyword_defaults(freevib) | keyword_defaults(ringdown_backbone)
     command = subparsers.add_parser(
         "freevib", help="amplitude-dependent frequency and damping from a ring-down (Hilbert / FreeVib)",
         description=run_freevib.__doc__ + " Writes <stem>_mode_<F>Hz.csv (with units), .png and .json to --out.")

@@ -1,10 +1,10 @@
-"""Readers for measured ring-down (free-decay) records: CSV, MATLAB .mat and Universal File Format 58.
+"""Ring-down (free-decay) files: readers and writers for CSV, MATLAB .mat and Universal File Format 58.
 
-Every reader returns a list of :class:`RingDown`, one per hit (impact), each holding a uniformly sampled time
-vector and one or more sensor channels converted to SI units. Units are read from the file and checked against
-a fixed table (:data:`SIGNAL_UNITS`, :data:`TIME_UNITS`); anything the table does not know is refused rather
-than guessed. Every problem with a file raises :class:`RingDownFileError` (a ``ValueError``) naming the file,
-the field and the problem.
+Every reader returns a list of :class:`~experiment.ringdown.RingDown`, one per hit (impact), each holding a
+uniformly sampled time vector and one or more sensor channels converted to SI units. Units are read from the
+file and checked against a fixed table (:data:`SIGNAL_UNITS`, :data:`TIME_UNITS`); anything the table does not
+know is refused rather than guessed. Every problem with a file raises :class:`~experiment.ringdown.RingDownError`
+(a ``ValueError``) naming the file, the field and the problem.
 
 File layouts
 ------------
@@ -26,11 +26,14 @@ UFF 58
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+import re
 from pathlib import Path
 
 import numpy as np
 import scipy.io
+
+from experiment.ringdown import RingDown, RingDownError
+from pipeline.files import atomic_path
 
 STANDARD_GRAVITY = 9.80665
 """m/s^2, for accelerations recorded in g."""
@@ -46,6 +49,9 @@ SIGNAL_UNITS = {
 }
 """Signal unit label -> (measured quantity, factor to SI: m, m/s or m/s^2)."""
 
+SI_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+"""Quantity -> the SI unit label the writers use."""
+
 UFF_SPECIFIC_DATA_TYPE = {8: "displacement", 11: "velocity", 12: "acceleration"}
 """UFF 58 ordinate specific data type codes of the quantities a ring-down may hold."""
 
@@ -53,42 +59,11 @@ UNIFORM_SAMPLING_TOLERANCE = 1e-6
 """Largest relative deviation of a time step from the mean step: the Hilbert transform needs uniform sampling."""
 
 
-class RingDownFileError(ValueError):
-    """A ring-down file that cannot be used: names the file, the field and the problem."""
-
-    def __init__(self, source: str | Path, field: str, problem: str):
-        self.source, self.field, self.problem = str(source), field, problem
-        super().__init__(f"{source}: field '{field}': {problem}")
-
-
-@dataclass(frozen=True)
-class RingDown:
-    """One hit of a free-decay measurement.
-
-    source: file the record came from (for messages). hit: hit label within the file.
-    time: (n_samples,) s, uniformly sampled, strictly increasing.
-    signals: (n_channels, n_samples) in SI units of ``quantity`` (m, m/s or m/s^2).
-    channels: n_channels sensor names. quantity: "displacement", "velocity" or "acceleration".
-    """
-
-    source: str
-    hit: str
-    time: np.ndarray
-    signals: np.ndarray
-    channels: tuple[str, ...]
-    quantity: str
-
-    @property
-    def sample_rate(self) -> float:
-        """Sampling frequency, Hz."""
-        return (len(self.time) - 1) / (self.time[-1] - self.time[0])
-
-
 def time_factor(source, field: str, label: str) -> float:
     """Factor converting a time recorded in unit ``label`` to seconds."""
     key = label.strip()
     if key not in TIME_UNITS:
-        raise RingDownFileError(source, field, f"unit '{label}' is not a time unit (known: {sorted(TIME_UNITS)})")
+        raise RingDownError(source, field, f"unit '{label}' is not a time unit (known: {sorted(TIME_UNITS)})")
     return TIME_UNITS[key]
 
 
@@ -96,7 +71,7 @@ def signal_quantity(source, field: str, label: str) -> tuple[str, float]:
     """(quantity, factor to SI) of a signal recorded in unit ``label``."""
     key = label.strip().replace(" ", "")
     if key not in SIGNAL_UNITS:
-        raise RingDownFileError(source, field,
+        raise RingDownError(source, field,
                                 f"unit '{label}' is not a displacement, velocity or acceleration unit "
                                 f"(known: {sorted(SIGNAL_UNITS)})")
     return SIGNAL_UNITS[key]
@@ -106,18 +81,18 @@ def checked_time(source, field: str, time) -> np.ndarray:
     """The time vector as float (n,), s, after checking it is finite, strictly increasing and uniform."""
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.size < 3:
-        raise RingDownFileError(source, field, f"expected a vector of at least 3 samples, got shape {time.shape}")
+        raise RingDownError(source, field, f"expected a vector of at least 3 samples, got shape {time.shape}")
     if not np.all(np.isfinite(time)):
-        raise RingDownFileError(source, field, f"{np.count_nonzero(~np.isfinite(time))} samples are NaN or infinite")
+        raise RingDownError(source, field, f"{np.count_nonzero(~np.isfinite(time))} samples are NaN or infinite")
     step = np.diff(time)
     if np.any(step <= 0):
         first = int(np.flatnonzero(step <= 0)[0])
-        raise RingDownFileError(source, field, f"not strictly increasing: sample {first + 1} at {time[first + 1]!r} "
+        raise RingDownError(source, field, f"not strictly increasing: sample {first + 1} at {time[first + 1]!r} "
                                                f"follows {time[first]!r}")
     mean_step = (time[-1] - time[0]) / (time.size - 1)
     deviation = np.max(np.abs(step - mean_step)) / mean_step
     if deviation > UNIFORM_SAMPLING_TOLERANCE:
-        raise RingDownFileError(source, field, f"not uniformly sampled: time steps deviate from the mean step by "
+        raise RingDownError(source, field, f"not uniformly sampled: time steps deviate from the mean step by "
                                                f"up to {deviation:.2e} of it")
     return time
 
@@ -126,16 +101,16 @@ def checked_signal(source, field: str, values, n_samples: int) -> np.ndarray:
     """The channel samples as float (n_samples,) after checking length and finiteness."""
     values = np.asarray(values, dtype=float)
     if values.shape != (n_samples,):
-        raise RingDownFileError(source, field, f"expected {n_samples} samples like the time vector, got shape "
+        raise RingDownError(source, field, f"expected {n_samples} samples like the time vector, got shape "
                                                f"{values.shape}")
     bad = ~np.isfinite(values)
     if np.any(bad):
-        raise RingDownFileError(source, field, f"{np.count_nonzero(bad)} samples are NaN or infinite "
+        raise RingDownError(source, field, f"{np.count_nonzero(bad)} samples are NaN or infinite "
                                                f"(first at index {int(np.flatnonzero(bad)[0])})")
     return values
 
 
-def ring_down(source, hit: str, time, time_unit: str, channels: dict, signal_units: dict) -> RingDown:
+def checked_ring_down(source, hit: str, time, time_unit: str, channels: dict, signal_units: dict) -> RingDown:
     """Assemble one checked hit in SI units.
 
     channels: name -> samples; signal_units: name -> unit label. All channels must measure one quantity.
@@ -144,18 +119,18 @@ def ring_down(source, hit: str, time, time_unit: str, channels: dict, signal_uni
     quantities = {name: signal_quantity(source, name, signal_units[name]) for name in channels}
     kinds = {quantity for quantity, _ in quantities.values()}
     if len(kinds) != 1:
-        raise RingDownFileError(source, ", ".join(channels), f"channels mix quantities {sorted(kinds)}; "
+        raise RingDownError(source, ", ".join(channels), f"channels mix quantities {sorted(kinds)}; "
                                                              "one ring-down must hold one quantity")
     signals = np.array([checked_signal(source, name, values, time_s.size) * quantities[name][1]
                         for name, values in channels.items()])
-    return RingDown(str(source), hit, time_s, signals, tuple(channels), kinds.pop())
+    return RingDown(time_s, signals, tuple(channels), kinds.pop(), str(source), hit)
 
 
 def split_label(source, header: str) -> tuple[str, str]:
     """A CSV column header ``name [unit]`` split into (name, unit)."""
     name, bracket, rest = header.partition("[")
     if not bracket or not rest.rstrip().endswith("]"):
-        raise RingDownFileError(source, header.strip(), "column header must read 'name [unit]'")
+        raise RingDownError(source, header.strip(), "column header must read 'name [unit]'")
     return name.strip(), rest.rstrip()[:-1].strip()
 
 
@@ -165,30 +140,30 @@ def read_csv(path: Path) -> list[RingDown]:
     with open(path, newline="") as stream:
         lines = [line for line in stream if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
-        raise RingDownFileError(path, "header", "file holds no header row")
+        raise RingDownError(path, "header", "file holds no header row")
     headers = [column.strip() for column in next(csv.reader(lines[:1]))]
     try:
         table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
     except ValueError as error:
-        raise RingDownFileError(path, "samples", f"not a table of numbers: {error}") from error
+        raise RingDownError(path, "samples", f"not a table of numbers: {error}") from error
     if table.shape[1] != len(headers):
-        raise RingDownFileError(path, "header", f"{len(headers)} headers for {table.shape[1]} columns")
+        raise RingDownError(path, "header", f"{len(headers)} headers for {table.shape[1]} columns")
     hit_column = headers.index("hit") if "hit" in headers else None
     labelled = [(index, *split_label(path, header)) for index, header in enumerate(headers) if index != hit_column]
     time_columns = [entry for entry in labelled if entry[1] == "time"]
     if len(time_columns) != 1:
-        raise RingDownFileError(path, "time", "expected exactly one column 'time [unit]'")
+        raise RingDownError(path, "time", "expected exactly one column 'time [unit]'")
     time_index, _, time_unit = time_columns[0]
     channel_columns = [entry for entry in labelled if entry[1] != "time"]
     if not channel_columns:
-        raise RingDownFileError(path, "header", "no signal channel besides time")
+        raise RingDownError(path, "header", "no signal channel besides time")
     hit_ids = table[:, hit_column] if hit_column is not None else np.ones(len(table))
     records = []
     for hit in np.unique(hit_ids):
         rows = table[hit_ids == hit]
         channels = {name: rows[:, index] for index, name, _ in channel_columns}
         units = {name: unit for _, name, unit in channel_columns}
-        records.append(ring_down(path, f"hit {hit:g}", rows[:, time_index], time_unit, channels, units))
+        records.append(checked_ring_down(path, f"hit {hit:g}", rows[:, time_index], time_unit, channels, units))
     return records
 
 
@@ -202,9 +177,9 @@ def mat_fields(container) -> dict:
 def mat_hits(path: Path, fields: dict, hit_label: str) -> list[RingDown]:
     """Hits of one MATLAB struct element (or the top-level variables): ``time``, ``units`` and channels."""
     if "time" not in fields:
-        raise RingDownFileError(path, "time", "missing (a field named 'time' holds the sample times)")
+        raise RingDownError(path, "time", "missing (a field named 'time' holds the sample times)")
     if "units" not in fields or not isinstance(fields["units"], str) or fields["units"].count(",") != 1:
-        raise RingDownFileError(path, "units", "missing or malformed: expected a string '<time unit>, <signal unit>'"
+        raise RingDownError(path, "units", "missing or malformed: expected a string '<time unit>, <signal unit>'"
                                                ", e.g. 's, m/s^2'")
     time_unit, signal_unit = (part.strip() for part in fields["units"].split(","))
     time = np.asarray(fields["time"], dtype=float)
@@ -212,13 +187,13 @@ def mat_hits(path: Path, fields: dict, hit_label: str) -> list[RingDown]:
                if name not in ("time", "units") and isinstance(value, np.ndarray) and value.ndim in (1, 2)
                and value.dtype.kind in "fiu"}
     if not columns:
-        raise RingDownFileError(path, "channels", "no numeric vector or matrix besides 'time'")
+        raise RingDownError(path, "channels", "no numeric vector or matrix besides 'time'")
     n_hits = {matrix.shape[1] for matrix in columns.values()}
     if len(n_hits) != 1:
-        raise RingDownFileError(path, ", ".join(columns), "channels hold different numbers of hits (columns)")
+        raise RingDownError(path, ", ".join(columns), "channels hold different numbers of hits (columns)")
     n_hits = n_hits.pop()
     labels = [f"{hit_label} hit {hit + 1}" for hit in range(n_hits)] if n_hits > 1 else [hit_label]
-    return [ring_down(path, label, time, time_unit, {name: matrix[:, hit] for name, matrix in columns.items()},
+    return [checked_ring_down(path, label, time, time_unit, {name: matrix[:, hit] for name, matrix in columns.items()},
                       dict.fromkeys(columns, signal_unit))
             for hit, label in enumerate(labels)]
 
@@ -229,7 +204,7 @@ def read_mat(path: Path) -> list[RingDown]:
     try:
         contents = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
     except (ValueError, OSError) as error:
-        raise RingDownFileError(path, "file", f"not a readable MATLAB file: {error}") from error
+        raise RingDownError(path, "file", f"not a readable MATLAB file: {error}") from error
     variables = mat_fields(contents)
     structs = {name: value for name, value in variables.items()
                if isinstance(value, scipy.io.matlab.mat_struct)
@@ -238,7 +213,7 @@ def read_mat(path: Path) -> list[RingDown]:
     if not structs:
         return mat_hits(path, variables, "variables")
     if len(structs) > 1:
-        raise RingDownFileError(path, ", ".join(structs), "several structs; expected one holding the ring-down")
+        raise RingDownError(path, ", ".join(structs), "several structs; expected one holding the ring-down")
     name, value = next(iter(structs.items()))
     elements = [value] if isinstance(value, scipy.io.matlab.mat_struct) else list(value.flat)
     return [record for index, element in enumerate(elements)
@@ -253,21 +228,21 @@ def read_uff58(path: Path) -> list[RingDown]:
     try:
         datasets = pyuff.UFF(str(path)).read_sets()
     except Exception as error:  # pyuff raises bare Exceptions for malformed files
-        raise RingDownFileError(path, "file", f"not a readable universal file: {error}") from error
+        raise RingDownError(path, "file", f"not a readable universal file: {error}") from error
     datasets = [datasets] if isinstance(datasets, dict) else datasets
     records = [record for record in datasets if record.get("type") == 58 and record.get("func_type") == 1]
     if not records:
-        raise RingDownFileError(path, "dataset 58", "no time-response record (dataset 58, function type 1)")
+        raise RingDownError(path, "dataset 58", "no time-response record (dataset 58, function type 1)")
     hits = {}
     for record in records:
         channel = f"node {record['rsp_node']} dir {record['rsp_dir']}"
         unit = record.get("ordinate_axis_units_lab", "NONE").strip()
         if unit in ("", "NONE"):
-            raise RingDownFileError(path, channel, "ordinate units label missing")
+            raise RingDownError(path, channel, "ordinate units label missing")
         quantity, _ = signal_quantity(path, channel, unit)
         coded = UFF_SPECIFIC_DATA_TYPE.get(record.get("ordinate_spec_data_type"))
         if coded is not None and coded != quantity:
-            raise RingDownFileError(path, channel, f"units '{unit}' contradict the ordinate specific data type "
+            raise RingDownError(path, channel, f"units '{unit}' contradict the ordinate specific data type "
                                                    f"{record['ordinate_spec_data_type']} ({coded})")
         hits.setdefault(record.get("load_case_id", 0), []).append((channel, unit, record))
     result = []
@@ -276,9 +251,9 @@ def read_uff58(path: Path) -> list[RingDown]:
         time_unit = entries[0][2].get("abscissa_axis_units_lab", "NONE")
         for channel, _, record in entries[1:]:
             if record["x"].shape != time.shape or not np.array_equal(record["x"], time):
-                raise RingDownFileError(path, channel, f"time samples differ from the other channels of load case "
+                raise RingDownError(path, channel, f"time samples differ from the other channels of load case "
                                                        f"{hit}")
-        result.append(ring_down(path, f"load case {hit}", time, time_unit,
+        result.append(checked_ring_down(path, f"load case {hit}", time, time_unit,
                                 {channel: record["data"] for channel, _, record in entries},
                                 {channel: unit for channel, unit, _ in entries}))
     return result
@@ -292,8 +267,59 @@ def read_ringdown(path: Path) -> list[RingDown]:
     """Ring-down hits from a file, the reader chosen by suffix (.csv, .mat, .uff/.unv)."""
     path = Path(path)
     if not path.is_file():
-        raise RingDownFileError(path, "file", "does not exist")
+        raise RingDownError(path, "file", "does not exist")
     reader = READERS.get(path.suffix.lower())
     if reader is None:
-        raise RingDownFileError(path, "file", f"unknown suffix '{path.suffix}' (known: {sorted(READERS)})")
+        raise RingDownError(path, "file", f"unknown suffix '{path.suffix}' (known: {sorted(READERS)})")
     return reader(path)
+
+
+def common_layout(ring_downs: list[RingDown]) -> RingDown:
+    """The first hit, after checking that every hit has its channels, quantity and sample times (the layout a
+    .mat struct with one column per hit needs)."""
+    first = ring_downs[0]
+    for hit in ring_downs[1:]:
+        if (hit.channels, hit.quantity) != (first.channels, first.quantity) or not np.array_equal(hit.time,
+                                                                                                   first.time):
+            raise RingDownError(hit.source, hit.hit, "channels, quantity or sample times differ from the first hit's")
+    return first
+
+
+def write_ringdown_csv(ring_downs: list[RingDown], destination: Path) -> None:
+    """Write hits as one CSV (layout in the module docstring): a ``hit`` column numbering them from 1, time in s,
+    signals in SI units, every number in Python's shortest round-tripping form."""
+    first = common_layout(ring_downs)
+    with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["hit", "time [s]", *(f"{name} [{SI_UNITS[first.quantity]}]" for name in first.channels)])
+        for number, hit in enumerate(ring_downs, start=1):
+            writer.writerows([number, *row] for row in np.column_stack([hit.time, hit.signals.T]).tolist())
+
+
+def write_ringdown_mat(ring_downs: list[RingDown], destination: Path, struct: str = "ringdown") -> None:
+    """Write hits as one MATLAB struct (layout in the module docstring): ``time``, ``units`` and one
+    (n_samples, n_hits) matrix per channel. Channel names become MATLAB field names (characters other than
+    letters, digits and ``_`` replaced by ``_``)."""
+    first = common_layout(ring_downs)
+    fields = {"time": first.time, "units": f"s, {SI_UNITS[first.quantity]}"}
+    for row, name in enumerate(first.channels):
+        fields[re.sub(r"\W", "_", name)] = np.column_stack([hit.signals[row] for hit in ring_downs])
+    with atomic_path(destination) as temporary:
+        scipy.io.savemat(temporary, {struct: fields})
+
+
+def write_ringdown_uff58(ring_downs: list[RingDown], destination: Path) -> None:
+    """Write hits as UFF 58 time-response records (function type 1, ASCII): load case = hit number from 1,
+    response node = channel number from 1 (direction 1), the channel name in ID line 1, SI units."""
+    import pyuff
+
+    data_type = {quantity: code for code, quantity in UFF_SPECIFIC_DATA_TYPE.items()}
+    datasets = [pyuff.prepare_58(func_type=1, load_case_id=number, rsp_node=node, rsp_dir=1, ref_node=0, ref_dir=0,
+                                 id1=name, x=hit.time, data=signal, abscissa_spacing=1, abscissa_spec_data_type=17,
+                                 abscissa_axis_units_lab="s", ordinate_axis_units_lab=SI_UNITS[hit.quantity],
+                                 ordinate_spec_data_type=data_type[hit.quantity],
+                                 orddenom_spec_data_type=0, z_axis_spec_data_type=0, binary=0)
+                for number, hit in enumerate(ring_downs, start=1)
+                for node, (name, signal) in enumerate(zip(hit.channels, hit.signals), start=1)]
+    with atomic_path(destination) as temporary:
+        pyuff.UFF(str(temporary)).write_sets(datasets, mode="overwrite")

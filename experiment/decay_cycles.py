@@ -1,6 +1,6 @@
 """Cycle-by-cycle natural frequency and damping of a free decay: zero-crossing period and logarithmic decrement.
 
-An estimator independent of the Hilbert transform (:mod:`nonlinear.hilbert`), to cross-check it. Within each
+An estimator independent of the Hilbert transform (:mod:`experiment.hilbert`), to cross-check it. Within each
 half cycle of a filtered single-mode signal (between consecutive zero crossings, located by linear
 interpolation) the extreme value is located by a parabola through the largest sample and its neighbours.
 Over a window of ``cycles`` whole cycles:
@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nonlinear.hilbert import DISPLACEMENT_ORDER, InstantaneousBackbone, RingDownSignalError
+from experiment.hilbert import InstantaneousBackbone, RingDownSignalError
+from experiment.ringdown import DISPLACEMENT_ORDER
 
 
 def zero_crossings(time: np.ndarray, signal: np.ndarray) -> np.ndarray:

@@ -16,20 +16,18 @@ Processing of one filtered single-mode signal (:func:`freevib`): mirror-padded a
 Savitzky-Golay smoothing over a whole number of periods; velocity or acceleration envelopes converted to
 displacement amplitude by dividing by omega or omega^2 before ln A is differentiated; the start (before the
 envelope maximum, e.g. the impact) and both ends (end effects of the transform and of the smoothing) trimmed;
-the noise floor detected where the envelope stops decaying and cut. :func:`average_backbones` bins several
-records (hits, channels) onto one amplitude grid and averages them with their spread.
+the noise floor detected where the envelope stops decaying and cut. Several records (hits, channels) are
+averaged on one amplitude grid by :func:`experiment.backbone.average_backbones`.
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal
 
-DISPLACEMENT_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
-"""Number of time derivatives between displacement and the measured quantity: amplitude = A / omega^order."""
+from experiment.ringdown import DISPLACEMENT_ORDER
 
 
 class RingDownSignalError(ValueError):
@@ -51,38 +49,6 @@ class InstantaneousBackbone:
     natural_frequency_hz: np.ndarray
     damping_ratio: np.ndarray
     correlated_samples: int = 1
-
-
-@dataclass(frozen=True)
-class Backbone:
-    """Natural frequency and damping on an amplitude grid, averaged over records (hits or channels).
-
-    amplitude: (n_grid,) grid amplitudes. natural_frequency_hz, damping_ratio: (n_grid,) means over the records
-    that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations of the
-    records' bin means (NaN where fewer than two): the hit-to-hit (or sensor-to-sensor) variation.
-    *_standard_error: (n_grid,) standard error of the bin mean from the scatter of all instantaneous estimates
-    in the bin, pooled over the records, with the number of independent estimates (each record's count divided
-    by its correlated_samples): the estimator's own noise. n_records: (n_grid,) records contributing.
-    """
-
-    amplitude: np.ndarray
-    natural_frequency_hz: np.ndarray
-    natural_frequency_spread_hz: np.ndarray
-    natural_frequency_standard_error_hz: np.ndarray
-    damping_ratio: np.ndarray
-    damping_ratio_spread: np.ndarray
-    damping_ratio_standard_error: np.ndarray
-    n_records: np.ndarray
-
-    @property
-    def natural_frequency_uncertainty_hz(self) -> np.ndarray:
-        """Standard uncertainty (n_grid,), Hz: spread and standard error in quadrature (no spread counts as 0)."""
-        return np.hypot(np.nan_to_num(self.natural_frequency_spread_hz), self.natural_frequency_standard_error_hz)
-
-    @property
-    def damping_ratio_uncertainty(self) -> np.ndarray:
-        """Standard uncertainty (n_grid,) of the damping ratio: spread and standard error in quadrature."""
-        return np.hypot(np.nan_to_num(self.damping_ratio_spread), self.damping_ratio_standard_error)
 
 
 def samples_per_period(sample_rate: float, frequency_hz: float) -> float:
@@ -172,7 +138,7 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
             noise_floor_factor: float = 3.0, feldman: bool = False) -> InstantaneousBackbone:
     """Instantaneous natural frequency and damping along a single-mode free decay (paper Eqs. 1-4).
 
-    time: (n,) s, uniformly sampled. signal: (n,) one mode only (filter first: :mod:`nonlinear.modal_filter`),
+    time: (n,) s, uniformly sampled. signal: (n,) one mode only (filter first: :mod:`experiment.modal_filter`),
     a displacement, velocity or acceleration as given by ``quantity``. mode_frequency_hz: a guess of the
     mode's natural frequency, Hz, which sets the time scales below.
     smoothing_periods: Savitzky-Golay window of the derivatives, in periods.
@@ -233,73 +199,3 @@ def feldman_properties(envelope: np.ndarray, omega: np.ndarray, step: float, win
     chirp = smoothed_derivative(omega, step, window) / omega
     natural = np.sqrt(omega**2 - curvature + 2 * rate**2 + rate * chirp)
     return natural, (-rate - chirp / 2) / natural
-
-
-def amplitude_bins(grid: np.ndarray) -> np.ndarray:
-    """Bin edges (n_grid + 1,) around an increasing positive amplitude grid: geometric midpoints."""
-    grid = np.asarray(grid, dtype=float)
-    inner = np.sqrt(grid[1:] * grid[:-1])
-    return np.concatenate([[grid[0] ** 2 / inner[0]], inner, [grid[-1] ** 2 / inner[-1]]])
-
-
-def binned_means(amplitude: np.ndarray, values: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """Mean of ``values`` (n,) over the samples whose ``amplitude`` (n,) falls in each grid bin; NaN if none."""
-    index = np.digitize(amplitude, amplitude_bins(grid)) - 1
-    inside = (index >= 0) & (index < grid.size)
-    counts = np.bincount(index[inside], minlength=grid.size)
-    sums = np.bincount(index[inside], weights=values[inside], minlength=grid.size)
-    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-
-
-def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent: np.ndarray,
-                          grid: np.ndarray) -> np.ndarray:
-    """Standard error of the mean of ``values`` (n,) within each grid bin of ``amplitude`` (n,); NaN if empty.
-
-    independent: (n,) weight of each estimate as an independent one (1 / correlated_samples of its record); the
-    bin's scatter is divided by the square root of the summed weights (at least one).
-    """
-    mean = binned_means(amplitude, values, grid)
-    index = np.clip(np.digitize(amplitude, amplitude_bins(grid)) - 1, 0, grid.size - 1)
-    scatter = np.sqrt(binned_means(amplitude, (values - mean[index]) ** 2, grid))
-    inside = (amplitude >= amplitude_bins(grid)[0]) & (amplitude < amplitude_bins(grid)[-1])
-    n_independent = np.bincount(index[inside], weights=independent[inside], minlength=grid.size)
-    return scatter / np.sqrt(np.maximum(n_independent, 1.0))
-
-
-def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray) -> Backbone:
-    """Backbone on an amplitude grid (n_grid,), averaged over records (paper Fig. 3: seven hammer hits).
-
-    Each record is first averaged within the grid's bins (geometric midpoints), then the records are averaged
-    with the sample standard deviation as spread; the standard error pools all instantaneous estimates of a bin.
-    """
-    grid = np.asarray(grid, dtype=float)
-    amplitude, frequency_hz, damping_ratio = (np.concatenate([getattr(r, name) for r in records])
-                                              for name in ("amplitude", "natural_frequency_hz", "damping_ratio"))
-    independent = np.concatenate([np.full(r.amplitude.size, 1 / r.correlated_samples) for r in records])
-    frequency, frequency_spread, count = record_statistics(
-        np.array([binned_means(r.amplitude, r.natural_frequency_hz, grid) for r in records]))
-    damping, damping_spread, _ = record_statistics(
-        np.array([binned_means(r.amplitude, r.damping_ratio, grid) for r in records]))
-    return Backbone(grid, frequency, frequency_spread,
-                    binned_standard_error(amplitude, frequency_hz, independent, grid), damping, damping_spread,
-                    binned_standard_error(amplitude, damping_ratio, independent, grid), count)
-
-
-def record_statistics(values: np.ndarray):
-    """Mean, sample standard deviation and count over records of (n_records, n_grid) values with NaN gaps.
-
-    Returns three (n_grid,) arrays; the mean is NaN without records, the spread NaN with fewer than two.
-    """
-    count = np.sum(np.isfinite(values), axis=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        mean = np.nanmean(values, axis=0)
-        spread = np.nanstd(values, axis=0, ddof=1)
-    return mean, np.where(count > 1, spread, np.nan), count
-
-
-def amplitude_grid(records: list[InstantaneousBackbone], n_points: int) -> np.ndarray:
-    """Log-spaced grid (n_points,) over the amplitudes covered by any of the records."""
-    low = min(np.min(r.amplitude) for r in records)
-    high = max(np.max(r.amplitude) for r in records)
-    return np.geomspace(low, high, n_points)

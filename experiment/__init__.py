@@ -1,0 +1,25 @@
+"""Measured (or simulated) ring-downs to backbones: natural frequency and damping against amplitude.
+
+Paper section 3.1; DESIGN.md section 6. Nothing here knows the joint model (``nonlinear``).
+
+Ring-downs (:mod:`experiment.ringdown`, :mod:`experiment.ringdown_files`)
+    RingDown                 one hit: time (n_samples,) s, signals (n_channels, n_samples) in SI units
+    read_ringdown(path)      CSV, MATLAB .mat or UFF 58 file -> list of RingDown (one per hit)
+    write_ringdown_csv, write_ringdown_mat, write_ringdown_uff58
+                             list of RingDown -> file that read_ringdown reads back
+Single-mode signals (:mod:`experiment.modal_filter`)
+    modal_coordinates        q = Phi^+ y with the mode shapes at the sensors
+    band_pass                zero-phase Butterworth band-pass
+Estimators on one filtered decay (:mod:`experiment.hilbert`, :mod:`experiment.decay_cycles`)
+    freevib                  Hilbert transform (paper Eqs. 1-4, Feldman's corrections optional)
+    decay_cycles             zero-crossing period and logarithmic decrement, cycle by cycle
+Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
+    ringdown_backbone        hits (and channels, mode shapes when known) -> both estimators averaged with spread
+    average_backbones        records -> mean, spread and standard error on an amplitude grid
+    mode_backbone            ringdown_backbone's result -> ModeBackbone (structure, provenance) for a study
+    write_backbone, read_backbone
+                             the documented backbone CSV
+    read_asb_backbone        measured ASB backbone (.mat) -> ModeBackbone
+Command (:mod:`experiment.commands`)
+    surrogacy freevib FILE --mode-hz F
+"""

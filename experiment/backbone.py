@@ -1,0 +1,260 @@
+"""Backbone of one mode from ring-downs: filtering, both estimators, averaging over hits and channels.
+
+Paper section 3.1 and Fig. 3: the ring-downs of several hammer hits are filtered to one mode, the Hilbert
+(FreeVib) estimator (:mod:`experiment.hilbert`) gives natural frequency and damping against displacement
+amplitude, and the hits are averaged on one amplitude grid with their spread. The cycle-by-cycle estimator
+(:mod:`experiment.decay_cycles`) runs on the same filtered data as an independent check.
+
+:func:`ringdown_backbone` is the one path from signals to a backbone, for measured files (read by
+:mod:`experiment.ringdown_files`) and simulated decays (:func:`nonlinear.transient.ring_down`) alike. Problems
+with a record or one of its channels raise :class:`~experiment.ringdown.RingDownError` naming its source and
+the record. :class:`ModeBackbone` is the backbone with what a study needs to use it (structure, low-amplitude
+frequency, provenance); its file format is in :mod:`experiment.backbone_files`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from experiment.decay_cycles import decay_cycles
+from experiment.hilbert import InstantaneousBackbone, RingDownSignalError, freevib
+from experiment.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
+from experiment.ringdown import RingDown, RingDownError, selected_channels
+
+PROVENANCES = ("measured", "virtual")
+"""Where a backbone comes from: a physical test, or a simulated test of a model (a virtual experiment)."""
+
+
+@dataclass(frozen=True)
+class Backbone:
+    """Natural frequency and damping on an amplitude grid, averaged over records (hits or channels).
+
+    amplitude: (n_grid,) grid amplitudes. natural_frequency_hz, damping_ratio: (n_grid,) means over the records
+    that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations of the
+    records' bin means (NaN where fewer than two): the hit-to-hit (or sensor-to-sensor) variation.
+    *_standard_error: (n_grid,) standard error of the bin mean from the scatter of all instantaneous estimates
+    in the bin, pooled over the records, with the number of independent estimates (each record's count divided
+    by its correlated_samples): the estimator's own noise. n_records: (n_grid,) records contributing.
+    """
+
+    amplitude: np.ndarray
+    natural_frequency_hz: np.ndarray
+    natural_frequency_spread_hz: np.ndarray
+    natural_frequency_standard_error_hz: np.ndarray
+    damping_ratio: np.ndarray
+    damping_ratio_spread: np.ndarray
+    damping_ratio_standard_error: np.ndarray
+    n_records: np.ndarray
+
+    @property
+    def natural_frequency_uncertainty_hz(self) -> np.ndarray:
+        """Standard uncertainty (n_grid,), Hz: spread and standard error in quadrature (no spread counts as 0)."""
+        return np.hypot(np.nan_to_num(self.natural_frequency_spread_hz), self.natural_frequency_standard_error_hz)
+
+    @property
+    def damping_ratio_uncertainty(self) -> np.ndarray:
+        """Standard uncertainty (n_grid,) of the damping ratio: spread and standard error in quadrature."""
+        return np.hypot(np.nan_to_num(self.damping_ratio_spread), self.damping_ratio_standard_error)
+
+
+def amplitude_bins(grid: np.ndarray) -> np.ndarray:
+    """Bin edges (n_grid + 1,) around an increasing positive amplitude grid: geometric midpoints."""
+    grid = np.asarray(grid, dtype=float)
+    inner = np.sqrt(grid[1:] * grid[:-1])
+    return np.concatenate([[grid[0] ** 2 / inner[0]], inner, [grid[-1] ** 2 / inner[-1]]])
+
+
+def binned_means(amplitude: np.ndarray, values: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Mean of ``values`` (n,) over the samples whose ``amplitude`` (n,) falls in each grid bin; NaN if none."""
+    index = np.digitize(amplitude, amplitude_bins(grid)) - 1
+    inside = (index >= 0) & (index < grid.size)
+    counts = np.bincount(index[inside], minlength=grid.size)
+    sums = np.bincount(index[inside], weights=values[inside], minlength=grid.size)
+    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+
+def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent: np.ndarray,
+                          grid: np.ndarray) -> np.ndarray:
+    """Standard error of the mean of ``values`` (n,) within each grid bin of ``amplitude`` (n,); NaN if empty.
+
+    independent: (n,) weight of each estimate as an independent one (1 / correlated_samples of its record); the
+    bin's scatter is divided by the square root of the summed weights (at least one).
+    """
+    mean = binned_means(amplitude, values, grid)
+    index = np.clip(np.digitize(amplitude, amplitude_bins(grid)) - 1, 0, grid.size - 1)
+    scatter = np.sqrt(binned_means(amplitude, (values - mean[index]) ** 2, grid))
+    inside = (amplitude >= amplitude_bins(grid)[0]) & (amplitude < amplitude_bins(grid)[-1])
+    n_independent = np.bincount(index[inside], weights=independent[inside], minlength=grid.size)
+    return scatter / np.sqrt(np.maximum(n_independent, 1.0))
+
+
+def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray) -> Backbone:
+    """Backbone on an amplitude grid (n_grid,), averaged over records (paper Fig. 3: seven hammer hits).
+
+    Each record is first averaged within the grid's bins (geometric midpoints), then the records are averaged
+    with the sample standard deviation as spread; the standard error pools all instantaneous estimates of a bin.
+    """
+    grid = np.asarray(grid, dtype=float)
+    amplitude, frequency_hz, damping_ratio = (np.concatenate([getattr(r, name) for r in records])
+                                              for name in ("amplitude", "natural_frequency_hz", "damping_ratio"))
+    independent = np.concatenate([np.full(r.amplitude.size, 1 / r.correlated_samples) for r in records])
+    frequency, frequency_spread, count = record_statistics(
+        np.array([binned_means(r.amplitude, r.natural_frequency_hz, grid) for r in records]))
+    damping, damping_spread, _ = record_statistics(
+        np.array([binned_means(r.amplitude, r.damping_ratio, grid) for r in records]))
+    return Backbone(grid, frequency, frequency_spread,
+                    binned_standard_error(amplitude, frequency_hz, independent, grid), damping, damping_spread,
+                    binned_standard_error(amplitude, damping_ratio, independent, grid), count)
+
+
+def record_statistics(values: np.ndarray):
+    """Mean, sample standard deviation and count over records of (n_records, n_grid) values with NaN gaps.
+
+    Returns three (n_grid,) arrays; the mean is NaN without records, the spread NaN with fewer than two.
+    """
+    count = np.sum(np.isfinite(values), axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        mean = np.nanmean(values, axis=0)
+        spread = np.nanstd(values, axis=0, ddof=1)
+    return mean, np.where(count > 1, spread, np.nan), count
+
+
+def amplitude_grid(records: list[InstantaneousBackbone], n_points: int) -> np.ndarray:
+    """Log-spaced grid (n_points,) over the amplitudes covered by any of the records."""
+    low = min(np.min(r.amplitude) for r in records)
+    high = max(np.max(r.amplitude) for r in records)
+    return np.geomspace(low, high, n_points)
+
+
+@dataclass(frozen=True)
+class ModeRecord:
+    """One filtered decay of the mode (one hit, one channel or the modal coordinate) and both estimates."""
+
+    label: str
+    hilbert: InstantaneousBackbone
+    cycles: InstantaneousBackbone
+
+
+@dataclass(frozen=True)
+class MeasuredBackbone:
+    """Backbones of one mode from ring-downs, averaged over their records (:func:`ringdown_backbone`).
+
+    source: the ring-downs' sources. mode_frequency_hz: the guess the processing was set up with, Hz.
+    amplitude_unit: unit of the grid (displacement of the sensor that moves most when the shape is
+    estimated). shape: the mode shape at the sensors used, channel -> value. hilbert, cycles: the two
+    estimators on one grid.
+    """
+
+    source: str
+    mode_frequency_hz: float
+    amplitude_unit: str
+    shape: dict
+    records: list[ModeRecord] = field(repr=False)
+    hilbert: Backbone = field(repr=False)
+    cycles: Backbone = field(repr=False)
+
+
+def mode_signals(record: RingDown, band_hz: tuple[float, float], mode_shapes: np.ndarray | None, mode_index: int,
+                 per_channel: bool):
+    """Filtered single-mode signals of one hit: list of (label, (n_samples,) signal), and the shape used.
+
+    With ``mode_shapes`` (n_channels, n_modes) the hit is modally filtered (pseudo-inverse) and column
+    ``mode_index`` kept; otherwise the channels are band-passed and the mode's shape is estimated from them
+    (:func:`~experiment.modal_filter.dominant_shape`). ``per_channel`` keeps each channel divided by its shape
+    entry as a separate record (a check of consistency between sensors) instead of one modal coordinate.
+    """
+    low, high = band_hz
+    if mode_shapes is not None:
+        if not 0 <= mode_index < mode_shapes.shape[1]:
+            raise ModalFilterError(f"mode {mode_index + 1} requested of {mode_shapes.shape[1]} mode shapes")
+        modal = modal_coordinates(record.signals, mode_shapes)[mode_index]
+        shape = mode_shapes[:, mode_index]
+        return [(f"{record.hit}: mode {mode_index + 1}", band_pass(modal, record.sample_rate, low, high))], shape
+    filtered = band_pass(record.signals, record.sample_rate, low, high)
+    shape = dominant_shape(filtered)
+    if per_channel:
+        return [(f"{record.hit}: {name}", signal / value)
+                for name, signal, value in zip(record.channels, filtered, shape)], shape
+    return [(f"{record.hit}: modal", modal_coordinates(filtered, shape)[0])], shape
+
+
+def estimate_record(source: str, label: str, time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float,
+                    quantity: str, cycles: int, freevib_options: dict) -> ModeRecord:
+    """Both estimators on one filtered decay; the cycle estimator sees the interval the Hilbert one kept."""
+    try:
+        hilbert = freevib(time, signal, mode_frequency_hz, quantity=quantity, **freevib_options)
+        kept = (time >= hilbert.time[0]) & (time <= hilbert.time[-1])
+        return ModeRecord(label, hilbert, decay_cycles(time[kept], signal[kept], quantity=quantity, cycles=cycles))
+    except RingDownSignalError as error:
+        raise RingDownError(source, label, str(error)) from error
+
+
+def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
+                      band_hz: tuple[float, float] | None = None, mode_shapes: np.ndarray | None = None,
+                      mode_index: int = 0, per_channel: bool = False, channels: list[str] | None = None,
+                      grid_points: int = 25, cycles: int = 4, **freevib_options) -> MeasuredBackbone:
+    """Backbone of one mode from ring-downs (several hits, each with one or more channels), with its spread.
+
+    hits: ring-downs of one structure with the same channels, measured or simulated. mode_frequency_hz: guess
+    of the mode's natural frequency, Hz. band_hz: band-pass edges, Hz (default 0.7 and 1.3 times the guess).
+    mode_shapes: (n_channels, n_modes) shapes at the selected channels for modal filtering, or None to estimate
+    the shape. mode_index: column of ``mode_shapes`` that is the mode. per_channel: each channel (divided by
+    its shape entry) is a record of its own instead of one modal coordinate per hit. channels: names to use
+    (default all). grid_points: size of the log-spaced amplitude grid. cycles: window of the cycle estimator.
+    freevib_options: passed to :func:`~experiment.hilbert.freevib` (smoothing_periods, trim_periods, feldman,
+    ...). Returns both estimators averaged over the records on one grid (:func:`average_backbones`).
+    """
+    band_hz = band_hz or (0.7 * mode_frequency_hz, 1.3 * mode_frequency_hz)
+    hits = [selected_channels(hit, channels) for hit in hits] if channels else hits
+    records, shapes = [], []
+    for hit in hits:
+        try:
+            signals, shape = mode_signals(hit, band_hz, mode_shapes, mode_index, per_channel)
+        except ModalFilterError as error:
+            raise RingDownError(hit.source, "band / mode shapes", str(error)) from error
+        shapes.append(shape)
+        records += [estimate_record(hit.source, label, hit.time, signal, mode_frequency_hz, hit.quantity, cycles,
+                                    freevib_options) for label, signal in signals]
+    grid = amplitude_grid([record.hilbert for record in records], grid_points)
+    return MeasuredBackbone(", ".join(dict.fromkeys(hit.source for hit in hits)), mode_frequency_hz,
+                            "m" if mode_shapes is None else "m / shape unit",
+                            dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
+                            average_backbones([record.hilbert for record in records], grid),
+                            average_backbones([record.cycles for record in records], grid))
+
+
+def low_amplitude_reference(values: np.ndarray) -> float:
+    """The value at the lowest grid amplitude that has data (paper Fig. 3's low-amplitude value)."""
+    return values[np.flatnonzero(np.isfinite(values))[0]]
+
+
+@dataclass(frozen=True)
+class ModeBackbone:
+    """The backbone of one mode of one structure, with what a study needs to compare it with a model.
+
+    structure: name of the structure (e.g. "ASB C1", "BRB"). low_amplitude_frequency_hz: the mode's natural
+    frequency at the lowest amplitude with data, Hz. amplitude_unit: unit of ``backbone.amplitude`` (a
+    mass-normalised modal amplitude is in m kg^0.5). provenance: one of :data:`PROVENANCES`. source: what it
+    was obtained from (file, or model and design). backbone: the points with their spread.
+    """
+
+    structure: str
+    low_amplitude_frequency_hz: float
+    amplitude_unit: str
+    provenance: str
+    source: str
+    backbone: Backbone = field(repr=False)
+
+    def __post_init__(self):
+        if self.provenance not in PROVENANCES:
+            raise ValueError(f"provenance '{self.provenance}' is not one of {PROVENANCES}")
+
+
+def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str) -> ModeBackbone:
+    """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study."""
+    return ModeBackbone(structure, float(low_amplitude_reference(measured.hilbert.natural_frequency_hz)),
+                        measured.amplitude_unit, provenance, measured.source, measured.hilbert)
