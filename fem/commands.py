@@ -63,8 +63,8 @@ def beam_inputs(beams_folder: Path, name: str) -> tuple[Path, BeamParameters, st
         beam = BeamParameters(**{k: tuple(v) if isinstance(v, list) else v
                                  for k, v in record["inputs"]["beam"].items()})
     except (KeyError, AttributeError, TypeError, ValueError) as error:
-        raise FeInputError(f"{sidecar}: field inputs.beam is not a valid BeamParameters "
-                           f"({error!r})") from None
+        raise FeInputError(f"{sidecar}: field inputs.beam is not a valid BeamParameters ({error!r}); "
+                           f"rerun make beams") from None
     return mesh_path, beam, record["files"]["msh"]["sha256"]
 
 
