@@ -11,20 +11,18 @@ edges that meet there; the colour range is the range of the mid-side pressures.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from geometry.beam_mesh import BeamMesh
+from pipeline.render import tetrahedral_grid, triangle_surface
 
 from .bolts import quadratic_triangles
 from .convergence import first_bending
 from .coupling import nodal_areas
 from .elasticity import solid_mesh
 from .prestress import PrestressedBeam
-
-os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 PRESSURE_COLOURMAP = "viridis"
 MODE_COLOURMAP = "jet"
@@ -57,13 +55,6 @@ def corner_means(triangles: np.ndarray, pressure: np.ndarray) -> np.ndarray:
     return shown
 
 
-def _triangle_surface(points: np.ndarray, triangles: np.ndarray):
-    import pyvista
-
-    cells = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
-    return pyvista.PolyData(points, faces=cells)
-
-
 def _look_down_on(plotter, bounds, window_size, fill: float = 0.72) -> None:
     """Parallel projection from +z onto the x-y rectangle ``bounds`` (xmin, xmax, ymin, ymax, ...), x to the right,
     the rectangle filling ``fill`` of the window's width left of the scalar bar."""
@@ -87,14 +78,14 @@ def render_contact_pressure(points: np.ndarray, triangles: np.ndarray, pressure:
 
     midsides = np.unique(triangles[:, 3:])
     colour_range = (float(np.nanmin(pressure[midsides])), float(np.nanmax(pressure[midsides])))
-    surface = _triangle_surface(points, triangles[:, SUBTRIANGLES].reshape(-1, 3))
+    surface = triangle_surface(points, triangles[:, SUBTRIANGLES].reshape(-1, 3))
     surface.point_data["contact pressure, Pa"] = corner_means(triangles, pressure)
     plotter = pyvista.Plotter(off_screen=True, window_size=window_size)
     plotter.set_background("white")
     plotter.add_mesh(surface, scalars="contact pressure, Pa", cmap=PRESSURE_COLOURMAP, clim=colour_range,
                      lighting=False, scalar_bar_args={"title": "contact pressure, Pa\n", "fmt": "%.3g",
                                                       **SCALAR_BAR})
-    outline = _triangle_surface(points, triangles[:, :3]).extract_feature_edges(
+    outline = triangle_surface(points, triangles).extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(outline, color="black", line_width=2)
     used = points[np.unique(triangles)]
@@ -110,8 +101,9 @@ def render_mode_shape(points: np.ndarray, tetrahedra: np.ndarray, shape: np.ndar
     """Write a PNG of a mode shape: the deformed outer surface coloured by displacement magnitude (normalised),
     over the undeformed beam (translucent grey).
 
-    points: (n_vertices, 3) m; tetrahedra: (m, 4) vertex indices of both halves; shape: (3 n, ...) mode shape
-    whose first 3 n_vertices entries are the vertex displacements (quadratic numbering, vertices first);
+    points: (n_vertices, 3) m; tetrahedra: (m, 4) or (m, 10) node indices of both halves, corners first; shape:
+    (3 n, ...) mode shape whose first 3 n_vertices entries are the vertex displacements (quadratic numbering,
+    vertices first);
     amplitude: largest displayed displacement as a fraction of the beam length.
     """
     import pyvista
@@ -119,9 +111,7 @@ def render_mode_shape(points: np.ndarray, tetrahedra: np.ndarray, shape: np.ndar
     displacement = shape[:3 * len(points)].reshape(-1, 3)
     magnitude = np.linalg.norm(displacement, axis=1)
     scale = amplitude * np.ptp(points[:, 0]) / magnitude.max()
-    cells = np.hstack([np.full((len(tetrahedra), 1), 4), tetrahedra]).ravel()
-    cell_types = np.full(len(tetrahedra), pyvista.CellType.TETRA, dtype=np.uint8)
-    solid = pyvista.UnstructuredGrid(cells, cell_types, points)
+    solid = tetrahedral_grid(points, tetrahedra)
     solid.point_data["displacement"] = displacement
     solid.point_data["displacement / max"] = magnitude / magnitude.max()
     surface = solid.extract_surface(algorithm="dataset_surface")
@@ -160,7 +150,7 @@ def render_fe(beam_mesh: BeamMesh, model: PrestressedBeam, name: str, pressure_p
                                            f"(frictionless, seen from +z)")
     mode = first_bending(model.prestressed_frequencies, model.prestressed_shapes)
     n_vertices = len(beam_mesh.points)
-    render_mode_shape(model.coordinates[:n_vertices], beam_mesh.tetrahedra[:, :4], model.prestressed_shapes[:, mode],
+    render_mode_shape(model.coordinates[:n_vertices], beam_mesh.tetrahedra, model.prestressed_shapes[:, mode],
                       mode_path, f"{name}: first bending {model.prestressed_frequencies[mode]:.1f} Hz "
                                  f"(lap tied, prestressed)")
     return colour_range

@@ -1,9 +1,9 @@
 """The geometry stage: mesh a beam and write ``<beam>.msh``, ``<beam>.vtu``, ``<beam>.png`` and ``<beam>.json``.
 
-The JSON sidecar records the parameters, the gmsh version, the physical groups with their element and node
-counts, the exact CAD and the meshed volumes and patch areas, the input hash (cache key) and the SHA-256 of each
-file. It is written last: a sidecar whose hashes match the files marks a complete, current result, and
-``make_beam`` then does nothing. All files are written atomically.
+The JSON sidecar (layout ``pipeline.cache``: inputs ``beam`` and ``mesh``, versions of the format, gmsh and
+meshio, files ``msh``, ``vtu`` and ``png``) also records the node count, the physical groups with their element
+counts, and the analytic, exact CAD and meshed volumes and patch areas. It is written last: a current sidecar
+marks a complete result, and ``make_beam`` then does nothing. All files are written atomically.
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import contextlib
 import dataclasses
 from pathlib import Path
 
-import gmsh
 import meshio
 import numpy as np
 
-from pipeline.files import atomic_path, sha256_file, sha256_json, write_json
+from pipeline.cache import is_current, package_versions, sidecar_record
+from pipeline.files import atomic_path, write_json
 
 from . import properties
 from .beam_mesh import read_beam_mesh
@@ -24,26 +24,17 @@ from .brake_reuss import build_beam_mesh, cad_measures, gmsh_session, write_msh
 from .parameters import BeamParameters, MeshParameters
 from .render import render_patches
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: sidecar layout of pipeline.cache
 
 
 def input_record(beam: BeamParameters, sizes: MeshParameters) -> dict:
     """Everything the mesh depends on, as recorded in the sidecar and hashed into the cache key."""
-    return {"format_version": FORMAT_VERSION, "gmsh_version": gmsh.__version__,
-            "beam": dataclasses.asdict(beam), "mesh": dataclasses.asdict(sizes)}
+    return {"beam": dataclasses.asdict(beam), "mesh": dataclasses.asdict(sizes)}
 
 
-def _is_current(sidecar: Path, input_hash: str) -> bool:
-    import json
-
-    if not sidecar.is_file():
-        return False
-    record = json.loads(sidecar.read_text())
-    if record.get("input_hash") != input_hash:
-        return False
-    return all((sidecar.parent / entry["name"]).is_file() and
-               sha256_file(sidecar.parent / entry["name"]) == entry["sha256"]
-               for entry in record["files"].values())
+def versions() -> dict:
+    """The sidecar's versions: the format and the packages that write the mesh files."""
+    return {"format": FORMAT_VERSION, **package_versions("gmsh", "meshio")}
 
 
 def _write_vtu(mesh, path: Path) -> None:
@@ -74,14 +65,12 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
     """Mesh one beam into ``folder`` unless a current result is already there. Returns the sidecar's path."""
     folder = Path(folder)
     inputs = input_record(beam, sizes)
-    input_hash = sha256_json(inputs)
     sidecar = folder / f"{beam.name}.json"
-    if _is_current(sidecar, input_hash):
-        return sidecar
-    folder.mkdir(parents=True, exist_ok=True)
     files = {"msh": folder / f"{beam.name}.msh", "vtu": folder / f"{beam.name}.vtu"}
     if render:
         files["png"] = folder / f"{beam.name}.png"
+    if is_current(sidecar, inputs, versions(), files):
+        return sidecar
     with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
         temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
         with gmsh_session():
@@ -92,21 +81,16 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
         _write_vtu(mesh, temporary["vtu"])
         if render:
             render_patches(mesh, temporary["png"], f"{beam.name}: interface patches 1-5 (upper half lifted)")
-        hashes = {kind: sha256_file(path) for kind, path in temporary.items()}
-    record = dict(inputs)
-    record.update({
-        "input_hash": input_hash,
-        "files": {kind: {"name": path.name, "sha256": hashes[kind]} for kind, path in files.items()},
-        "nodes": len(mesh.points),
-        "tetrahedra": {name: len(tets) for name, tets in mesh.volumes.items()},
-        "physical_groups": {name: {"dimension": groups[name][0], "entities": groups[name][1],
-                                   "elements": len(mesh.volumes.get(name, mesh.faces.get(name, [])))}
-                            for name in groups},
-        "analytic": {"half_volume_m3": properties.half_volume(beam), "mass_kg": properties.beam_mass(beam),
-                     "patch_area_m2": properties.patch_areas(beam).tolist()},
-        "cad": {"volume_m3": {n: v for n, v in cad.items() if groups[n][0] == 3},
-                "patch_area_m2": {n: v for n, v in cad.items() if "_patch_" in n}},
-        "measured": _measured(beam, mesh),
-    })
-    write_json(sidecar, record)
+    write_json(sidecar, sidecar_record(
+        inputs, versions(), files,
+        nodes=len(mesh.points),
+        tetrahedra={name: len(tets) for name, tets in mesh.volumes.items()},
+        physical_groups={name: {"dimension": groups[name][0], "entities": groups[name][1],
+                                "elements": len(mesh.volumes.get(name, mesh.faces.get(name, [])))}
+                         for name in groups},
+        analytic={"half_volume_m3": properties.half_volume(beam), "mass_kg": properties.beam_mass(beam),
+                  "patch_area_m2": properties.patch_areas(beam).tolist()},
+        cad={"volume_m3": {n: v for n, v in cad.items() if groups[n][0] == 3},
+             "patch_area_m2": {n: v for n, v in cad.items() if "_patch_" in n}},
+        measured=_measured(beam, mesh)))
     return sidecar

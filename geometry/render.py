@@ -2,30 +2,13 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from pipeline.render import tetrahedral_grid, triangle_surface
+
 from .beam_mesh import BeamMesh
-
-os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-
-
-def _surface(mesh: BeamMesh, triangles: np.ndarray, shift: np.ndarray):
-    import pyvista
-
-    cells = np.hstack([np.full((len(triangles), 1), 3), triangles[:, :3]]).ravel()
-    return pyvista.PolyData(mesh.points + shift, faces=cells)
-
-
-def _volume(mesh: BeamMesh, name: str, shift: np.ndarray):
-    import pyvista
-
-    tetrahedra = mesh.volumes[name][:, :4]
-    cells = np.hstack([np.full((len(tetrahedra), 1), 4), tetrahedra]).ravel()
-    cell_types = np.full(len(tetrahedra), pyvista.CellType.TETRA, dtype=np.uint8)
-    return pyvista.UnstructuredGrid(cells, cell_types, mesh.points + shift).extract_surface(algorithm="dataset_surface")
 
 
 def _add_beam(plotter, mesh: BeamMesh, lift: float) -> None:
@@ -34,14 +17,16 @@ def _add_beam(plotter, mesh: BeamMesh, lift: float) -> None:
     palette = colormaps["tab10"]
     patch_numbers = sorted({int(name.rsplit("_", 1)[1]) for name in mesh.faces if "_patch_" in name})
     for side, shift in (("lower", np.zeros(3)), ("upper", np.array([0.0, 0.0, lift]))):
-        plotter.add_mesh(_volume(mesh, f"{side}_half", shift), color="lightgrey", opacity=0.35,
+        points = mesh.points + shift
+        volume = tetrahedral_grid(points, mesh.volumes[f"{side}_half"])
+        plotter.add_mesh(volume.extract_surface(algorithm="dataset_surface"), color="lightgrey", opacity=0.35,
                          show_edges=True, edge_color="grey", line_width=0.5)
         for p in patch_numbers:
-            plotter.add_mesh(_surface(mesh, mesh.faces[f"{side}_patch_{p}"], shift), color=palette(p - 1)[:3],
+            plotter.add_mesh(triangle_surface(points, mesh.faces[f"{side}_patch_{p}"]), color=palette(p - 1)[:3],
                              show_edges=True, edge_color="black", line_width=0.5,
                              label=f"patch {p}" if side == "lower" else None)
         for name in (n for n in mesh.faces if n.startswith(f"{side}_washer_")):
-            plotter.add_mesh(_surface(mesh, mesh.faces[name], shift), color="dimgrey")
+            plotter.add_mesh(triangle_surface(points, mesh.faces[name]), color="dimgrey")
 
 
 def render_patches(mesh: BeamMesh, path: Path, title: str, window_size=(1600, 1200)) -> None:

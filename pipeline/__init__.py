@@ -1,0 +1,10 @@
+"""The plumbing every stage shares.
+
+- ``files``: ``atomic_path``, ``write_json``, ``sha256_file``, ``sha256_json``.
+- ``cache``: the sidecar layout; ``is_current`` (the cache check), ``sidecar_record``, ``upstream_file``,
+  ``package_versions``, ``StageInputError``.
+- ``config``: ``resolve`` and ``configuration`` (defaults, ``--config`` TOML, ``--set``), ``add_config_arguments``,
+  ``ConfigError``.
+- ``render``: ``tetrahedral_grid``, ``triangle_surface`` (off-screen PyVista).
+- ``cli``: the ``surrogacy`` console script, ``main``.
+"""

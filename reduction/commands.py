@@ -3,9 +3,11 @@
 Reads ``<beams>/<beam>.msh`` (+ ``.json``, geometry stage) and ``<fe>/<beam>.npz`` (+ ``.json``, FE stage) and
 writes into ``<out>``: ``<beam>.npz`` (``np.load(..., allow_pickle=False)``; ``reduction.superelement.
 load_superelement`` reads it), the same arrays as MATLAB ``<beam>.mat``, ``<beam>_first_bending.png`` (the first
-flexible mode with the joint stuck, expanded to the mesh) and the sidecar ``<beam>.json`` last (inputs, input hash,
-files' SHA-256, mass properties, frequencies). The input hash covers the mesh and FE results' hashes, the number of modes and the
-sensor layout: a rerun with unchanged inputs does nothing.
+flexible mode with the joint stuck, expanded to the mesh) and the sidecar ``<beam>.json`` last (layout
+``pipeline.cache``; files ``npz``, ``mat``, ``png``; also mass properties and frequencies). Its inputs, hashed into
+the cache key, are the mesh and FE results' hashes and the ``ReductionParameters`` (number of fixed-interface modes,
+sensor layout): a rerun with unchanged inputs does nothing. Parameters: a ``[reduction]`` table in a ``--config``
+TOML file, ``--set reduction.fixed_interface_modes=30``, ``--modes``.
 
 Reduced coordinates q (n = 86): lower virtual nodes 1-5, upper virtual nodes 1-5 (u_x, u_y, u_z m; r_x, r_y, r_z
 rad, about the patch centroids) and 26 fixed-interface modal coordinates (``dof_labels``). Arrays:
@@ -29,7 +31,8 @@ The .mat holds the same arrays, with ``M`` = mass, ``K`` = stiffness, ``K_prestr
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +45,9 @@ from fem.elasticity import solid_mesh
 from fem.modes import interface_quadratic_pairs, node_dofs
 from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.parameters import BEAMS
-from pipeline.files import atomic_path, sha256_file, sha256_json, write_json
+from pipeline.cache import is_current, package_versions, sidecar_record, upstream_file
+from pipeline.config import add_config_arguments, configuration
+from pipeline.files import atomic_path, write_json
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
                             virtual_dof_labels)
@@ -51,36 +56,59 @@ from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, poi
 from .superelement import Superelement, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
-FORMAT_VERSION = 2  # 2: stiffness is K; K_A and the bolt string term beside it
+FORMAT_VERSION = 3  # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
+
+
+@dataclass(frozen=True)
+class ReductionParameters:
+    """The reduction stage's own parameters (``[reduction]`` table).
+
+    fixed_interface_modes: fixed-interface modes kept in the superelement, at least 1;
+    sensor_body_fractions: accelerometer positions along each body from the lap end, fractions of the body
+    length inside (0, 1) (``reduction.sensors``).
+    """
+
+    fixed_interface_modes: int = N_FIXED_INTERFACE_MODES
+    sensor_body_fractions: tuple[float, ...] = BODY_FRACTIONS
+
+    def __post_init__(self) -> None:
+        if self.fixed_interface_modes < 1:
+            raise FeInputError(f"parameter 'fixed_interface_modes' = {self.fixed_interface_modes}: expected at "
+                               f"least 1 fixed-interface mode")
+        if not self.sensor_body_fractions or not all(0.0 < f < 1.0 for f in self.sensor_body_fractions):
+            raise FeInputError(f"parameter 'sensor_body_fractions' = {self.sensor_body_fractions}: expected "
+                               f"fractions of the body length inside (0, 1)")
+
+
+def versions() -> dict:
+    """The sidecar's versions: the format and the packages that reduce the model and write the .mat."""
+    return {"format": FORMAT_VERSION, **package_versions("numpy", "scipy", "scikit-fem")}
 
 
 def fe_inputs(fe_folder: Path, name: str, mesh_sha: str) -> tuple[Path, dict]:
     """The FE result of one beam and its sidecar record; FeInputError when missing, stale or for another mesh."""
     sidecar = Path(fe_folder) / f"{name}.json"
-    if not sidecar.is_file():
-        raise FeInputError(f"{sidecar}: missing; run the FE stage first (make fe)")
-    record = json.loads(sidecar.read_text())
-    result = sidecar.parent / record["file"]["name"]
-    if not result.is_file() or sha256_file(result) != record["file"]["sha256"]:
-        raise FeInputError(f"{result}: missing or its SHA-256 differs from {sidecar}; rerun make fe")
-    if record["inputs"]["mesh_sha256"] != mesh_sha:
+    result, record = upstream_file(sidecar, "npz", "fe")
+    if record.get("inputs", {}).get("mesh_sha256") != mesh_sha:
         raise FeInputError(f"{sidecar}: FE result of another mesh than the current one; rerun make fe")
     return result, record
 
 
-def rom_arrays(beam_mesh, beam, fe, bolt: Bolt, n_modes: int) -> tuple[Superelement, dict[str, np.ndarray]]:
+def rom_arrays(beam_mesh, beam, fe, bolt: Bolt, parameters: ReductionParameters = ReductionParameters()
+               ) -> tuple[Superelement, dict[str, np.ndarray]]:
     """The superelement of one beam and every array of its .npz (module docstring).
 
     beam_mesh: ``geometry.beam_mesh.BeamMesh``; beam: its ``BeamParameters``; fe: the loaded FE stage .npz;
     bolt: the FE stage's ``Bolt``."""
+    n_modes = parameters.fixed_interface_modes
     mesh = solid_mesh(beam_mesh.points, beam_mesh.tetrahedra)
     mass = read_csr(fe, "mass")
     reduction = reduce_beam(mesh, beam_mesh, read_csr(fe, "stiffness"), mass, n_modes)
     basis = reduction.hcb.basis
     string = bolt_string_stiffness(mesh, beam_mesh, beam, bolt)
     prestressed = reduction.hcb.stiffness + reduced_matrix(read_csr(fe, "stress_stiffness") - string, basis)
-    points = accelerometer_points(beam)
+    points = accelerometer_points(beam, parameters.sensor_body_fractions)
     sensors = point_recovery(mesh, points)[SENSOR_DIRECTION::3] @ basis
     superelement = whole_joint_superelement(reduction, reduction.hcb.stiffness, sensors,
                                             preload_vector(mesh, beam_mesh, beam, bolt, basis), beam.name)
@@ -110,63 +138,49 @@ def matlab_arrays(arrays: dict[str, np.ndarray]) -> dict:
     return content
 
 
-def _is_current(sidecar: Path, input_hash: str) -> bool:
-    if not sidecar.is_file():
-        return False
-    record = json.loads(sidecar.read_text())
-    return record.get("input_hash") == input_hash and all(
-        (sidecar.parent / entry["name"]).is_file() and sha256_file(sidecar.parent / entry["name"]) == entry["sha256"]
-        for entry in record.get("files", {}).values())
-
-
 def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
-             n_modes: int = N_FIXED_INTERFACE_MODES, render: bool = True) -> Path:
+             parameters: ReductionParameters = ReductionParameters(), render: bool = True) -> Path:
     """Run the reduction stage for one beam unless its sidecar is current; returns the sidecar path."""
-    if n_modes < 1:
-        raise FeInputError(f"n_modes = {n_modes}: expected at least 1 fixed-interface mode")
     mesh_path, beam, mesh_sha = beam_inputs(beams_folder, name)
     fe_path, fe_record = fe_inputs(fe_folder, name, mesh_sha)
-    inputs = {"format_version": FORMAT_VERSION, "mesh_sha256": mesh_sha, "fe_input_hash": fe_record["input_hash"],
-              "fe_sha256": fe_record["file"]["sha256"], "n_modes": n_modes, "render": render,
-              "sensor_body_fractions": list(BODY_FRACTIONS)}
-    input_hash = sha256_json(inputs)
+    inputs = {"mesh_sha256": mesh_sha, "fe_input_hash": fe_record["input_hash"],
+              "fe_sha256": fe_record["files"]["npz"]["sha256"],
+              "n_modes": parameters.fixed_interface_modes,
+              "sensor_body_fractions": list(parameters.sensor_body_fractions)}
     folder = Path(folder)
     sidecar = folder / f"{name}.json"
-    if _is_current(sidecar, input_hash):
+    files = {"npz": folder / f"{name}.npz", "mat": folder / f"{name}.mat"}
+    if render:
+        files["png"] = folder / f"{name}_first_bending.png"
+    if is_current(sidecar, inputs, versions(), files):
         return sidecar
     beam_mesh = read_beam_mesh(mesh_path)
     with np.load(fe_path, allow_pickle=False) as fe:
-        superelement, arrays = rom_arrays(beam_mesh, beam, fe, Bolt(**fe_record["inputs"]["bolt"]), n_modes)
+        superelement, arrays = rom_arrays(beam_mesh, beam, fe, Bolt(**fe_record["inputs"]["bolt"]), parameters)
     frequencies, shapes = stuck_joint_modes(superelement, 4)
-    paths = {"npz": folder / f"{name}.npz", "mat": folder / f"{name}.mat"}
-    if render:
-        paths["png"] = folder / f"{name}_first_bending.png"
-    files = {}
-    for kind, path in paths.items():
-        with atomic_path(path) as temporary:
-            if kind == "npz":
-                with open(temporary, "wb") as stream:
-                    np.savez(stream, **arrays)
-            elif kind == "mat":
-                scipy.io.savemat(temporary, matlab_arrays(arrays), do_compression=True)
-            else:
-                render_mode(beam_mesh, (arrays["vertex_recovery"] @ shapes[:, 0]).reshape(-1, 3), temporary,
-                            f"{name}: first flexible mode, joint stuck, {frequencies[0]:.1f} Hz (superelement)")
-            files[kind] = {"name": path.name, "sha256": sha256_file(temporary)}
+    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
+        temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
+        with open(temporary["npz"], "wb") as stream:
+            np.savez(stream, **arrays)
+        scipy.io.savemat(temporary["mat"], matlab_arrays(arrays), do_compression=True)
+        if render:
+            render_mode(beam_mesh, (arrays["vertex_recovery"] @ shapes[:, 0]).reshape(-1, 3), temporary["png"],
+                        f"{name}: first flexible mode, joint stuck, {frequencies[0]:.1f} Hz (superelement)")
     rigid = rigid_reduced_coordinates(arrays["virtual_node_coordinates"][:superelement.n_patches],
                                       superelement.mass.shape[0])
     total_mass, centre, inertia = rigid_body_properties(rigid.T @ superelement.mass @ rigid)
-    write_json(sidecar, {"inputs": inputs, "input_hash": input_hash, "files": files,
-                         "mass_kg": total_mass, "centre_of_mass_m": centre.tolist(),
-                         "inertia_about_centre_kg_m2": inertia.tolist(),
-                         "stuck_joint_frequencies_hz": frequencies.tolist(),
-                         "fixed_interface_frequencies_hz": arrays["fixed_interface_frequencies"].tolist()})
+    write_json(sidecar, sidecar_record(
+        inputs, versions(), files, mass_kg=total_mass, centre_of_mass_m=centre.tolist(),
+        inertia_about_centre_kg_m2=inertia.tolist(), stuck_joint_frequencies_hz=frequencies.tolist(),
+        fixed_interface_frequencies_hz=arrays["fixed_interface_frequencies"].tolist()))
     return sidecar
 
 
 def run(arguments: argparse.Namespace) -> None:
+    options = [("reduction", "fixed_interface_modes", arguments.modes)] if arguments.modes is not None else []
+    parameters = configuration(arguments, {"reduction": ReductionParameters()}, options)["reduction"]
     for name in tqdm(arguments.beam, desc="superelements", unit="beam"):
-        tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, arguments.modes)}")
+        tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, parameters)}")
 
 
 def register(subparsers) -> None:
@@ -178,5 +192,7 @@ def register(subparsers) -> None:
     command.add_argument("--beams", type=Path, default=Path("build/beams"), help="geometry stage output folder")
     command.add_argument("--fe", type=Path, default=Path("build/fe"), help="FE stage output folder")
     command.add_argument("--out", type=Path, default=Path("build/rom"), help="output folder")
-    command.add_argument("--modes", type=int, default=N_FIXED_INTERFACE_MODES, help="fixed-interface modes")
+    command.add_argument("--modes", type=int, help=f"fixed-interface modes (reduction.fixed_interface_modes, "
+                                                   f"default {N_FIXED_INTERFACE_MODES})")
+    add_config_arguments(command, "a [reduction]", "reduction.sensor_body_fractions=[0.2, 0.4, 0.6, 0.8]")
     command.set_defaults(run=run)

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from geometry.beam_mesh import BeamMesh
-
-os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+from pipeline.render import tetrahedral_grid
 
 DEFLECTION = 0.05  # the largest displacement drawn, as a fraction of the beam length
 
@@ -25,9 +23,7 @@ def render_mode(beam_mesh: BeamMesh, vertex_displacement: np.ndarray, path: Path
     import pyvista
 
     points = beam_mesh.points[:len(vertex_displacement)]
-    tetrahedra = beam_mesh.tetrahedra[:, :4]
-    cells = np.hstack([np.full((len(tetrahedra), 1), 4), tetrahedra]).ravel()
-    grid = pyvista.UnstructuredGrid(cells, np.full(len(tetrahedra), pyvista.CellType.TETRA, dtype=np.uint8), points)
+    grid = tetrahedral_grid(points, beam_mesh.tetrahedra)
     magnitude = np.linalg.norm(vertex_displacement, axis=1)
     scale = DEFLECTION * np.ptp(points[:, 0]) / magnitude.max()
     grid.point_data["|u| (normalised)"] = magnitude / magnitude.max()

@@ -33,9 +33,10 @@ def top_face_height(beam: BeamParameters, x: np.ndarray) -> np.ndarray:
     return np.where(on_flexure, beam.spring_height / 2, beam.height / 2)
 
 
-def accelerometer_points(beam: BeamParameters) -> np.ndarray:
-    """The ten accelerometer positions (10, 3) m on the top face (module docstring), increasing x."""
-    along_body = beam.lap_length / 2 + beam.body_length * np.asarray(BODY_FRACTIONS)
+def accelerometer_points(beam: BeamParameters, body_fractions: tuple[float, ...] = BODY_FRACTIONS) -> np.ndarray:
+    """The accelerometer positions (2 n, 3) m on the top face (module docstring), increasing x: n per body at
+    ``body_fractions`` (n,) of the body length from the lap end."""
+    along_body = beam.lap_length / 2 + beam.body_length * np.asarray(body_fractions)
     x = np.concatenate([-along_body[::-1], along_body])
     return np.column_stack([x, np.zeros(len(x)), top_face_height(beam, x) - INSIDE])
 

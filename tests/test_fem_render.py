@@ -40,7 +40,7 @@ def test_fe_writes_readable_renders_recorded_in_the_sidecar(fe_folder):
     record = json.loads((fe_folder / "BRB.json").read_text())
     for kind in ("contact_pressure", "first_bending"):
         path = fe_folder / f"BRB_{kind}.png"
-        assert record["renders"][kind]["name"] == path.name
+        assert record["files"][kind]["name"] == path.name
         pixels = image(path)
         assert pixels.shape[0] > 500 and pixels.shape[1] > 1000
         coloured = np.ptp(pixels, axis=2) > 60  # saturated pixels: the colour map, not the white/grey background
