@@ -45,7 +45,7 @@ CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED = 0, 1, 2, 3
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 FORCE_TARGET = 1e-12  # ... and until the slip forces balance the load on the mechanisms to this ...
-FORCE_ACCEPT = 1e-9  # ... accept below this (``_mechanism_imbalance``: round-off eps x slip ratio, 1e-11 at 1e4)
+FORCE_ACCEPT = 1e-9  # ... accept below this, beyond the round-off of the holding elements' forces
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
 # A Newton step longer than STEP_LIMIT (1 + max|x|) in scaled slip is shortened to it and the Newton matrix is
@@ -58,6 +58,9 @@ CONTRACTION = 0.5  # a full Newton step that shrinks |R| this much is taken with
 REVISITS = 5  # ... but after this many such steps to no record |R| in a level only those to a record
 PSEUDO_INVERSE_RCOND = 1e-15  # eigenvalues of C below this times the largest count as zero (numpy's pinv)
 FACTORED_CONDITION = 1e12  # below this condition number C^+ = C^-1 (no eigenvalue near the cutoff)
+# Relative accuracy of the condensed compliance C and joint shape b (``nonlinear.stuck_modes``; 5e-10 of the
+# largest entry against 40-digit references): the holding elements' motion is known to no better.
+CONDENSATION_ACCURACY = 1e-9
 NEAR = 1e-4  # a slip power within this relative change of |x| comes from the iterate's by a series (``_slip_power``)
 # Rows of the work array: iterate and trial, and at each the law's deficit, clipped slope and potential, the
 # scaled residual and the slip power r min(|x|, 1)^(chi+1); then the Newton step in x, the slopes in the Newton
@@ -355,20 +358,29 @@ def _convex_between(x, trial, slope, trial_slope, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load, modal_force, force):
+def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load, modal_force,
+                         force):
     """How far the element forces are from balancing the load on the joint's mechanisms: the full equations
     (paper Eq. 10) projected on each relative rigid motion d_j that moves the joint only tangentially
     (``nonlinear.condensation.joint_mechanisms``) read d_j^T f = alpha rigid_j^T psi, in newtons, with no term
-    that grows with the motion along d_j. Returns max_j |d_j^T f - alpha rigid_j^T psi| over
+    that grows with the motion along d_j. Returns max_j (|d_j^T f - alpha rigid_j^T psi| - floor_j) over
     sum_i |f_i| + alpha sum_j |rigid_j^T psi| (a scale of the forces, not of the displacements: an iterate that
     ran off along a mechanism, where the condensed residual is lost under the round-off of |r|, is off by a whole
     slip force here).
 
     The element force f = K_T phi x - g (N) is formed without cancellation beyond macroslip, where it is the
-    constant K_T phi - r shape - stiction drop; stiffness: K_T phi (N per unit scaled slip; K_T for stuck
-    elements, whose law constants vanish); mechanisms: (k, m); mechanism_load: (k,) rigid_j^T psi; modal_force:
-    alpha; force: (m,) work row for f."""
+    constant K_T phi - r shape - stiction drop. Below macroslip it is K_T r, and r is known only as well as the
+    condensed equations hold and are known, |R_i| + CONDENSATION_ACCURACY max|r|: the floor_j = sum_i |d_ji|
+    K_T,i (|R_i| + CONDENSATION_ACCURACY max|r|) over these holding elements is what the condensed problem
+    resolves (a stiff holding element next to elements that slid 1e5 slip displacements, its own equation a
+    difference of terms 1e5 times its motion); it is zero along a mechanism on which every element slides, the
+    run-off iterate's case. stiffness: K_T phi (N per unit scaled slip; K_T for
+    stuck elements, whose law constants vanish); phi: (m,) the elements' scales (m); residual: (m,) R / phi;
+    mechanisms: (k, m); mechanism_load: (k,) rigid_j^T psi; modal_force: alpha; force: (m,) work row for f."""
     size = 0.0
+    largest_motion = 0.0
+    for i in range(x.size):
+        largest_motion = max(largest_motion, abs(x[i] * phi[i]))
     for i in range(x.size):
         if abs(x[i]) < 1.0 or table[i, MACROSLIP_SLOPE] == 0.0:
             force[i] = stiffness[i] * x[i] - deficit[i]
@@ -380,11 +392,14 @@ def _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechan
         size += abs(modal_force * mechanism_load[j])
     worst = 0.0
     for j in range(mechanisms.shape[0]):
-        total = -modal_force * mechanism_load[j]
+        total, floor = -modal_force * mechanism_load[j], 0.0
         for i in range(x.size):
             total += mechanisms[j, i] * force[i]
-        worst = max(worst, abs(total))
-    return worst / max(size, 1e-300)
+            if abs(x[i]) < 1.0 or table[i, MACROSLIP_SLOPE] == 0.0:
+                floor += abs(mechanisms[j, i]) * stiffness[i] * (abs(residual[i]) + CONDENSATION_ACCURACY
+                                                                 * largest_motion / phi[i])
+        worst = max(worst, abs(total) - floor)
+    return max(worst, 0.0) / max(size, 1e-300)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
@@ -417,7 +432,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     shift = 0.0
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
-            imbalance = _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load,
+            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load,
                                              _modal_force(stuck_force, joint_shape, deficit, amplitude_control),
                                              work[FORCE])
             if imbalance <= FORCE_TARGET:
@@ -478,7 +493,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
         elif shift > 0.0:
             shift = 0.1 * shift if shift > SHIFT else 0.0
     if error <= ACCEPT_TOLERANCE:
-        imbalance = _mechanism_imbalance(x, deficit, power, stiffness, table, mechanisms, mechanism_load,
+        imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load,
                                          _modal_force(stuck_force, joint_shape, deficit, amplitude_control),
                                          work[FORCE])
         return (CONVERGED if imbalance <= FORCE_ACCEPT else UNBALANCED), pinv_formed
