@@ -160,6 +160,19 @@ def tangential_tangent(elements: PatchElements, displacement) -> np.ndarray:
     return np.where(e.stuck, e.stiffness, tangent)
 
 
+def tangential_force(elements: PatchElements, displacement) -> np.ndarray:
+    """Force (N) of the tangential elements at displacement (m) from their backbones (paper Eqs. 14, 16, 21):
+    constant beyond macroslip (no K_T u - g cancellation there); K_T u for stuck patches."""
+    e = elements
+    if e.law == "jenkins":
+        force = jenkins.backbone(displacement, e.stiffness, e.slip_force)
+    elif e.law == "iwan4":
+        force = iwan.four_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
+    else:
+        force = iwan.five_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
+    return np.where(e.stuck, e.stiffness * displacement, force)
+
+
 def tangential_slip_deficit(elements: PatchElements, displacement) -> np.ndarray:
     """Force lost to slip, K_T u - f(u) (N), of the tangential elements; zero for stuck patches."""
     law = scaled_law(elements)

@@ -38,7 +38,8 @@ def assert_same_backbone(read: ModeBackbone, written: ModeBackbone):
 def test_backbone_round_trip_keeps_every_float(tmp_path):
     written = mode_backbone(ringdown_backbone(linear_hits([1.0, 0.8, 0.6]), FREQUENCY_HZ, grid_points=12),
                             "linear oscillator", "virtual")
-    assert written.low_amplitude_frequency_hz == pytest.approx(FREQUENCY_HZ, rel=1e-3)
+    # FreeVib on a noise-free linear decay: 1.5e-6 measured at the smallest amplitude (Hilbert end effects)
+    assert written.low_amplitude_frequency_hz == pytest.approx(FREQUENCY_HZ, rel=1e-5)
     assert np.isnan(written.backbone.natural_frequency_spread_hz).any()  # one record at the grid's ends
     write_backbone(written, tmp_path / "linear.csv")
     assert_same_backbone(read_backbone(tmp_path / "linear.csv"), written)

@@ -12,6 +12,8 @@ from scipy.integrate import quad
 
 from nonlinear import iwan, jenkins
 from nonlinear.parameters import FrictionParameterError
+from nonlinear.joint import (patch_elements, random_designs, slip_displacement, tangential_elements, tangential_force,
+                            tangential_slip_deficit)
 from nonlinear.sliders import initial_state, iwan_sliders, jenkins_sliders, slider_response
 
 # (F_S N, K_T N/m, chi, beta, theta) spanning Table 3: soft/strong, stiff/weak, chi near both ends.
@@ -204,3 +206,18 @@ def test_slip_deficit_potential_is_integral_of_deficit(case):
                                 - jenkins.slip_deficit_potential(u_jenkins - h, stiffness, slip_force)) / (2 * h),
                                jenkins.slip_deficit(u_jenkins, stiffness, slip_force), rtol=1e-6,
                                atol=1e-9 * slip_force)
+
+
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+def test_tangential_force_is_stiffness_less_slip_deficit(model):
+    """The backbone force of ``tangential_force`` equals K_T u - g(u) of the scaled slip law on Table 3 elements
+    from stuck to 1e3 slip displacements, within the round-off of that difference (4 eps (K_T |u| + |g|))."""
+    elements = tangential_elements(patch_elements(model, random_designs(model, 200, 3, np.random.default_rng(3))))
+    rng = np.random.default_rng(4)
+    scaled = rng.choice([-1, 1], elements.stiffness.shape) * np.geomspace(1e-6, 1e3, elements.stiffness.size).reshape(
+        elements.stiffness.shape)
+    displacement = scaled * np.where(elements.stuck, 1e-3, slip_displacement(elements))
+    deficit = tangential_slip_deficit(elements, displacement)
+    difference = elements.stiffness * displacement - deficit
+    round_off = 4 * np.finfo(float).eps * (elements.stiffness * np.abs(displacement) + np.abs(deficit))
+    assert np.all(np.abs(tangential_force(elements, displacement) - difference) <= round_off + 1e-12 * np.abs(difference))

@@ -15,10 +15,9 @@ import numpy as np
 import pytest
 
 from extended_precision import ReferenceDesign
-from nonlinear import iwan, jenkins
 from nonlinear.condensation import joint_mechanisms, joint_space, stuck_modes
 from nonlinear.joint import (patch_elements, random_designs, slip_displacement, stuck_stiffness, tangential_elements,
-                             tangential_rows)
+                             tangential_force, tangential_rows)
 from nonlinear.qsma import qsma_reference
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.cli import main as surrogacy
@@ -75,22 +74,9 @@ def regression_levels(space, model, design, reference):
     return levels
 
 
-def element_force(elements, displacement):
-    """Tangential element forces (N) from the backbones of ``nonlinear.jenkins`` and ``nonlinear.iwan`` (not the
-    kernel's slip law): constant beyond macroslip, no cancellation; K_T r for stuck patches."""
-    e = elements
-    if e.law == "jenkins":
-        force = jenkins.backbone(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        force = iwan.four_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        force = iwan.five_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
-    return np.where(e.stuck, e.stiffness * displacement, force)
-
-
 def mechanism_imbalance(space, model, designs, result):
     """(designs, levels) |d^T f - alpha rigid^T psi| / (sum |f| + |alpha| sum |rigid^T psi|) from the returned
-    joint motion, in numpy with the elements' backbones (not the kernel's code), less what the condensed problem
+    joint motion, in numpy with the elements' backbones (``tangential_force``, not the kernel's code), less what the condensed problem
     resolves: a holding element (below macroslip, or stuck) has its motion to 2e-9 of the largest (the
     condensation's accuracy and the residual's acceptance), so its force to K_T 2e-9 max|r|. An element that slid
     away along a mechanism is off by whole slip forces."""
@@ -102,7 +88,7 @@ def mechanism_imbalance(space, model, designs, result):
     per_level = tangential._replace(**{name: getattr(tangential, name)[:, None, :] for name in
                                        ("slip_force", "stiffness", "chi", "beta", "theta", "normal_stiffness")})
     r = result.joint_displacement
-    force = element_force(per_level, r)
+    force = tangential_force(per_level, r)
     load = result.force[..., None] * (modes.shape @ mechanisms.rigid.T)[:, None, :]
     imbalance = np.abs(force @ mechanisms.tangential.T - load)
     holding = tangential.stuck | (np.abs(r) < slip_displacement(tangential)[:, None, :])
