@@ -68,7 +68,7 @@ def rmatvec(a, x, out):
 def cholesky(a, upper):
     """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read) into ``upper``
     (same shape), stored as the upper triangular U = L^T (A = U^T U), row by row with right-looking updates
-    along rows (contiguous)."""
+    along rows (contiguous). No check: a matrix not numerically positive definite gives a NaN factor."""
     n = a.shape[0]
     for i in range(n):
         for j in range(i):
