@@ -11,6 +11,8 @@ Joint (:mod:`nonlinear.joint`, :mod:`nonlinear.parameters`)
 Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuck_modes`)
     joint_space                 unjoined modes of a superelement and the joint's relative motion in them
     stuck_modes, stuck_designs  linear modes with the joint stuck: one design, many designs (compiled)
+Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
+    cholesky, ldl_eliminate, solve_dense, symmetric_eigen   factorisations, solves, Jacobi eigen-solve
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once

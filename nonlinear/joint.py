@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nonlinear import iwan, jenkins, slip_laws
+from nonlinear import iwan, slip_laws
 from nonlinear.parameters import FrictionParameterError, check_iwan, check_jenkins, check_positive
 
 GROUP_PARAMETERS = {
@@ -149,28 +149,21 @@ def slip_displacement(elements: PatchElements) -> np.ndarray:
 
 
 def tangential_tangent(elements: PatchElements, displacement) -> np.ndarray:
-    """Tangent stiffness df/du (N/m) of the tangential elements; K_T at zero displacement."""
-    e = elements
-    if e.law == "jenkins":
-        tangent = jenkins.tangent(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        tangent = iwan.four_parameter_tangent(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        tangent = iwan.five_parameter_tangent(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
-    return np.where(e.stuck, e.stiffness, tangent)
+    """Tangent stiffness df/du = K_T - g'(u) (N/m) of the tangential elements, from the scaled slip law
+    (``nonlinear.slip_laws.backbone_force_slope``): K_T at zero displacement, 0 beyond macroslip; K_T for
+    stuck patches."""
+    law = scaled_law(elements)
+    tangent = slip_laws.backbone_force_slope(displacement / law.phi_max, law.r, law.s, law.chi, law.theta) / law.phi_max
+    return np.where(elements.stuck, elements.stiffness, tangent)
 
 
 def tangential_force(elements: PatchElements, displacement) -> np.ndarray:
-    """Force (N) of the tangential elements at displacement (m) from their backbones (paper Eqs. 14, 16, 21):
-    constant beyond macroslip (no K_T u - g cancellation there); K_T u for stuck patches."""
-    e = elements
-    if e.law == "jenkins":
-        force = jenkins.backbone(displacement, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        force = iwan.four_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        force = iwan.five_parameter_backbone(displacement, e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
-    return np.where(e.stuck, e.stiffness * displacement, force)
+    """Force f = K_T u - g(u) (N) of the tangential elements at displacement (m), their backbones (paper Eqs. 14,
+    18, 21) from the scaled slip law (``nonlinear.slip_laws.backbone_force``): constant beyond macroslip (no
+    K_T u - g cancellation there); K_T u for stuck patches."""
+    law = scaled_law(elements)
+    force = slip_laws.backbone_force(displacement / law.phi_max, law.r, law.s, law.chi, law.theta)
+    return np.where(elements.stuck, elements.stiffness * displacement, force)
 
 
 def tangential_slip_deficit(elements: PatchElements, displacement) -> np.ndarray:
@@ -195,16 +188,13 @@ def tangential_slip_deficit_potential(elements: PatchElements, displacement) -> 
 
 
 def tangential_dissipation(elements: PatchElements, amplitude) -> np.ndarray:
-    """Masing cycle dissipation (J) of the tangential elements at amplitude (m) (paper Eqs. 15, 19, 22)."""
-    e = elements
-    if e.law == "jenkins":
-        dissipation = jenkins.dissipation(amplitude, e.stiffness, e.slip_force)
-    elif e.law == "iwan4":
-        dissipation = iwan.four_parameter_dissipation(amplitude, e.slip_force, e.stiffness, e.chi, e.beta)
-    else:
-        dissipation = iwan.five_parameter_dissipation(amplitude, e.slip_force, e.stiffness, e.chi, e.beta,
-                                                      e.theta)
-    return np.where(e.stuck, 0.0, dissipation)
+    """Masing cycle dissipation D = 4 phi_max (x g - 2 G) (J) of the tangential elements at amplitude (m), x the
+    scaled amplitude (paper Eqs. 15, 19, 22; the QSMA kernel's formula), from the scaled slip law
+    (``nonlinear.slip_laws.masing_dissipation``); zero for stuck patches."""
+    law = scaled_law(elements)
+    dissipation = 4.0 * law.phi_max * slip_laws.masing_dissipation(amplitude / law.phi_max, law.r, law.s, law.chi,
+                                                                   law.theta)
+    return np.where(elements.stuck, 0.0, dissipation)
 
 
 def tangential_elements(elements: PatchElements) -> PatchElements:

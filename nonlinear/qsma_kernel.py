@@ -32,7 +32,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.stuck_modes import FAST_MATH, ldl_eliminate, solve_dense
+from nonlinear.dense_linear_algebra import FAST_MATH, ldl_eliminate, solve_dense
 
 # The functions called per level and per Newton step are inlined into ``solve_levels`` by numba itself (not
 # left to LLVM): every call of a compiled function otherwise costs atomic reference-count updates of its array

@@ -38,7 +38,8 @@ Only one stuck mode can have a MAC above 0.5, so a polished mode above it is the
 modes, one to three per thousand of Table 3's designs) the root of every branch j is found by a safeguarded
 Newton iteration mu <- mu + sigma_j / (1 + z^T F' z), z = Z w (w the unit eigenvector of sigma_j), polished,
 and the best match kept. Cost per design: a few dozen m x m operations (m = 15) instead of a dense
-n_modes x n_modes eigen-decomposition that is, besides, less accurate.
+n_modes x n_modes eigen-decomposition that is, besides, less accurate. The factorisations, solves and the
+small eigen-solve are those of ``nonlinear.dense_linear_algebra``.
 """
 
 from __future__ import annotations
@@ -48,247 +49,16 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from nonlinear.dense_linear_algebra import (FAST_MATH, backward_substitute, cholesky, dot, forward_substitute, matvec,
+                                            rmatvec, solve_dense, symmetric_eigen_in_place, symmetric_solve)
+
 # Newton on S(mu) stops at ESTIMATE_TOLERANCE (relative step; S's own round-off is near 1e-7), the bordered
 # polish at ROOT_TOLERANCE, or at FAST_STEP once it converges at least quadratically.
-# Floating-point reassociation and fused multiply-adds (never assumptions about NaN or infinity): lets the
-# compiler vectorise the small reductions; results change only in the last bits.
-FAST_MATH = {"reassoc", "contract", "arcp"}
 ESTIMATE_TOLERANCE = 1e-6
 ROOT_TOLERANCE = 1e-11
 FAST_STEP = 1e-7  # a relative step this small and 100 times smaller than the last: the next is below 1e-13
 MAX_NEWTON_ITERATIONS = 30
 MAX_POLISH_ITERATIONS = 6
-JACOBI_TOLERANCE = 1e-16  # off-diagonal entries below this times the matrix norm are left alone
-MAX_JACOBI_SWEEPS = 30
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _dot(x, y):
-    """x . y of two vectors (a loop: no temporary array)."""
-    total = 0.0
-    for i in range(x.size):
-        total += x[i] * y[i]
-    return total
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _matvec(a, x, out):
-    """out = a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
-    rows, columns = a.shape
-    for i in range(rows):
-        total = 0.0
-        for j in range(columns):
-            total += a[i, j] * x[j]
-        out[i] = total
-    return out
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _rmatvec(a, x, out):
-    """out = a^T x for a small dense matrix, summed in the order of the rows, four rows of ``a`` per pass over
-    ``out`` (a quarter of its loads and stores: the 40 x 120 product of ``_high_flexibility`` 1.5 times
-    faster)."""
-    rows = a.shape[0]
-    out[:] = 0.0
-    for i in range(0, rows - 3, 4):
-        x0, x1, x2, x3 = x[i], x[i + 1], x[i + 2], x[i + 3]
-        a0, a1, a2, a3 = a[i], a[i + 1], a[i + 2], a[i + 3]
-        for j in range(out.size):
-            out[j] = (((out[j] + a0[j] * x0) + a1[j] * x1) + a2[j] * x2) + a3[j] * x3
-    for i in range(rows - rows % 4, rows):
-        xi, ai = x[i], a[i]
-        for j in range(out.size):
-            out[j] += ai[j] * xi
-    return out
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _cholesky(a, upper):
-    """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read) into ``upper``
-    (same shape), stored as the upper triangular U = L^T (A = U^T U), row by row with right-looking updates
-    along rows (contiguous)."""
-    n = a.shape[0]
-    for i in range(n):
-        for j in range(i):
-            upper[i, j] = 0.0
-        for j in range(i, n):
-            upper[i, j] = a[i, j]
-    for j in range(n):
-        inverse = 1.0 / np.sqrt(upper[j, j])
-        for i in range(j, n):
-            upper[j, i] *= inverse
-        for k in range(j + 1, n):
-            factor = upper[j, k]
-            for i in range(k, n):
-                upper[k, i] -= factor * upper[j, i]
-    return upper
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _forward(upper, b):
-    """U^-T b (= L^-1 b) for the factor of ``_cholesky`` and b (n, k), in place (all right-hand sides in the
-    inner loop)."""
-    n, k = b.shape
-    for i in range(n):
-        for j in range(i):
-            factor = upper[j, i]
-            for c in range(k):
-                b[i, c] -= factor * b[j, c]
-        inverse = 1.0 / upper[i, i]
-        for c in range(k):
-            b[i, c] *= inverse
-    return b
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _backward(upper, b):
-    """U^-1 b (= L^-T b) for the factor of ``_cholesky`` and b (n, k), in place."""
-    n, k = b.shape
-    for i in range(n - 1, -1, -1):
-        for j in range(i + 1, n):
-            factor = upper[i, j]
-            for c in range(k):
-                b[i, c] -= factor * b[j, c]
-        inverse = 1.0 / upper[i, i]
-        for c in range(k):
-            b[i, c] *= inverse
-    return b
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def ldl_eliminate(a, n, width):
-    """Symmetric Gaussian elimination (LDL^T: no square roots, which would lengthen the chain of dependent
-    operations) of the symmetric positive definite leading n x n block of ``a`` (its upper triangle is read),
-    in place, each row carried to column ``width``: a[j, i] = d_j L[i, j] above the diagonal and 1 / d_j on it,
-    and columns n to width (right-hand sides B) left holding L^-1 B. The inner loops run over row views from
-    index 0, so that the compiler sees non-negative indices (no wrap-around test) and vectorises them: 1.6 to
-    2 times as fast as indexing from a row's diagonal at n = 15. Returns False, leaving ``a`` spoiled, where a
-    pivot is not positive and finite (the block not numerically positive definite)."""
-    for j in range(n):
-        pivot = a[j, j]
-        if not 0.0 < pivot < np.inf:
-            return False
-        inverse = 1.0 / pivot
-        a[j, j] = inverse
-        for k in range(j + 1, n):
-            multiplier = a[j, k] * inverse  # L[k, j]
-            target, source = a[k, k:width], a[j, k:width]
-            for i in range(target.size):
-                target[i] -= multiplier * source[i]
-    return True
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _symmetric_solve(augmented, n):
-    """A^-1 B for the symmetric positive definite A in the upper triangle of the leading n x n block of
-    ``augmented`` (n, n + k) and the k right-hand sides B in its last k columns, in place (the solution there;
-    the block is left holding the eliminated factor): ``ldl_eliminate`` with the right-hand sides carried
-    along the contiguous rows, then back substitution column by column of the factor."""
-    ldl_eliminate(augmented, n, augmented.shape[1])
-    for j in range(n - 1, -1, -1):
-        solution = augmented[j, n:]
-        inverse = augmented[j, j]
-        for c in range(solution.size):
-            solution[c] *= inverse
-        for k in range(j):
-            multiplier = augmented[k, j]
-            target = augmented[k, n:]
-            for c in range(target.size):
-                target[c] -= multiplier * solution[c]
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def _symmetric_eigen(a, values, vectors):
-    """Eigenvalues (ascending, into ``values``) and orthonormal eigenvectors (columns, into ``vectors``) of a
-    small symmetric matrix ``a`` (overwritten) by cyclic Jacobi rotations, until every off-diagonal entry is
-    below JACOBI_TOLERANCE times the matrix norm (backward error of order eps times the norm)."""
-    n = a.shape[0]
-    squares = 0.0
-    for i in range(n):
-        for j in range(n):
-            squares += a[i, j] * a[i, j]
-            vectors[i, j] = 1.0 if i == j else 0.0
-    threshold = JACOBI_TOLERANCE * np.sqrt(squares)
-    for _ in range(MAX_JACOBI_SWEEPS):
-        rotated = False
-        for p in range(n - 1):
-            for q in range(n):  # q > p, counted from 0: the compiler sees non-negative indices
-                if q <= p or abs(a[p, q]) <= threshold:
-                    continue
-                rotated = True
-                angle = (a[q, q] - a[p, p]) / (2.0 * a[p, q])
-                tangent = (1.0 if angle >= 0.0 else -1.0) / (abs(angle) + np.sqrt(angle * angle + 1.0))
-                cosine = 1.0 / np.sqrt(tangent * tangent + 1.0)
-                sine = tangent * cosine
-                for k in range(n):
-                    akp, akq = a[k, p], a[k, q]
-                    a[k, p], a[k, q] = cosine * akp - sine * akq, sine * akp + cosine * akq
-                for k in range(n):
-                    apk, aqk = a[p, k], a[q, k]
-                    a[p, k], a[q, k] = cosine * apk - sine * aqk, sine * apk + cosine * aqk
-                for k in range(n):
-                    vkp, vkq = vectors[k, p], vectors[k, q]
-                    vectors[k, p], vectors[k, q] = cosine * vkp - sine * vkq, sine * vkp + cosine * vkq
-                a[p, q] = a[q, p] = 0.0
-        if not rotated:
-            break
-    for i in range(n):
-        values[i] = a[i, i]
-    for i in range(n):  # selection sort, swapping the eigenvectors along
-        smallest = i
-        for j in range(i + 1, n):
-            if values[j] < values[smallest]:
-                smallest = j
-        if smallest != i:
-            values[i], values[smallest] = values[smallest], values[i]
-            for k in range(n):
-                vectors[k, i], vectors[k, smallest] = vectors[k, smallest], vectors[k, i]
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def symmetric_eigen(a):
-    """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix
-    (``_symmetric_eigen`` on a copy)."""
-    n = a.shape[0]
-    values, vectors = np.empty(n), np.empty((n, n))
-    _symmetric_eigen(a.copy(), values, vectors)
-    return values, vectors
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def solve_dense(a, b, n):
-    """Gaussian elimination with partial pivoting of the leading n x n block of ``a`` against b[:n], both
-    overwritten (the solution in b[:n]); returns True if singular. Only an exactly zero pivot counts as
-    singular (e.g. a joint whose slipping elements leave the halves free); an ill-conditioned but regular
-    matrix is solved, and the caller judges the result."""
-    for k in range(n):
-        pivot = k
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > abs(a[pivot, k]):
-                pivot = i
-        if a[pivot, k] == 0.0:
-            return True
-        if pivot != k:
-            for j in range(n):
-                a[k, j], a[pivot, j] = a[pivot, j], a[k, j]
-            b[k], b[pivot] = b[pivot], b[k]
-        for i in range(k + 1, n):
-            factor = a[i, k] / a[k, k]
-            for j in range(k, n):
-                a[i, j] -= factor * a[k, j]
-            b[i] -= factor * b[k]
-    back_substitute(a, b, n)
-    return False
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH)
-def back_substitute(upper, b, n):
-    """Solve the leading n x n upper-triangular block of ``upper`` against b[:n], in place in b."""
-    for k in range(n - 1, -1, -1):
-        total = b[k]
-        for j in range(k + 1, n):
-            total -= upper[k, j] * b[j]
-        b[k] = total / upper[k, k]
 
 
 class _Work(NamedTuple):
@@ -332,7 +102,7 @@ def _high_flexibility(mu, high_eigenvalues, high_outer, weights, packed):
     high_outer: (n_E, m (m+1) / 2) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
     for e in range(high_eigenvalues.size):
         weights[e] = 1.0 / (high_eigenvalues[e] - mu)
-    _rmatvec(high_outer, weights, packed)
+    rmatvec(high_outer, weights, packed)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -351,7 +121,7 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augm
         augmented[i, i] += inverse_stiffness[i]
         for k in range(n_low):
             augmented[i, m + k] = low_modes[i, k]
-    _symmetric_solve(augmented, m)
+    symmetric_solve(augmented, m)
     for i in range(m):
         for k in range(n_low):
             z[i, k] = augmented[i, m + k]
@@ -384,10 +154,10 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
         _high_flexibility(mu, high_eigenvalues, high_outer, work.weights, work.packed)
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work.augmented, work)
         work.small[:] = work.s
-        _symmetric_eigen(work.small, work.values, work.vectors)
+        symmetric_eigen_in_place(work.small, work.values, work.vectors)
         work.w[:] = work.vectors[:, branch]
-        _matvec(work.z, work.w, work.zw)
-        _rmatvec(high_modes, work.zw, work.high)
+        matvec(work.z, work.w, work.zw)
+        rmatvec(high_modes, work.zw, work.high)
         slope = 1.0
         for e in range(high_eigenvalues.size):
             slope += (work.high[e] * work.weights[e]) ** 2
@@ -421,13 +191,13 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, high_outer, weights, work.packed)
-        _rmatvec(high_modes, force, high)
+        rmatvec(high_modes, force, high)
         for e in range(weights.size):
             high[e] *= weights[e] * weights[e]
-        _matvec(high_modes, high, product)  # F'(mu) f, also solved against X(mu)
+        matvec(high_modes, high, product)  # F'(mu) f, also solved against X(mu)
         augmented[:, m + n_low] = product
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, augmented, work)
-        _rmatvec(work.z, product, low)
+        rmatvec(work.z, product, low)
         for k in range(n_low):
             low[k] -= v_low[k]
         work.small[:] = work.s
@@ -440,12 +210,12 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                 coupling += work.z[i, k] * low[k]
             force[i] = augmented[i, m + n_low] - coupling
             norm += force[i] * force[i]
-        inverse_norm = 1.0 / np.sqrt(norm + _dot(low, low))
+        inverse_norm = 1.0 / np.sqrt(norm + dot(low, low))
         for i in range(m):
             force[i] *= inverse_norm
         for k in range(n_low):
             v_low[k] = low[k] * inverse_norm
-        _rmatvec(high_modes, force, modal)
+        rmatvec(high_modes, force, modal)
         for e in range(weights.size):
             modal[e] *= weights[e]
         value = 0.0
@@ -462,7 +232,7 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             value += force[i] * total
         for k in range(n_low):
             value += (mu - low_eigenvalues[k]) * v_low[k] * v_low[k]
-        step = value / (_dot(modal, modal) + _dot(v_low, v_low))
+        step = value / (dot(modal, modal) + dot(v_low, v_low))
         mu -= step
         # Converged, or converging so fast (at least quadratically) that the next step would be below round-off.
         if abs(step) <= ROOT_TOLERANCE * mu or (abs(step) <= FAST_STEP * mu and abs(step) <= 1e-2 * abs(last_step)):
@@ -492,7 +262,7 @@ def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, refer
     for k in range(w.size):
         projection += w[k] * reference_low[k]
         norm += w[k] * w[k]
-    _rmatvec(high_projection, w, v_high)
+    rmatvec(high_projection, w, v_high)
     for e in range(v_high.size):
         v_high[e] /= mu - high_eigenvalues[e]
         projection += v_high[e] * reference_high[e]
@@ -506,7 +276,7 @@ def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_l
     into work.v_low and work.v_high, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude,
     without cancellation) into work.b, from x = (work.force, work.v_low). Returns the MAC."""
     v_low, v_high = work.v_low, work.v_high
-    _rmatvec(high_modes, work.force, v_high)
+    rmatvec(high_modes, work.force, v_high)
     squares, projection = 0.0, 0.0
     for e in range(v_high.size):
         v_high[e] /= high_eigenvalues[e] - mu
@@ -588,11 +358,11 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, static_augmented, work)
         z0, s0 = work.z, work.s
         # Compliance (X0^-1 F(0) on the rows in static_augmented's last columns).
-        _cholesky(s0, s0_factor)
+        cholesky(s0, s0_factor)
         for k in range(n_low):
             for b in range(n_rows):
                 low_share[k, b] = z0[rows[b], k] * inverse_stiffness[rows[b]]
-        _forward(s0_factor, low_share)
+        forward_substitute(s0_factor, low_share)
         for a in range(n_rows):
             i = rows[a]
             for b in range(a + 1):
@@ -610,18 +380,18 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                 for e in range(n_high):
                     total += high0[k, e] * high0[j, e] * inverse_square[e]
                 metric[k, j] = total
-        _cholesky(metric, metric_factor)
+        cholesky(metric, metric_factor)
         projected[:] = s0
-        _forward(metric_factor, projected)
+        forward_substitute(metric_factor, projected)
         for k in range(n_low):
             for j in range(n_low):
                 work.small[k, j] = projected[j, k]
-        _forward(metric_factor, work.small)
+        forward_substitute(metric_factor, work.small)
         for k in range(n_low):
             for j in range(k + 1):
                 work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
-        _symmetric_eigen(work.small, delta, estimates)
-        _backward(metric_factor, estimates)
+        symmetric_eigen_in_place(work.small, delta, estimates)
+        backward_substitute(metric_factor, estimates)
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
             norm = 0.0
@@ -645,7 +415,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                     norm += estimates[k, branch] * estimates[k, branch]
                 for k in range(n_low):
                     work.w[k] = estimates[k, branch] / np.sqrt(norm)
-                _matvec(work.z, work.w, work.zw)
+                matvec(work.z, work.w, work.zw)
                 mu = delta[branch]
             else:
                 mu = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues, low_modes,

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from nonlinear import iwan, jenkins
+from nonlinear import iwan, jenkins, slip_laws
 from nonlinear.parameters import FrictionParameterError
-from nonlinear.joint import (patch_elements, random_designs, slip_displacement, tangential_elements, tangential_force,
-                            tangential_slip_deficit)
+from nonlinear.joint import (FRICTION_MODELS, patch_elements, random_designs, scaled_law, slip_displacement,
+                             tangential_dissipation, tangential_elements, tangential_force, tangential_slip_deficit,
+                             tangential_tangent)
 from nonlinear.sliders import initial_state, iwan_sliders, jenkins_sliders, slider_response
 
 # (F_S N, K_T N/m, chi, beta, theta) spanning Table 3: soft/strong, stiff/weak, chi near both ends.
@@ -221,3 +222,72 @@ def test_tangential_force_is_stiffness_less_slip_deficit(model):
     difference = elements.stiffness * displacement - deficit
     round_off = 4 * np.finfo(float).eps * (elements.stiffness * np.abs(displacement) + np.abs(deficit))
     assert np.all(np.abs(tangential_force(elements, displacement) - difference) <= round_off + 1e-12 * np.abs(difference))
+
+
+def closed_forms(elements, u):
+    """Tangent (N/m), force (N) and Masing dissipation (J) at u of paper Eqs. 14-22 in closed form
+    (``nonlinear.jenkins``, ``nonlinear.iwan``), dispatched on the law; stuck patches K_T, K_T u, 0."""
+    e = elements
+    if e.law == "jenkins":
+        forms = (jenkins.tangent(u, e.stiffness, e.slip_force), jenkins.backbone(u, e.stiffness, e.slip_force),
+                 jenkins.dissipation(u, e.stiffness, e.slip_force))
+    elif e.law == "iwan4":
+        args = (e.slip_force, e.stiffness, e.chi, e.beta)
+        forms = (iwan.four_parameter_tangent(u, *args), iwan.four_parameter_backbone(u, *args),
+                 iwan.four_parameter_dissipation(u, *args))
+    else:
+        args = (e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
+        forms = (iwan.five_parameter_tangent(u, *args), iwan.five_parameter_backbone(u, *args),
+                 iwan.five_parameter_dissipation(u, *args))
+    return tuple(np.where(e.stuck, stuck, form) for stuck, form in
+                 zip((e.stiffness, e.stiffness * u, 0.0), forms))
+
+
+def table3_elements_from_stuck_to_deep_macroslip(model, seed):
+    """Tangential elements of 200 random Table 3 designs and a displacement for each, 1e-6 to 1e6 slip
+    displacements (1e-3 m for stuck patches), both signs, shuffled over the elements."""
+    elements = tangential_elements(patch_elements(model, random_designs(model, 200, 3, np.random.default_rng(seed))))
+    rng = np.random.default_rng(seed + 1)
+    shape = elements.stiffness.shape
+    magnitudes = rng.permutation(np.geomspace(1e-6, 1e6, elements.stiffness.size)).reshape(shape)
+    scaled = rng.choice([-1, 1], shape) * magnitudes
+    return elements, scaled * np.where(elements.stuck, 1e-3, slip_displacement(elements))
+
+
+@pytest.mark.parametrize("model", FRICTION_MODELS)
+def test_branch_free_tangent_force_and_dissipation_are_the_closed_forms(model):
+    """``tangential_tangent``, ``_force`` and ``_dissipation`` (one scaled slip law, ``nonlinear.slip_laws``)
+    equal the closed forms of Eqs. 14-22 on Table 3 elements from stuck to deep macroslip. Both sides sum a few
+    terms with the same constants phi_max, r, s; a sum is within a few eps of the sum of its terms' magnitudes,
+    bounded by K_T for a tangent, K_T min(|u|, phi_max) for a force and 4 K_T phi_max (theta |u| + phi_max)
+    for a dissipation beyond macroslip (none of the closed dissipation's terms cancel in microslip). So they
+    agree to 1e-12 of that scale, 4500 eps (measured: at most 5 eps; relative to the value itself 5e-14, where
+    the closed five-parameter tangent cancels near macroslip with a small spike beta)."""
+    elements, u = table3_elements_from_stuck_to_deep_macroslip(model, 5)
+    phi_max = np.where(elements.stuck, np.inf, slip_displacement(elements))
+    beyond = np.abs(u) > phi_max
+    scales = (elements.stiffness, elements.stiffness * np.minimum(np.abs(u), phi_max),
+              np.where(beyond, 4.0 * elements.stiffness * phi_max * (elements.theta * np.abs(u) + phi_max), 0.0))
+    branch_free = (tangential_tangent(elements, u), tangential_force(elements, u), tangential_dissipation(elements, u))
+    for name, value, closed, scale in zip(("tangent", "force", "dissipation"), branch_free, closed_forms(elements, u),
+                                          scales):
+        error = np.abs(value - closed)
+        assert np.all(error <= 1e-12 * (np.abs(closed) + scale)), (name, np.max(error / (np.abs(closed) + scale)))
+
+
+@pytest.mark.parametrize("model", FRICTION_MODELS)
+def test_masing_dissipation_is_the_kernels_formula_without_its_cancellation(model):
+    """slip_laws.masing_dissipation is x g - 2 G (the QSMA kernel's Masing formula, from the slip deficit and its
+    integral) to that difference's round-off, 32 eps (|x g| + 2 |G|) (three powers and a few products; 9 eps
+    measured): in deep macroslip both grow as x^2 while their difference grows as x, and the sum of terms >= 0
+    keeps the digits the difference loses."""
+    elements, u = table3_elements_from_stuck_to_deep_macroslip(model, 7)
+    law = scaled_law(elements)
+    x = u / law.phi_max
+    g = slip_laws.slip_deficit(x, law.r, law.s, law.chi, law.theta)
+    potential = slip_laws.slip_deficit_potential(x, law.r, law.s, law.chi, law.theta)
+    kernel = x * g - 2.0 * potential
+    value = slip_laws.masing_dissipation(x, law.r, law.s, law.chi, law.theta)
+    assert np.all(value >= 0.0)
+    assert np.all(np.abs(value - kernel) <= 32 * np.finfo(float).eps * (np.abs(x * g) + 2.0 * np.abs(potential)))
+
