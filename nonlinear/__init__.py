@@ -12,7 +12,7 @@ Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuc
     joint_space                 unjoined modes of a superelement and the joint's relative motion in them
     stuck_modes, stuck_designs  linear modes with the joint stuck: one design, many designs (compiled)
 Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
-    cholesky, ldl_eliminate, solve_dense, symmetric_eigen   factorisations, solves, Jacobi eigen-solve
+    cholesky, ldl_eliminate, ldl_back_substitute, solve_dense, symmetric_eigen: factorisations, solves, Jacobi
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once

@@ -140,6 +140,17 @@ def ldl_eliminate(a, n, width):
     return True
 
 
+@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
+def ldl_back_substitute(factor, n, column, out):
+    """The solution x = L^-T D^-1 c of L D L^T x = b into out[:n], from ``ldl_eliminate(factor, n, width)``
+    having carried b along in ``column`` (which then holds c = L^-1 b)."""
+    for j in range(n - 1, -1, -1):
+        total = factor[j, column]
+        for i in range(j + 1, n):
+            total -= factor[j, i] * out[i]
+        out[j] = total * factor[j, j]
+
+
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def symmetric_solve(augmented, n):
     """A^-1 B for the symmetric positive definite A in the upper triangle of the leading n x n block of

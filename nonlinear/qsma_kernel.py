@@ -32,7 +32,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.dense_linear_algebra import FAST_MATH, ldl_eliminate, solve_dense
+from nonlinear.dense_linear_algebra import FAST_MATH, ldl_back_substitute, ldl_eliminate, solve_dense
 
 # The functions called per level and per Newton step are inlined into ``solve_levels`` by numba itself (not
 # left to LLVM): every call of a compiled function otherwise costs atomic reference-count updates of its array
@@ -224,7 +224,7 @@ def pseudo_inverse(matrix, inverse, factor):
             factor[i, n + j] = 1.0 if i == j else 0.0
     if ldl_eliminate(factor, n, 2 * n):
         for k in range(n):  # column k of the (symmetric) inverse
-            _ldl_back_substitute(factor, n, n + k, inverse[k])
+            ldl_back_substitute(factor, n, n + k, inverse[k])
         if _norm_1(matrix) * _norm_1(inverse) < FACTORED_CONDITION:
             return
     values, vectors = np.linalg.eigh(matrix)
@@ -247,17 +247,6 @@ def _norm_1(matrix):
             total += abs(matrix[i, j])
         largest = max(largest, total)
     return largest
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _ldl_back_substitute(factor, n, column, out):
-    """The solution x = L^-T D^-1 c of L D L^T x = b into out[:n], from ``ldl_eliminate(factor, n, width)``
-    having carried b along in ``column`` (which then holds c = L^-1 b)."""
-    for j in range(n - 1, -1, -1):
-        total = factor[j, column]
-        for i in range(j + 1, n):
-            total -= factor[j, i] * out[i]
-        out[j] = total * factor[j, j]
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
@@ -333,7 +322,7 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
             newton_slope[a] = slope[active[a]]
         factored = _factor_with_right_side(compliance, phi, newton_slope, residual, active, n_active, matrix, shift)
     if factored:
-        _ldl_back_substitute(matrix, n_active, n_active, right)  # w_A
+        ldl_back_substitute(matrix, n_active, n_active, right)  # w_A
         for a in range(n_active):  # dx_A = w_A / (phi_A g'_A)
             step[active[a]] = right[a] / newton_slope[a]
     else:

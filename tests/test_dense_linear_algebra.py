@@ -13,8 +13,8 @@ import pytest
 import scipy.linalg
 
 from nonlinear.dense_linear_algebra import (backward_substitute, back_substitute, cholesky, dot, forward_substitute,
-                                            ldl_eliminate, matvec, rmatvec, solve_dense, symmetric_eigen,
-                                            symmetric_solve)
+                                            ldl_back_substitute, ldl_eliminate, matvec, rmatvec, solve_dense,
+                                            symmetric_eigen, symmetric_solve)
 
 EPS = np.finfo(float).eps
 SAFETY = 10.0  # growth constant of the backward error bounds at n <= 15
@@ -102,8 +102,11 @@ def test_ldl_elimination_and_symmetric_solve_match_lapack(n, condition, seed):
     reference = scipy.linalg.solve_triangular(unit_lower, b, lower=True, unit_diagonal=True)
     error = np.linalg.norm(eliminated[:, n:] - reference)
     assert error <= bound(n, np.linalg.cond(unit_lower)) * np.linalg.norm(reference)
-    symmetric_solve(augmented, n)
     reference = scipy.linalg.solve(a, b, assume_a="pos")
+    substituted = np.empty(n)
+    ldl_back_substitute(eliminated, n, n, substituted)  # the first right-hand side, solved
+    assert np.linalg.norm(substituted - reference[:, 0]) <= bound(n, condition) * np.linalg.norm(reference[:, 0])
+    symmetric_solve(augmented, n)
     assert np.linalg.norm(augmented[:, n:] - reference) <= bound(n, condition) * np.linalg.norm(reference)
 
 
