@@ -44,6 +44,7 @@ INLINE = "always"
 CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED = 0, 1, 2, 3
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
+REFINED_ERROR = 1e-6  # below this the residual's error is measured against the terms C g is summed from
 FORCE_TARGET = 1e-12  # ... and until the slip forces balance the load on the mechanisms to this ...
 # ... accept below this, beyond the floor of ``_mechanism_imbalance``: levels the oracle and the 40-digit reference
 # confirm reach 4e-7 where elements slid 1e9 slip displacements (the mechanism held only through alpha's coupling,
@@ -171,19 +172,25 @@ def _evaluate(x, table, deficit, slope, potential, power, base=None, base_power=
 def _residual(x, linear, compliance, phi, deficit, out):
     """Scaled residual R / phi into ``out``; returns (max|R| over the largest term, |R / phi|). The terms are
     |r_i|, |linear_i| and sum_j |C_ij g_j|, the magnitude C g is summed from (its round-off; in deep macroslip g
-    ~ K_T r is large and C g a small difference of its terms)."""
+    ~ K_T r is large and C g a small difference of its terms), the last formed only where the error is between
+    the target and REFINED_ERROR (elsewhere it decides nothing)."""
     m = x.size
     largest_residual, largest_term, norm = 0.0, 1e-300, 0.0
     for i in range(m):
-        slip_term, slip_terms = 0.0, 0.0
+        slip_term = 0.0
         for j in range(m):
             slip_term += compliance[i, j] * deficit[j]
-            slip_terms += abs(compliance[i, j] * deficit[j])
         residual = x[i] * phi[i] - linear[i] - slip_term
         out[i] = residual / phi[i]
         norm += out[i] * out[i]
         largest_residual = max(largest_residual, abs(residual))
-        largest_term = max(largest_term, abs(x[i] * phi[i]), abs(linear[i]), slip_terms)
+        largest_term = max(largest_term, abs(x[i] * phi[i]), abs(linear[i]), abs(slip_term))
+    if TARGET_TOLERANCE < largest_residual / largest_term < REFINED_ERROR:  # the terms of C g, where they matter
+        for i in range(m):
+            slip_terms = 0.0
+            for j in range(m):
+                slip_terms += abs(compliance[i, j] * deficit[j])
+            largest_term = max(largest_term, slip_terms)
     return largest_residual / largest_term, np.sqrt(norm)
 
 
@@ -439,7 +446,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     power, trial_power = work[POWER], work[TRIAL_POWER]
     _evaluate(x, table, deficit, slope, potential, power)
     error, norm = _residual(x, linear, compliance, phi, deficit, residual)
-    imbalance = 1.0
+    imbalance = -1.0  # not yet formed at this iterate
     singular = False
     # A full step that halves |R| is taken without the energy, but after REVISITS such steps that set no record
     # (|R| not below the smallest met so far in this level) only those that do: from then on such steps set
@@ -501,7 +508,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
                 if not acceptable:
                     length *= 0.5
                     continue
-            error, norm, accepted = trial_error, trial_norm, True
+            error, norm, accepted, imbalance = trial_error, trial_norm, True, -1.0
             smallest_norm = min(smallest_norm, norm)
             for i in range(m):
                 x[i], residual[i] = trial[i], trial_residual[i]
@@ -518,9 +525,10 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
         elif shift > 0.0:
             shift = 0.1 * shift if shift > SHIFT else 0.0
     if error <= ACCEPT_TOLERANCE:
-        modal_force, modal_force_terms = _modal_force(stuck_force, joint_shape, deficit, amplitude_control)
-        imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load,
-                                         modal_force, modal_force_terms, work[FORCE])
+        if imbalance < 0.0:
+            modal_force, modal_force_terms = _modal_force(stuck_force, joint_shape, deficit, amplitude_control)
+            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms,
+                                             mechanism_load, modal_force, modal_force_terms, work[FORCE])
         return (CONVERGED if imbalance <= FORCE_ACCEPT else UNBALANCED), pinv_formed
     beyond_macroslip = True
     for i in range(m):
