@@ -81,17 +81,39 @@ def parameter_names(model: str, n_groups: int, stuck_group: int | None = None) -
     return names
 
 
+def parameter_limits(model: str, n_groups: int, stuck_group: int | None = None):
+    """Table 3 limits of the model's design vector: lower (d,), upper (d,), logarithmic (d,) bool."""
+    names = [name.split("[")[0] for name in parameter_names(model, n_groups, stuck_group)]
+    lower, upper, logarithmic = (np.array([TABLE3_LIMITS[name][i] for name in names]) for i in range(3))
+    return lower.astype(float), upper.astype(float), logarithmic.astype(bool)
+
+
+def from_unit(unit, lower, upper, logarithmic) -> np.ndarray:
+    """Parameters (n, d) of unit designs (n, d) in [0, 1]: p = lo + u (hi - lo), in log p where Table 3
+    samples logarithmically."""
+    low, high = _sampling_scale(lower, logarithmic), _sampling_scale(upper, logarithmic)
+    values = low + np.asarray(unit, dtype=float) * (high - low)
+    return np.where(logarithmic, np.exp(values), values)
+
+
+def to_unit(designs, lower, upper, logarithmic) -> np.ndarray:
+    """Unit designs (n, d) of parameters (n, d): the inverse of :func:`from_unit`."""
+    low, high = _sampling_scale(lower, logarithmic), _sampling_scale(upper, logarithmic)
+    return (_sampling_scale(designs, logarithmic) - low) / (high - low)
+
+
+def _sampling_scale(values, logarithmic) -> np.ndarray:
+    """Values on the scale Table 3 samples them: log where ``logarithmic``, else unchanged."""
+    values = np.asarray(values, dtype=float)
+    return np.where(logarithmic, np.log(np.where(logarithmic, values, 1.0)), values)
+
+
 def random_designs(model: str, n_designs: int, n_groups: int, rng: np.random.Generator,
                    stuck_group: int | None = None) -> np.ndarray:
     """Designs drawn uniformly (in log where Table 3 says so) within the paper's Table 3 limits,
     (n_designs, n_parameters). For test and benchmark samples; the study stage uses Latin hypercubes."""
-    names = [name.split("[")[0] for name in parameter_names(model, n_groups, stuck_group)]
-    low, high, logarithmic = (np.array([TABLE3_LIMITS[name][i] for name in names]) for i in range(3))
-    unit = rng.random((n_designs, len(names)))
-    low, high = np.where(logarithmic, np.log(np.where(logarithmic, low, 1.0)), low), np.where(
-        logarithmic, np.log(np.where(logarithmic, high, 1.0)), high)
-    sample = low + unit * (high - low)
-    return np.where(logarithmic, np.exp(sample), sample)
+    lower, upper, logarithmic = parameter_limits(model, n_groups, stuck_group)
+    return from_unit(rng.random((n_designs, len(lower))), lower, upper, logarithmic)
 
 
 def patch_elements(model: str, designs, patch_groups=BRB_PATCH_GROUPS, stuck_group: int | None = None

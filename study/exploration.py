@@ -1,0 +1,253 @@
+"""Design exploration: every chunk of every model's sample evaluated on every structure, streamed to Parquet.
+
+A task is one chunk of one friction model's sample (``study.designs``): its designs are regenerated from the
+seed, evaluated on each structure (``study.errors.design_errors``), and reduced to one row per design. Only the
+process that runs the study writes: each finished chunk becomes ``<folder>/<model>/chunk-<c>.parquet`` by an
+atomic rename, so a run killed at any point leaves whole chunks only, and a rerun evaluates exactly the chunks
+that are missing (nothing lost, nothing repeated). Memory stays that of the chunks in flight.
+
+Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address): the
+structures are scattered to the workers once, the chunks farmed out with at most two per worker in flight, and
+the results are the same floats as the serial run (a chunk's result depends on its seed and inputs only).
+
+Row of a design (Parquet columns; S = structure name, Z = linear damping case):
+    model, design (index in the model's sample), chunk, replicate, seed;
+    the design's parameters, named as ``nonlinear.joint.parameter_names`` (N, N/m, -);
+    ``frequency_error_hz[S]``  L-infinity frequency error (Hz), NaN when not converged;
+    ``damping_error[S][Z]``    L-infinity damping-ratio error with zeta_0 of case Z;
+    ``converged[S]``           every level converged; ``reason[S]`` why not ('' when converged);
+    ``stuck_frequency_hz[S]``  the design's low-amplitude frequency of the target mode (Hz).
+The file's metadata holds the study key (hash of the structures' measurements, the sample and the damping
+cases): a folder holding another study's chunks is refused, never mixed.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+from tqdm import tqdm
+
+from nonlinear.condensation import modal_split
+from nonlinear.joint import FRICTION_MODELS, parameter_names
+from pipeline.files import atomic_path, sha256_json, write_json
+from study.designs import design_chunk
+from study.errors import design_errors
+from study.structures import Structure
+
+IN_FLIGHT_PER_WORKER = 2
+
+
+class StudyError(ValueError):
+    """A study's inputs or its results folder are inconsistent; the message names the file or field."""
+
+
+@dataclass(frozen=True)
+class Sample:
+    """The designs of each model: n_designs in chunks of chunk_size, seed, replicate populations."""
+
+    seed: int = 2024
+    n_designs: int = 2000
+    chunk_size: int = 500
+    n_replicates: int = 10
+
+    def __post_init__(self):
+        for name in ("n_designs", "chunk_size", "n_replicates"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1; got {getattr(self, name)}")
+
+    @property
+    def n_chunks(self) -> int:
+        return -(-self.n_designs // self.chunk_size)
+
+    def chunk_length(self, chunk: int) -> int:
+        return min(self.chunk_size, self.n_designs - chunk * self.chunk_size)
+
+
+@dataclass(frozen=True)
+class Exploration:
+    """What a study evaluates: the structures (same patch groups), friction models, sample and the linear
+    damping cases (case name -> zeta_0 of each structure, in the structures' order)."""
+
+    structures: tuple[Structure, ...]
+    models: tuple[str, ...]
+    sample: Sample
+    damping_cases: dict
+
+    def __post_init__(self):
+        unknown = [model for model in self.models if model not in FRICTION_MODELS]
+        if unknown:
+            raise StudyError(f"models: unknown friction model(s) {unknown}; expected some of {FRICTION_MODELS}")
+        groups = {max(structure.space.superelement.patch_groups) + 1 for structure in self.structures}
+        if len(groups) != 1:
+            raise StudyError("structures: one design must fit every structure, but the numbers of patch groups "
+                             f"differ: {sorted(groups)}")
+        for case, values in self.damping_cases.items():
+            if len(values) != len(self.structures):
+                raise StudyError(f"damping case {case!r}: {len(values)} values for {len(self.structures)} structures")
+
+    @property
+    def names(self) -> list[str]:
+        return [structure.name for structure in self.structures]
+
+    @property
+    def n_groups(self) -> int:
+        return max(self.structures[0].space.superelement.patch_groups) + 1
+
+    def key(self) -> str:
+        """Hash of everything a chunk's rows depend on."""
+        return sha256_json({
+            "structures": [{"name": s.name, "amplitude": s.target.amplitude.tolist(),
+                            "frequency_hz": s.target.frequency_hz.tolist(), "damping": s.target.damping.tolist(),
+                            "eigenvalues": s.space.eigenvalues.tolist(), "reference": s.space.reference.tolist()}
+                           for s in self.structures],
+            "sample": self.sample.__dict__, "damping_cases": {k: list(v) for k, v in self.damping_cases.items()}})
+
+
+def chunk_path(folder: Path, model: str, chunk: int) -> Path:
+    return Path(folder) / model / f"chunk-{chunk:06d}.parquet"
+
+
+def chunk_rows(exploration: Exploration, model: str, chunk: int, splits=None) -> pa.Table:
+    """Evaluate one chunk on every structure: the rows of its designs (module docstring). splits: the
+    structures' ``modal_split``, formed here when not given."""
+    sample = exploration.sample
+    designs = design_chunk(sample.seed, model, chunk, sample.chunk_length(chunk), exploration.n_groups)
+    first = chunk * sample.chunk_size
+    columns = {"model": pa.array([model] * len(designs)).dictionary_encode(),
+               "design": np.arange(first, first + len(designs), dtype=np.int64),
+               "chunk": np.full(len(designs), chunk, dtype=np.int32),
+               "replicate": np.full(len(designs), chunk % sample.n_replicates, dtype=np.int16),
+               "seed": np.full(len(designs), sample.seed, dtype=np.int64)}
+    columns.update(zip(parameter_names(model, exploration.n_groups), designs.T))
+    cases = list(exploration.damping_cases)
+    for index, structure in enumerate(exploration.structures):
+        zeta0 = [exploration.damping_cases[case][index] for case in cases]
+        split = None if splits is None else splits[index]
+        errors = design_errors(structure, model, designs, zeta0, split=split)
+        name = structure.name
+        columns[f"frequency_error_hz[{name}]"] = errors.frequency_error_hz
+        columns.update({f"damping_error[{name}][{case}]": errors.damping_error[:, k] for k, case in enumerate(cases)})
+        columns[f"converged[{name}]"] = errors.converged
+        columns[f"reason[{name}]"] = pa.array(errors.reason).dictionary_encode()
+        columns[f"stuck_frequency_hz[{name}]"] = errors.stuck_frequency_hz
+    return pa.table(columns)
+
+
+def write_chunk(table: pa.Table, destination: Path, key: str) -> None:
+    """Write a chunk's rows atomically, the study key in the file's metadata."""
+    metadata = {b"study_key": key.encode(), b"seed": str(int(table["seed"][0])).encode()}
+    with atomic_path(destination) as temporary:
+        pq.write_table(table.replace_schema_metadata(metadata), temporary)
+
+
+def finished_chunks(exploration: Exploration, folder: Path) -> set[tuple[str, int]]:
+    """(model, chunk) already written for this study. Raises StudyError for a chunk file of another study."""
+    key, done = exploration.key(), set()
+    for model in exploration.models:
+        for chunk in range(exploration.sample.n_chunks):
+            path = chunk_path(folder, model, chunk)
+            if not path.exists():
+                continue
+            stored = (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode()
+            if stored != key:
+                raise StudyError(f"{path}: written by another study (study_key {stored[:12]}..., this study "
+                                 f"{key[:12]}...); use another results folder")
+            done.add((model, chunk))
+    return done
+
+
+def _evaluate(exploration: Exploration, model: str, chunk: int) -> pa.Table:
+    """One task on a worker: the structures' modal splits, then the chunk."""
+    return chunk_rows(exploration, model, chunk, _splits(exploration))
+
+
+_SPLITS: dict = {}  # study key -> the structures' modal splits, in each process
+
+
+def _splits(exploration: Exploration):
+    """The structures' modal splits, formed once per process and study."""
+    key = exploration.key()
+    if key not in _SPLITS:
+        _SPLITS.clear()
+        _SPLITS[key] = [modal_split(structure.space) for structure in exploration.structures]
+    return _SPLITS[key]
+
+
+def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True) -> list[Path]:
+    """Evaluate every chunk not yet in ``folder``, in this process (client None) or on a dask.distributed
+    ``client``; returns the chunk files of the whole study. Writes ``<folder>/exploration.json`` (the study
+    key, sample, models, structures and damping cases) first."""
+    folder = Path(folder)
+    done = finished_chunks(exploration, folder)
+    _write_manifest(exploration, folder)
+    pending = [(model, chunk) for model in exploration.models for chunk in range(exploration.sample.n_chunks)
+               if (model, chunk) not in done]
+    key = exploration.key()
+    total = len(exploration.models) * exploration.sample.n_chunks
+    with tqdm(total=total, initial=total - len(pending), unit="chunk", disable=not progress,
+              desc=f"designs ({exploration.sample.chunk_size} per chunk)") as bar:
+        for (model, chunk), table in _results(exploration, pending, client):
+            write_chunk(table, chunk_path(folder, model, chunk), key)
+            bar.update()
+    return [chunk_path(folder, model, chunk) for model in exploration.models
+            for chunk in range(exploration.sample.n_chunks)]
+
+
+def _results(exploration: Exploration, pending: list, client):
+    """(task, rows) of every pending task: serially, or on the cluster with a bounded number in flight."""
+    if client is None:
+        for model, chunk in pending:
+            yield (model, chunk), _evaluate(exploration, model, chunk)
+        return
+    from distributed import as_completed
+
+    shared = client.scatter(exploration, broadcast=True)
+    limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
+    tasks = iter(pending)
+    futures = {}
+
+    def submit():
+        task = next(tasks, None)
+        if task is not None:
+            future = client.submit(_evaluate, shared, *task, key=f"chunk-{task[0]}-{task[1]}-{exploration.key()[:8]}",
+                                   pure=False)
+            futures[future] = task
+            stream.add(future)
+
+    stream = as_completed()
+    for _ in range(limit):
+        submit()
+    for future in stream:
+        yield futures.pop(future), future.result()
+        submit()
+
+
+def _write_manifest(exploration: Exploration, folder: Path) -> None:
+    write_json(folder / "exploration.json", {
+        "study_key": exploration.key(), "sample": exploration.sample.__dict__, "models": list(exploration.models),
+        "structures": [{"name": s.name, "mode_choice": s.mode_choice, "provenance": s.target.provenance,
+                        "source": s.target.source, "levels": len(s.target.amplitude)} for s in exploration.structures],
+        "damping_cases": {case: list(map(float, values)) for case, values in exploration.damping_cases.items()},
+        "columns": "see study.exploration module docstring"})
+
+
+def read_exploration(folder: Path, model: str, columns: list[str] | None = None):
+    """The rows of one model's sample (pandas DataFrame, ordered by design), optionally only ``columns``."""
+    paths = sorted((Path(folder) / model).glob("chunk-*.parquet"))
+    if not paths:
+        raise StudyError(f"{Path(folder) / model}: no chunk files (run the exploration first)")
+    frame = pa.concat_tables([pq.read_table(path, columns=columns) for path in paths]).to_pandas()
+    return frame.sort_values("design").reset_index(drop=True) if "design" in frame else frame
+
+
+def manifest(folder: Path) -> dict:
+    """The exploration's manifest (``exploration.json``)."""
+    path = Path(folder) / "exploration.json"
+    if not path.exists():
+        raise StudyError(f"{path}: missing (run the exploration first)")
+    return json.loads(path.read_text())

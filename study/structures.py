@@ -1,0 +1,148 @@
+"""The structures of a study: a superelement, the mode the measurement saw, and the measured backbone to fit.
+
+A structure is what paper section 4.4 compares a model with: one reduced model (the project's beams from
+``build/rom/<beam>.npz``, or an external ASB model), the target mode chosen to be the measured one, and the
+measured (or virtual) backbone reduced to the levels at which the model is evaluated.
+
+Target mode (never silently mode 1). The measured low-amplitude frequency f_m is compared with the structure's
+modes with every relative patch translation tied (``reduction.superelement.stuck_joint_modes``): a finite joint
+only softens the structure, so the k-th mode of any joint design lies at or below the k-th tied mode
+(eigenvalue interlacing). The measured mode is therefore at least the lowest mode whose tied frequency is not
+below f_m, and that mode is taken; the choice and the tied frequencies are stated in the study's output
+(``Structure.mode_choice``). The ASB's C2, C4 and C4a measure 250-298 Hz, above their first tied mode
+(174-201 Hz): their target is the second mode.
+
+Levels. A measured backbone holds hundreds to thousands of scattered estimates (ASB) or a few tens of averaged
+points (ring-downs). The model is evaluated at ``n_levels`` modal amplitudes q_i, log-spaced between the
+smallest and largest measured amplitude, and compared with the measurement's median frequency and damping in
+the amplitude bin around each q_i (bin edges at the geometric midpoints): the L-infinity errors of paper
+Eqs. 26-27 are then taken at the measured amplitudes, robust against the scatter of single estimates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from experiment.backbone import ModeBackbone
+from nonlinear.condensation import JointSpace, joint_space
+from reduction.superelement import Superelement, load_superelement, read_asb_superelement, stuck_joint_modes
+
+N_LEVELS = 20  # modal amplitudes per structure at which designs are evaluated
+MIN_POINTS = 3  # a measured backbone needs at least this many amplitudes
+TIED_MODES = 6  # tied modes searched for the measured one
+
+
+class StructureError(ValueError):
+    """A structure's measurement or model is unusable; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """The measured backbone at the study's levels.
+
+    amplitude: (n_levels,) modal amplitudes q (m kg^0.5), increasing; frequency_hz: (n_levels,) measured natural
+    frequency (Hz); damping: (n_levels,) measured damping ratio; low_amplitude_frequency_hz: the measurement's;
+    provenance: "measured" or "virtual"; source: where the backbone came from.
+    """
+
+    amplitude: np.ndarray
+    frequency_hz: np.ndarray
+    damping: np.ndarray
+    low_amplitude_frequency_hz: float
+    provenance: str
+    source: str
+
+
+@dataclass(frozen=True)
+class Structure:
+    """One structure of a study: name, joint space (superelement and the target mode's reference shape),
+    measurement at the levels, linear damping zeta_0 of its other mechanisms, and how the mode was chosen."""
+
+    name: str
+    space: JointSpace
+    target: Target
+    linear_damping: float
+    mode_choice: str
+
+
+def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Target:
+    """The measured backbone's median frequency and damping in ``n_levels`` log-spaced amplitude bins (module
+    docstring). Raises StructureError naming ``path`` and the field for NaN values, fewer than MIN_POINTS
+    amplitudes, a non-positive or non-increasing amplitude, or an empty bin."""
+    backbone = measured.backbone
+    amplitude = np.asarray(backbone.amplitude, dtype=float)
+    columns = {"modal_amplitude": amplitude, "natural_frequency": np.asarray(backbone.natural_frequency_hz, float),
+               "damping_ratio": np.asarray(backbone.damping_ratio, float)}
+    for field, values in columns.items():
+        if not np.all(np.isfinite(values)):
+            raise StructureError(f"{path}: field {field}: {np.sum(~np.isfinite(values))} NaN or infinite values "
+                                 "(expected finite numbers at every point)")
+    if amplitude.size < MIN_POINTS:
+        raise StructureError(f"{path}: field modal_amplitude: {amplitude.size} points (expected at least "
+                             f"{MIN_POINTS})")
+    if amplitude[0] <= 0.0 or np.any(np.diff(amplitude) < 0.0) or amplitude[-1] <= amplitude[0]:
+        raise StructureError(f"{path}: field modal_amplitude: expected positive amplitudes in non-decreasing order "
+                             f"spanning a range; got {amplitude[:3].tolist()}...{amplitude[-2:].tolist()}")
+    levels = np.geomspace(amplitude[0], amplitude[-1], n_levels)
+    edges = np.concatenate([[amplitude[0]], np.sqrt(levels[1:] * levels[:-1]), [amplitude[-1]]])
+    bins = np.clip(np.searchsorted(edges, amplitude, side="right") - 1, 0, n_levels - 1)
+    counts = np.bincount(bins, minlength=n_levels)
+    if np.any(counts == 0):
+        raise StructureError(f"{path}: field modal_amplitude: no measured point near {levels[counts == 0][:3]} "
+                             f"(expected points across the range for {n_levels} levels; use fewer levels)")
+    frequency = np.array([np.median(columns["natural_frequency"][bins == i]) for i in range(n_levels)])
+    damping = np.array([np.median(columns["damping_ratio"][bins == i]) for i in range(n_levels)])
+    return Target(levels, frequency, damping, float(measured.low_amplitude_frequency_hz), measured.provenance,
+                  measured.source)
+
+
+def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, np.ndarray, str]:
+    """The mode a measurement at ``frequency_hz`` saw (module docstring): its 0-based index among the flexible
+    tied modes, its tied shape (n,) in the superelement's coordinates, and a sentence stating the choice."""
+    frequencies, shapes = stuck_joint_modes(superelement, TIED_MODES)
+    above = np.flatnonzero(frequencies >= frequency_hz)
+    if above.size == 0:
+        raise StructureError(f"{superelement.name}: measured {frequency_hz:.2f} Hz lies above the {TIED_MODES} "
+                             f"lowest tied modes ({frequencies.round(1).tolist()} Hz)")
+    index = int(above[0])
+    choice = (f"{superelement.name}: measured {frequency_hz:.2f} Hz -> mode {index + 1} (tied {frequencies[index]:.2f}"
+              f" Hz; tied modes {', '.join(f'{f:.1f}' for f in frequencies[:index + 2])} Hz)")
+    return index, shapes[:, index], choice
+
+
+def beam_superelement(path: Path, prestress: bool = True) -> Superelement:
+    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``). prestress: stiffness
+    K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks' string term, DESIGN 3-4), else
+    the unstressed K."""
+    path = Path(path)
+    if not path.exists():
+        raise StructureError(f"{path}: missing (run `make rom` to build the beams' superelements)")
+    superelement = load_superelement(path)
+    if not prestress:
+        return superelement
+    with np.load(path, allow_pickle=False) as data:
+        stiffness = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
+    return Superelement(superelement.mass, 0.5 * (stiffness + stiffness.T), superelement.patch_motion,
+                        superelement.patch_areas, superelement.patch_groups, superelement.sensors,
+                        superelement.preload, superelement.name)
+
+
+def asb_superelement(path: Path) -> Superelement:
+    """An ASB configuration's reduced model with every patch in one parameter group, so that one design is the
+    same joint in all six configurations (C1-C4a have four equal square patches, CD1 five in a row)."""
+    path = Path(path)
+    if not path.exists():
+        raise StructureError(f"{path}: missing (the ASB reduced models live in ../shared/data)")
+    superelement = read_asb_superelement(path)
+    return read_asb_superelement(path, patch_groups=(0,) * superelement.n_patches)
+
+
+def structure(name: str, superelement: Superelement, measured: ModeBackbone, linear_damping: float,
+              n_levels: int = N_LEVELS, measurement_path: str = "backbone") -> Structure:
+    """A structure: the target mode chosen from the measurement, the joint space tracking it, the levels."""
+    target = measured_levels(measured, n_levels, measurement_path)
+    _, shape, choice = target_mode(superelement, target.low_amplitude_frequency_hz)
+    return Structure(name, joint_space(superelement, reference_mode=shape), target, float(linear_damping), choice)
