@@ -10,7 +10,7 @@ import argparse
 import importlib
 import sys
 
-STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands")
+STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands")
 
 
 def parser() -> argparse.ArgumentParser:

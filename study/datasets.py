@@ -1,0 +1,91 @@
+"""The two datasets a study runs on: the Brake-Reuss beams (virtual experiments) and the ASB assembly (measured).
+
+Each dataset is a set of structures sharing one joint. Their measured backbones are first written in the one
+documented backbone format (``experiment.backbone_files``, ``<study>/measurements/<structure>.csv``), and the
+study reads only those files, whatever the source:
+
+- ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, prestressed: K_A plus
+  the bolts' string stiffness), measured by the virtual experiments of ``study.virtual_experiment`` (labelled
+  virtual). Linear damping cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the
+  SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's.
+- ``asb``: the six configurations C1, C2, C3, C4, C4a, CD1 of the real assembly (ABAQUS reduced models and
+  measured backbones in ../shared/data; CD2 has no reduced model). Every patch in one group, so that one design
+  is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:
+  each configuration's damping at its lowest measured level. The middle-stuck model needs a middle patch and
+  is not defined on the ASB's single group: the ASB study runs Jenkins and both Iwan models.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
+from study.structures import (N_LEVELS, Structure, StructureError, asb_superelement, beam_superelement,
+                              structure)
+
+BEAMS = ("BRB", "LBRB", "SBRB")
+ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")
+DATASETS = ("beams", "asb")
+DATASET_MODELS = {"beams": ("jenkins", "iwan4", "iwan5", "iwan4_stuck"), "asb": ("jenkins", "iwan4", "iwan5")}
+DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
+
+
+def read_table1(path: Path) -> dict[str, tuple[float, float]]:
+    """Paper Table 1 (``paper_table1_low_amplitude.csv``): beam -> (frequency Hz, linear damping ratio)."""
+    path = Path(path)
+    try:
+        with open(path, newline="") as stream:
+            return {row["beam"]: (float(row["frequency_hz"]), float(row["damping_factor"]))
+                    for row in csv.DictReader(stream)}
+    except (OSError, KeyError, ValueError) as error:
+        raise StructureError(f"{path}: expected columns beam, frequency_hz, damping_factor ({error})") from None
+
+
+def measurement_path(folder: Path, name: str) -> Path:
+    return Path(folder) / f"{name.replace(' ', '_')}.csv"
+
+
+def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
+    """The ASB's measured backbones (``asb-backbones/ASB_<conf>_20Nm_BB.mat``) in the backbone CSV format."""
+    paths = []
+    for configuration in ASB_CONFIGURATIONS:
+        source = Path(data_folder) / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
+        if not source.exists():
+            raise StructureError(f"{source}: missing (the ASB measurements live in ../shared/data)")
+        measured = read_asb_backbone(source)
+        paths.append(measurement_path(folder, measured.structure))
+        write_backbone(measured, paths[-1])
+    return paths
+
+
+def structure_names(dataset: str) -> list[str]:
+    if dataset not in DATASETS:
+        raise StructureError(f"dataset {dataset!r} is not one of {DATASETS}")
+    return list(BEAMS) if dataset == "beams" else [f"ASB {c}" for c in ASB_CONFIGURATIONS]
+
+
+def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_folder: Path,
+                       n_levels: int = N_LEVELS, prestress: bool = True) -> list[Structure]:
+    """The dataset's structures from the measurement files in ``measurements``; linear damping 0 (the cases
+    of :func:`damping_cases` are applied in the errors)."""
+    structures = []
+    for name in structure_names(dataset):
+        path = measurement_path(measurements, name)
+        if not path.exists():
+            raise StructureError(f"{path}: missing measurement of {name} (run the measurements step first)")
+        measured = read_backbone(path)
+        if dataset == "beams":
+            superelement = beam_superelement(Path(rom_folder) / f"{name}.npz", prestress)
+        else:
+            configuration = name.removeprefix("ASB ")
+            superelement = asb_superelement(Path(data_folder) / "asb-reduced-models" / f"MAT_NULLRED_{configuration}.mat")
+        structures.append(structure(name, superelement, measured, 0.0, n_levels, str(path)))
+    return structures
+
+
+def damping_cases(dataset: str, structures: list[Structure], table1: dict | None = None) -> dict[str, list[float]]:
+    """Linear damping cases (module docstring): case name -> zeta_0 of each structure."""
+    if dataset == "beams":
+        return {beam: [table1[beam][1]] * len(structures) for beam in BEAMS}
+    return {"measured": [float(s.target.damping[0]) for s in structures]}

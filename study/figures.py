@@ -1,0 +1,66 @@
+"""The study's figures (matplotlib, Agg, written atomically): Pareto fronts in the error plane (paper Fig. 6)
+and the responses of representative front designs against the measurement (paper Figs. 9-11)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
+from pipeline.files import atomic_path  # noqa: E402
+
+
+def save(figure, destination: Path) -> None:
+    with atomic_path(destination) as temporary:
+        figure.savefig(temporary, dpi=110, format="png")
+    plt.close(figure)
+
+
+def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance) -> None:
+    """Each structure's sample in the error plane (log axes), its non-dominated front, NSGA-II's front and the
+    acceptance box (paper Fig. 6)."""
+    figure, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False)
+    for index, (axis, name) in enumerate(zip(axes[0], names)):
+        axis.loglog(errors.frequency_error_hz[:, index], errors.damping_error[:, index], ".", ms=1.5,
+                    color="0.75", label="sample", rasterized=True)
+        front = fronts.sample[index]
+        axis.loglog(front.frequency_error_hz, front.damping_error, "o-", ms=3, color="C0", label="sample front")
+        nsga = fronts.nsga2_errors[index]
+        order = np.argsort(nsga[:, 0])
+        axis.loglog(nsga[order, 0], nsga[order, 1], "s--", ms=3, color="C3", label="NSGA-II front")
+        axis.axvline(acceptance.frequency_tolerance_hz, color="k", lw=0.8)
+        axis.axhline(acceptance.damping_tolerance, color="k", lw=0.8)
+        axis.set(title=name, xlabel="L-inf frequency error (Hz)", ylabel="L-inf damping error (-)")
+    axes[0, 0].legend(fontsize=7)
+    figure.suptitle(f"{model}: Pareto fronts in the error plane")
+    figure.tight_layout()
+    save(figure, destination)
+
+
+def plot_responses(destination: Path, model: str, curves) -> None:
+    """Frequency and damping against modal amplitude: the measurement (labelled virtual where it is) and the
+    QSMA backbones of representative designs. curves: per structure (Structure, design indices, designs
+    (k, d), zeta_0)."""
+    figure, axes = plt.subplots(2, len(curves), figsize=(4.2 * len(curves), 6.0), squeeze=False)
+    for column, (structure, indices, designs, zeta0) in enumerate(curves):
+        target = structure.target
+        label = f"{target.provenance} measurement"
+        axes[0, column].semilogx(target.amplitude, target.frequency_hz, "ko", ms=3, label=label)
+        axes[1, column].semilogx(target.amplitude, target.damping, "ko", ms=3, label=label)
+        if len(designs):
+            amplitude = np.geomspace(target.amplitude[0], target.amplitude[-1], 40)
+            result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=zeta0)
+            for k, index in enumerate(indices):
+                axes[0, column].semilogx(amplitude, result.frequency[k] / (2 * np.pi), label=f"design {index}")
+                axes[1, column].semilogx(amplitude, result.damping[k], label=f"design {index}")
+        axes[0, column].set(title=structure.name, ylabel="natural frequency (Hz)")
+        axes[1, column].set(xlabel="modal amplitude (m kg^0.5)", ylabel="damping ratio (-)")
+        axes[0, column].legend(fontsize=7)
+    figure.suptitle(f"{model}: representative Pareto designs against the measurement")
+    figure.tight_layout()
+    save(figure, destination)

@@ -1,0 +1,181 @@
+"""The steps of a study on files: measurements, exploration, analysis, report (``surrogacy study``).
+
+Folder layout under the study's ``out``::
+
+    study.json                       resolved configuration, seed, inputs, versions
+    measurements/<structure>.csv     backbones to fit (experiment.backbone_files), virtual ones with
+                                     <beam>_experiment.json beside them
+    designs/exploration.json         study key, sample, structures and the mode chosen on each
+    designs/<model>/chunk-<c>.parquet
+    analysis/surrogacy_<model>.csv, .md, surrogacy_bounds_<model>.png, fronts_<model>.csv, nsga2_<model>.csv,
+             pareto_<model>.png, responses_<model>.png, anova.csv, anova.md, prestress.md, prestress.png
+    report.md
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from nonlinear.condensation import modal_split
+from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
+from pipeline.files import atomic_path
+from study import anova, figures, pareto, prestress, surrogacy
+from study.analysis import anova_observations, model_errors, representative_designs, sample_front
+from study.datasets import (DEFAULT_DAMPING_CASE, dataset_structures, damping_cases, read_table1,
+                            write_asb_measurements)
+from study.errors import accepted, design_errors
+from study.exploration import Exploration, explore, read_exploration
+from study.report import write_report
+
+
+class Paths(NamedTuple):
+    out: Path
+    rom: Path
+    data: Path
+    reference: Path
+
+    @property
+    def measurements(self) -> Path:
+        return self.out / "measurements"
+
+    @property
+    def designs(self) -> Path:
+        return self.out / "designs"
+
+    @property
+    def analysis(self) -> Path:
+        return self.out / "analysis"
+
+
+def measurements(paths: Paths, parameters: dict) -> list[Path]:
+    """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones)."""
+    if parameters["study"].dataset == "asb":
+        return write_asb_measurements(paths.data, paths.measurements)
+    from study import virtual_experiment
+
+    return virtual_experiment.write_virtual_experiments(paths.rom, paths.measurements,
+                                                        paths.reference / "paper_table1_low_amplitude.csv")
+
+
+def exploration(paths: Paths, parameters: dict, prestress: bool | None = None) -> Exploration:
+    """The study's structures, models, sample and damping cases from the measurement files."""
+    study = parameters["study"]
+    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels,
+                                    study.prestress if prestress is None else prestress)
+    table1 = read_table1(paths.reference / "paper_table1_low_amplitude.csv") if study.dataset == "beams" else None
+    return Exploration(tuple(structures), study.friction_models, parameters["sample"],
+                       damping_cases(study.dataset, structures, table1))
+
+
+def explore_designs(paths: Paths, parameters: dict, client=None) -> list[Path]:
+    """Evaluate every design chunk not yet written."""
+    return explore(exploration(paths, parameters), paths.designs, client)
+
+
+def analyse(paths: Paths, parameters: dict) -> None:
+    """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress."""
+    study, acceptance = parameters["study"], parameters["acceptance"]
+    explored = exploration(paths, parameters)
+    names = explored.names
+    case = DEFAULT_DAMPING_CASE[study.dataset]
+    out = paths.analysis
+    paper = paths.reference / "paper_table5_surrogacy.csv" if study.dataset == "beams" else None
+    for model in explored.models:
+        errors = model_errors(paths.designs, model, names, case)
+        acceptance_mask = accepted(errors.frequency_error_hz, errors.damping_error,
+                                   acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
+        matrix = surrogacy.surrogacy_matrix(acceptance_mask)
+        replicates = surrogacy.replicate_surrogacy(acceptance_mask, errors.replicate)
+        surrogacy.write_surrogacy_csv(out / f"surrogacy_{model}.csv", model, names, matrix, replicates, paper)
+        surrogacy.write_surrogacy_markdown(out / f"surrogacy_{model}.md", model, names, matrix, replicates, paper)
+        bounds = surrogacy.surrogacy_against_bounds(
+            errors.frequency_error_hz, errors.damping_error,
+            acceptance.frequency_tolerance_hz * np.array([0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
+            np.array([acceptance.damping_tolerance]))
+        surrogacy.plot_bounds_sensitivity(out / f"surrogacy_bounds_{model}.png", names, bounds,
+                                          acceptance.frequency_tolerance_hz * np.array([0.5, 0.75, 1.0, 1.5, 2.0, 3.0]))
+        fronts = pareto_fronts(paths, parameters, explored, model, errors)
+        figures.plot_fronts(out / f"pareto_{model}.png", model, names, errors, fronts, acceptance)
+        responses(paths, parameters, explored, model, fronts)
+    if study.dataset == "beams":
+        observations = anova_observations(paths.designs, explored.models, names, list(explored.damping_cases),
+                                          acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
+        table = anova.surrogacy_anova(observations)
+        anova.write_anova_markdown(out / "anova.md", table, paths.reference / "paper_table6_anova.csv",
+                                   observations.attrs["undefined"])
+        with atomic_path(out / "anova.csv") as temporary:
+            table.to_csv(temporary, index=False)
+        if prestress.MODEL in explored.models:
+            comparison = prestress.compare(exploration(paths, parameters, prestress=True),
+                                           exploration(paths, parameters, prestress=False), paths.out / "prestress", case)
+            prestress.write_comparison(comparison, out / "prestress.md", out / "prestress.png")
+
+
+class Fronts(NamedTuple):
+    """Per structure: the sample's front and NSGA-II's front (unit designs (k, d) and errors (k, 2))."""
+
+    sample: list
+    nsga2_errors: list
+    nsga2_designs: list
+
+
+def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: str, errors) -> Fronts:
+    """The sample's front on each structure and an NSGA-II run seeded from it (paper Fig. 6), written to
+    fronts_<model>.csv and nsga2_<model>.csv."""
+    settings, case = parameters["pareto"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
+    limits = parameter_limits(model, explored.n_groups)
+    names = parameter_names(model, explored.n_groups)
+    frame = read_exploration(paths.designs, model, ["design", *names])
+    parameters_of = frame.set_index("design")[names]
+    sample_fronts, nsga_errors, nsga_designs, rows = [], [], [], []
+    for index, structure in enumerate(explored.structures):
+        front = sample_front(errors, index)
+        sample_fronts.append(front)
+        zeta0 = explored.damping_cases[case][index]
+        split = modal_split(structure.space)
+
+        def objective(unit, structure=structure, zeta0=zeta0, split=split):
+            result = design_errors(structure, model, from_unit(unit, *limits), [zeta0], split=split)
+            return np.column_stack([result.frequency_error_hz, result.damping_error[:, 0]])
+
+        rng = np.random.default_rng([parameters["sample"].seed, index])
+        seeds = to_unit(parameters_of.loc[front.design].to_numpy(), *limits)
+        extra = to_unit(parameters_of.to_numpy()[rng.choice(len(parameters_of), settings.population, replace=False)]
+                        if len(parameters_of) > settings.population else parameters_of.to_numpy(), *limits)
+        designs, values = pareto.nsga2_front(objective, np.vstack([seeds, extra])[:settings.population * 4],
+                                             settings.generations, settings.population,
+                                             seed=parameters["sample"].seed + index)
+        nsga_errors.append(values)
+        nsga_designs.append(designs)
+        rows += [{"structure": structure.name, "source": "sample", "design": int(d), "frequency_error_hz": f,
+                  "damping_error": z} for d, f, z in zip(*front)]
+        rows += [{"structure": structure.name, "source": "nsga2", "design": -1, "frequency_error_hz": f,
+                  "damping_error": z, **dict(zip(names, from_unit(u, *limits)))} for u, (f, z) in zip(designs, values)]
+    with atomic_path(paths.analysis / f"fronts_{model}.csv") as temporary:
+        pd.DataFrame(rows).to_csv(temporary, index=False)
+    return Fronts(sample_fronts, nsga_errors, nsga_designs)
+
+
+def responses(paths: Paths, parameters: dict, explored: Exploration, model: str, fronts: Fronts) -> None:
+    """Backbones of representative front designs of each structure against its measurement (Figs. 9-11)."""
+    acceptance, case = parameters["acceptance"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
+    names = parameter_names(model, explored.n_groups)
+    frame = read_exploration(paths.designs, model, ["design", *names]).set_index("design")
+    curves = []
+    for index, structure in enumerate(explored.structures):
+        front = fronts.sample[index]
+        chosen = representative_designs(front, acceptance.frequency_tolerance_hz, acceptance.damping_tolerance,
+                                        parameters["pareto"].representatives)
+        designs = frame.loc[front.design[chosen]].to_numpy()
+        curves.append((structure, front.design[chosen], designs, explored.damping_cases[case][index]))
+    figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves)
+
+
+def report(paths: Paths, parameters: dict) -> Path:
+    """Assemble report.md from the analysis folder."""
+    return write_report(paths, parameters)
+
