@@ -5,12 +5,18 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from pathlib import Path  # noqa: E402
+
 import pytest  # noqa: E402
 
 from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
 from geometry.beams import make_beam  # noqa: E402
 from geometry.parameters import BEAMS, MeshParameters  # noqa: E402
+from pipeline.cli import main as surrogacy  # noqa: E402
 from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
+
+BUILD = Path(__file__).resolve().parents[1] / "build"
+BEAM_NAMES = ("BRB", "LBRB", "SBRB")
 
 COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
 
@@ -35,3 +41,15 @@ def asb_superelement():
         return read_asb_superelement(path, **options)
 
     return read
+
+
+@pytest.fixture(scope="session")
+def beam_roms() -> Path:
+    """build/rom with the default-mesh superelements of the three beams, built by the pipeline's stages when
+    absent (about 6 minutes, once)."""
+    if not all((BUILD / "rom" / f"{beam}.npz").exists() for beam in BEAM_NAMES):
+        assert surrogacy(["beams", "--out", str(BUILD / "beams"), "--no-render"]) == 0
+        assert surrogacy(["fe", "--beams", str(BUILD / "beams"), "--out", str(BUILD / "fe")]) == 0
+        assert surrogacy(["rom", "--beams", str(BUILD / "beams"), "--fe", str(BUILD / "fe"),
+                          "--out", str(BUILD / "rom")]) == 0
+    return BUILD / "rom"

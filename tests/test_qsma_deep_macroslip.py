@@ -8,7 +8,6 @@ reproduced by ``extended_precision``). The default-mesh superelements are built 
 build/ (cached: `make rom` has usually made them; about 6 minutes when not).
 """
 
-from pathlib import Path
 
 import mpmath
 import numpy as np
@@ -21,11 +20,9 @@ from nonlinear.joint import (patch_elements, random_designs, scaled_law, slip_di
                              tangential_elements, tangential_force, tangential_rows)
 from nonlinear.qsma import qsma_reference
 from nonlinear.qsma_vectorised import qsma_designs
-from pipeline.cli import main as surrogacy
 from reduction.superelement import load_superelement
 from test_qsma_vectorised import unique_equilibrium
 
-BUILD = Path(__file__).resolve().parents[1] / "build"
 LINEAR_DAMPING = 1e-3
 # Issue 12's regression cases: model, design (groups {1, 5}, {2, 4}, {3}), {q: (omega rad/s, zeta)} on the BRB.
 REGRESSION_CASES = [
@@ -47,14 +44,9 @@ REGRESSION_CASES = [
 
 
 @pytest.fixture(scope="module")
-def beam_spaces():
-    """Joint spaces of the three default-mesh superelements, built by the pipeline's stages when absent."""
-    if not all((BUILD / "rom" / f"{beam}.npz").exists() for beam in ("BRB", "LBRB", "SBRB")):
-        assert surrogacy(["beams", "--out", str(BUILD / "beams"), "--no-render"]) == 0
-        assert surrogacy(["fe", "--beams", str(BUILD / "beams"), "--out", str(BUILD / "fe")]) == 0
-        assert surrogacy(["rom", "--beams", str(BUILD / "beams"), "--fe", str(BUILD / "fe"),
-                          "--out", str(BUILD / "rom")]) == 0
-    return {beam: joint_space(load_superelement(BUILD / "rom" / f"{beam}.npz")) for beam in ("BRB", "LBRB", "SBRB")}
+def beam_spaces(beam_roms):
+    """Joint spaces of the three default-mesh superelements."""
+    return {beam: joint_space(load_superelement(beam_roms / f"{beam}.npz")) for beam in ("BRB", "LBRB", "SBRB")}
 
 
 def slip_amplitude(space, model, design) -> float:
