@@ -42,12 +42,11 @@ STEPS = ("measurements", "explore", "analyse", "report")
 @dataclass(frozen=True)
 class StudyParameters:
     """[study]: dataset ("beams" or "asb"), friction models (default: all the dataset allows), levels per
-    structure, prestressed beam superelements."""
+    structure. The beams' superelements are the unstressed halves (``study.structures.beam_superelement``)."""
 
     dataset: str = "beams"
     models: tuple[str, ...] = ()
     n_levels: int = N_LEVELS
-    prestress: bool = True
 
     def __post_init__(self):
         if self.dataset not in DATASETS:

@@ -113,10 +113,15 @@ def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, n
     return index, shapes[:, index], choice
 
 
-def beam_superelement(path: Path, prestress: bool = True) -> Superelement:
-    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``). prestress: stiffness
-    K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks' string term, DESIGN 3-4), else
-    the unstressed K."""
+def beam_superelement(path: Path, prestress: bool = False) -> Superelement:
+    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): the unstressed K of the two
+    halves, or with ``prestress`` K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks'
+    string term, DESIGN 3-4).
+
+    The prestressed stiffness of the free halves is indefinite (BRB: modes at -245, -230, -22 Hz in the
+    superelement's coordinates: the preload's geometric stiffness without the joint that balances it), which
+    the joint-space condensation (``nonlinear.condensation.joint_space``) takes for rigid-body motion and sets
+    to zero. The study therefore uses K, and ``study.prestress`` compares the two on the assembled model."""
     path = Path(path)
     if not path.exists():
         raise StructureError(f"{path}: missing (run `make rom` to build the beams' superelements)")

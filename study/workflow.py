@@ -61,11 +61,10 @@ def measurements(paths: Paths, parameters: dict) -> list[Path]:
                                                         paths.reference / "paper_table1_low_amplitude.csv")
 
 
-def exploration(paths: Paths, parameters: dict, prestress: bool | None = None) -> Exploration:
+def exploration(paths: Paths, parameters: dict) -> Exploration:
     """The study's structures, models, sample and damping cases from the measurement files."""
     study = parameters["study"]
-    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels,
-                                    study.prestress if prestress is None else prestress)
+    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels)
     table1 = read_table1(paths.reference / "paper_table1_low_amplitude.csv") if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
                        damping_cases(study.dataset, structures, table1))

@@ -1,0 +1,136 @@
+"""The study on a case with a known answer: a synthetic measurement made by QSMA of a known true design on the
+project's own beams (labelled virtual), explored with a Latin hypercube sample that also contains the truth.
+
+- the truth lies in every structure's acceptance region, with errors at round-off;
+- SC is 1 on the diagonal and in [0, 1] elsewhere;
+- a constructed asymmetric case: structure B is structure A measured over the lower half of A's levels only, so
+  every design A accepts B accepts (B's L-infinity is over a subset of the same points): A's acceptance region
+  lies inside B's and SC_AB = 1, SC_BA = n_A / n_B exactly;
+- bad input: a measured curve with NaNs, too few points, non-increasing amplitude; unknown friction model;
+  bounds with min > max (Table 3 limits), with the file and field named and nothing written.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from experiment.backbone import Backbone, ModeBackbone
+from experiment.backbone_files import read_backbone, write_backbone
+from nonlinear.condensation import joint_space
+from nonlinear.joint import parameter_limits, parameter_names, to_unit
+from nonlinear.qsma_vectorised import qsma_designs
+from study.designs import design_chunk
+from study.errors import accepted, design_errors
+from study.exploration import Exploration, Sample, StudyError, explore
+from study.analysis import model_errors
+from study.structures import StructureError, beam_superelement, measured_levels, structure, target_mode
+from study.surrogacy import surrogacy_matrix
+
+MODEL = "iwan4"
+# A stiff, microslipping joint in BRB layout (groups {1,5}, {2,4}, {3}): per group F_S (N), K_T (N/m), chi,
+# beta, K_z (N/m), inside paper Table 3.
+TRUE_DESIGN = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
+N_LEVELS = 12
+ZETA0 = 1.6659e-3
+
+
+def synthetic_measurement(space, name: str, levels: np.ndarray) -> ModeBackbone:
+    """QSMA backbone of the true design at ``levels`` (m kg^0.5) as a virtual measurement."""
+    result = qsma_designs(space, MODEL, TRUE_DESIGN[None, :], amplitudes=levels, linear_damping=ZETA0)
+    assert result.converged.all()
+    nan = np.full(levels.size, np.nan)
+    backbone = Backbone(levels, result.frequency[0] / (2 * np.pi), nan, nan, result.damping[0], nan, nan,
+                        np.ones(levels.size, dtype=int))
+    return ModeBackbone(name, float(backbone.natural_frequency_hz[0]), "m kg^0.5", "virtual",
+                        f"QSMA of the true {MODEL} design", backbone)
+
+
+@pytest.fixture(scope="module")
+def beams(beam_roms):
+    """BRB, LBRB, SBRB (prestressed) with synthetic measurements of the true design, and the BRB over the lower
+    half of its levels only ('BRB low')."""
+    structures = []
+    for beam in ("BRB", "LBRB", "SBRB"):
+        superelement = beam_superelement(beam_roms / f"{beam}.npz")
+        space = joint_space(superelement)
+        levels = np.geomspace(1e-7, 3e-5, N_LEVELS)
+        structures.append(structure(beam, superelement, synthetic_measurement(space, beam, levels), 0.0, N_LEVELS))
+    brb = structures[0]
+    low = replace(brb.target, amplitude=brb.target.amplitude[:N_LEVELS // 2],
+                  frequency_hz=brb.target.frequency_hz[:N_LEVELS // 2], damping=brb.target.damping[:N_LEVELS // 2])
+    return structures, replace(brb, name="BRB low", target=low)
+
+
+def test_truth_lies_in_every_acceptance_region(beams):
+    structures, _ = beams
+    for structure_ in structures:
+        errors = design_errors(structure_, MODEL, TRUE_DESIGN[None, :], [ZETA0])
+        assert errors.converged[0]
+        assert errors.frequency_error_hz[0] < 1e-9 * structure_.target.frequency_hz[0]
+        assert errors.damping_error[0, 0] < 1e-9
+        # the measured target mode is the first bending, chosen from the measured frequency
+        assert target_mode(structure_.space.superelement, structure_.target.low_amplitude_frequency_hz)[0] == 0
+
+
+def test_surrogacy_of_the_known_truth_and_the_nested_regions(beams, tmp_path):
+    structures, brb_low = beams
+    exploration = Exploration((*structures, brb_low), (MODEL,), Sample(seed=7, n_designs=1200, chunk_size=400,
+                                                                        n_replicates=3),
+                              {"BRB": [ZETA0] * 4})
+    explore(exploration, tmp_path, progress=False)
+    errors = model_errors(tmp_path, MODEL, exploration.names, "BRB")
+    truth = [design_errors(s, MODEL, TRUE_DESIGN[None, :], [ZETA0]) for s in exploration.structures]
+    frequency = np.vstack([errors.frequency_error_hz, [[t.frequency_error_hz[0] for t in truth]]])
+    damping = np.vstack([errors.damping_error, [[t.damping_error[0, 0] for t in truth]]])
+    acceptance = accepted(frequency, damping)
+    assert acceptance[-1].all()  # the truth, appended last
+    matrix = surrogacy_matrix(acceptance)
+    assert np.all(np.diag(matrix.confidence) == 1.0)
+    assert np.all((matrix.confidence >= 0.0) & (matrix.confidence <= 1.0))
+    # nested regions: everything the full BRB accepts, the BRB over its lower levels accepts
+    brb, low = 0, 3
+    assert np.all(acceptance[acceptance[:, brb], low])
+    assert matrix.confidence[brb, low] == 1.0
+    assert matrix.accepted_counts[low] > matrix.accepted_counts[brb]  # strictly larger here: a real asymmetry
+    assert matrix.confidence[low, brb] == matrix.accepted_counts[brb] / matrix.accepted_counts[low]
+
+
+def test_designs_are_a_latin_hypercube_within_table3():
+    lower, upper, logarithmic = parameter_limits(MODEL, 3)
+    designs = design_chunk(11, MODEL, 2, 250, 3)
+    assert np.all((designs >= lower) & (designs <= upper))
+    strata = np.floor(to_unit(designs, lower, upper, logarithmic) * 250).astype(int)
+    for column in strata.T:  # one design in each of the 250 strata of every parameter
+        assert np.array_equal(np.sort(column), np.arange(250))
+    assert np.array_equal(designs, design_chunk(11, MODEL, 2, 250, 3))
+    assert not np.array_equal(designs, design_chunk(11, MODEL, 3, 250, 3))
+    assert len(parameter_names(MODEL, 3)) == designs.shape[1]
+
+
+def backbone_with(amplitude, frequency, damping) -> ModeBackbone:
+    nan = np.full(len(amplitude), np.nan)
+    return ModeBackbone("X", 100.0, "m kg^0.5", "virtual", "test",
+                        Backbone(np.asarray(amplitude, float), np.asarray(frequency, float), nan, nan,
+                                 np.asarray(damping, float), nan, nan, np.ones(len(amplitude), dtype=int)))
+
+
+@pytest.mark.parametrize("amplitude, frequency, field", [
+    ([1e-6, 2e-6, 3e-6, 4e-6], [100.0, np.nan, 99.0, 98.0], "natural_frequency"),
+    ([1e-6, 2e-6], [100.0, 99.0], "modal_amplitude"),
+    ([1e-6, 3e-6, 2e-6, 4e-6], [100.0, 99.5, 99.0, 98.0], "modal_amplitude"),
+])
+def test_bad_measured_curves_are_refused_naming_file_and_field(tmp_path, amplitude, frequency, field):
+    path = tmp_path / "X.csv"
+    write_backbone(backbone_with(amplitude, frequency, np.full(len(amplitude), 1e-3)), path)
+    with pytest.raises(StructureError, match=f"{path}.*{field}"):
+        measured_levels(read_backbone(path), 3, str(path))
+
+
+def test_unknown_model_and_inverted_bounds_are_refused(beams, tmp_path):
+    structures, _ = beams
+    with pytest.raises(StudyError, match="unknown friction model.*'coulomb'"):
+        Exploration(tuple(structures), ("coulomb",), Sample(), {"BRB": [ZETA0] * 3})
+    with pytest.raises(StudyError, match="damping case 'BRB'"):
+        Exploration(tuple(structures), (MODEL,), Sample(), {"BRB": [ZETA0]})
+    assert not any(tmp_path.iterdir())
