@@ -16,7 +16,7 @@ import pandas as pd
 from study.errors import accepted
 from study.exploration import read_exploration
 from study.pareto import non_dominated
-from study.surrogacy import replicate_surrogacy
+from study.surrogacy import replicate_surrogacy, replicate_table
 
 
 class ModelErrors(NamedTuple):
@@ -41,26 +41,15 @@ def model_errors(folder: Path, model: str, names: list[str], case: str) -> Model
 def anova_observations(folder: Path, models, names: list[str], cases, frequency_tolerance_hz: float,
                        damping_tolerance: float) -> pd.DataFrame:
     """One surrogacy confidence per (surrogate, real, model, linear damping case, replicate population): the
-    observations of the paper's Table 6 ANOVA. Cells whose surrogate accepted no design of a replicate are left
-    out (SC undefined) and counted in the column ``undefined`` of the frame's attrs."""
-    rows, undefined = [], 0
+    observations of the paper's Table 6 ANOVA (NaN where the replicate's surrogate accepted no design)."""
+    tables = []
     for model in models:
         for case in cases:
             errors = model_errors(folder, model, names, case)
             acceptance = accepted(errors.frequency_error_hz, errors.damping_error, frequency_tolerance_hz,
                                   damping_tolerance)
-            replicates = replicate_surrogacy(acceptance, errors.replicate)
-            for r, matrix in enumerate(replicates.confidence):
-                for i, surrogate in enumerate(names):
-                    for j, real in enumerate(names):
-                        if np.isnan(matrix[i, j]):
-                            undefined += 1
-                            continue
-                        rows.append({"confidence": matrix[i, j], "surrogate": surrogate, "real": real,
-                                     "model": model, "linear_damping": case, "replicate": r})
-    frame = pd.DataFrame(rows)
-    frame.attrs["undefined"] = undefined
-    return frame
+            tables.append(replicate_table(replicate_surrogacy(acceptance, errors.replicate), names, model, case))
+    return pd.concat(tables, ignore_index=True)
 
 
 class Front(NamedTuple):

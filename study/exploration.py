@@ -7,7 +7,7 @@ atomic rename, so a run killed at any point leaves whole chunks only, and a reru
 that are missing (nothing lost, nothing repeated). Memory stays that of the chunks in flight.
 
 Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address): the
-structures are scattered to the workers once, the chunks farmed out with at most two per worker in flight, and
+structures are scattered to the workers once, the chunks farmed out with at most two per worker thread in flight, and
 the results are the same floats as the serial run (a chunk's result depends on its seed and inputs only).
 
 Row of a design (Parquet columns; S = structure name, Z = linear damping case):
@@ -34,12 +34,13 @@ from tqdm import tqdm
 
 from nonlinear.condensation import modal_split
 from nonlinear.joint import FRICTION_MODELS, parameter_names
+from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, sha256_json, write_json
 from study.designs import design_chunk
 from study.errors import design_errors
 from study.structures import Structure
 
-IN_FLIGHT_PER_WORKER = 2
+IN_FLIGHT_PER_THREAD = 2
 
 
 class StudyError(ValueError):
@@ -86,6 +87,12 @@ class Exploration:
         if len(groups) != 1:
             raise StudyError("structures: one design must fit every structure, but the numbers of patch groups "
                              f"differ: {sorted(groups)}")
+        for model in self.models:
+            try:
+                parameter_names(model, self.n_groups)
+            except FrictionParameterError as error:
+                raise StudyError(f"models: {model!r} does not fit these structures ({self.n_groups} patch "
+                                 f"group(s)): {error}") from None
         for case, values in self.damping_cases.items():
             if len(values) != len(self.structures):
                 raise StudyError(f"damping case {case!r}: {len(values)} values for {len(self.structures)} structures")
@@ -207,7 +214,7 @@ def _results(exploration: Exploration, pending: list, client):
     from distributed import as_completed
 
     shared = client.scatter(exploration, broadcast=True)
-    limit = IN_FLIGHT_PER_WORKER * max(1, len(client.scheduler_info()["workers"]))
+    limit = IN_FLIGHT_PER_THREAD * max(1, sum(client.nthreads().values()))
     tasks = iter(pending)
     futures = {}
 

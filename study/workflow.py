@@ -82,21 +82,25 @@ def analyse(paths: Paths, parameters: dict) -> None:
     names = explored.names
     case = DEFAULT_DAMPING_CASE[study.dataset]
     out = paths.analysis
-    paper = paths.reference / "paper_table5_surrogacy.csv" if study.dataset == "beams" else None
+    paper = (surrogacy.read_paper_surrogacy(paths.reference / "paper_table5_surrogacy.csv")
+             if study.dataset == "beams" else None)
+    sweep_frequency = acceptance.frequency_tolerance_hz * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
+    sweep_damping = acceptance.damping_tolerance * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     for model in explored.models:
         errors = model_errors(paths.designs, model, names, case)
         acceptance_mask = accepted(errors.frequency_error_hz, errors.damping_error,
                                    acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
-        matrix = surrogacy.surrogacy_matrix(acceptance_mask)
-        replicates = surrogacy.replicate_surrogacy(acceptance_mask, errors.replicate)
-        surrogacy.write_surrogacy_csv(out / f"surrogacy_{model}.csv", model, names, matrix, replicates, paper)
-        surrogacy.write_surrogacy_markdown(out / f"surrogacy_{model}.md", model, names, matrix, replicates, paper)
-        bounds = surrogacy.surrogacy_against_bounds(
-            errors.frequency_error_hz, errors.damping_error,
-            acceptance.frequency_tolerance_hz * np.array([0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
-            np.array([acceptance.damping_tolerance]))
-        surrogacy.plot_bounds_sensitivity(out / f"surrogacy_bounds_{model}.png", names, bounds,
-                                          acceptance.frequency_tolerance_hz * np.array([0.5, 0.75, 1.0, 1.5, 2.0, 3.0]))
+        table = surrogacy.surrogacy_table({model: surrogacy.surrogacy_matrix(acceptance_mask)}, names, paper)
+        spread = surrogacy.replicate_surrogacy(acceptance_mask, errors.replicate)
+        table["replicate_mean"] = spread.mean.ravel()
+        table["replicate_standard_deviation"] = spread.standard_deviation.ravel()
+        surrogacy.write_surrogacy_csv(table, out / f"surrogacy_{model}.csv")
+        surrogacy.write_surrogacy_markdown(table, out / f"surrogacy_{model}.md")
+        sweep = surrogacy.surrogacy_against_bounds(errors.frequency_error_hz, errors.damping_error, sweep_frequency,
+                                                   sweep_damping)
+        surrogacy.plot_bounds_sensitivity(sweep, sweep_frequency, sweep_damping, names,
+                                          out / f"surrogacy_bounds_{model}.png", acceptance.frequency_tolerance_hz,
+                                          acceptance.damping_tolerance, title=model)
         fronts = pareto_fronts(paths, parameters, explored, model, errors)
         figures.plot_fronts(out / f"pareto_{model}.png", model, names, errors, fronts, acceptance)
         responses(paths, parameters, explored, model, fronts)
@@ -104,13 +108,16 @@ def analyse(paths: Paths, parameters: dict) -> None:
         observations = anova_observations(paths.designs, explored.models, names, list(explored.damping_cases),
                                           acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
         table = anova.surrogacy_anova(observations)
-        anova.write_anova_markdown(out / "anova.md", table, paths.reference / "paper_table6_anova.csv",
-                                   observations.attrs["undefined"])
+        anova.write_anova_markdown(table, out / "anova.md", paths.reference / "paper_table6_anova.csv",
+                                   int(observations["confidence"].isna().sum()))
         with atomic_path(out / "anova.csv") as temporary:
             table.to_csv(temporary, index=False)
         if prestress.MODEL in explored.models:
-            comparison = prestress.compare(exploration(paths, parameters, prestress=True),
-                                           exploration(paths, parameters, prestress=False), paths.out / "prestress", case)
+            sbrb = explored.structures[names.index(prestress.BEAM)]
+            designs = read_exploration(paths.designs, prestress.MODEL,
+                                       parameter_names(prestress.MODEL, explored.n_groups))
+            comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs.to_numpy(),
+                                           sbrb.target.low_amplitude_frequency_hz)
             prestress.write_comparison(comparison, out / "prestress.md", out / "prestress.png")
 
 
@@ -145,9 +152,9 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
         seeds = to_unit(parameters_of.loc[front.design].to_numpy(), *limits)
         extra = to_unit(parameters_of.to_numpy()[rng.choice(len(parameters_of), settings.population, replace=False)]
                         if len(parameters_of) > settings.population else parameters_of.to_numpy(), *limits)
-        designs, values = pareto.nsga2_front(objective, np.vstack([seeds, extra])[:settings.population * 4],
-                                             settings.generations, settings.population,
-                                             seed=parameters["sample"].seed + index)
+        result = pareto.nsga2_front(objective, np.vstack([seeds, extra]), generations=settings.generations,
+                                    population=settings.population, seed=parameters["sample"].seed + index)
+        designs, values = result.designs, result.errors
         nsga_errors.append(values)
         nsga_designs.append(designs)
         rows += [{"structure": structure.name, "source": "sample", "design": int(d), "frequency_error_hz": f,

@@ -1,0 +1,383 @@
+"""The exploration on disk, with real components started as a user starts them: a study killed with SIGKILL
+resumes without losing or repeating a chunk, a dask.distributed LocalCluster and an external `dask scheduler`
+with two `dask worker` processes write the same rows as the serial run, another Parquet reader than pyarrow
+reads the same values and metadata, and a folder of another study is refused.
+
+The study: two friction models on the ASB configurations C1-C3 (reduced models and measured backbones in
+../shared/data; the tests skip, naming the path, where they are absent) at 8 levels, 8 chunks of 30 designs per
+model, some designs not converged (NaN errors). A chunk takes milliseconds; a study's run is dominated by
+starting processes (a few seconds each).
+"""
+
+import json
+import logging
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+import study.exploration as exploration_module
+from experiment.backbone_files import read_asb_backbone
+from nonlinear.joint import parameter_names
+from reduction.superelement import asb_data_folder
+from study.exploration import (Exploration, Sample, StudyError, chunk_path, explore, finished_chunks, manifest,
+                               read_exploration)
+from study.structures import asb_superelement, structure
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+CONFIGURATIONS = ("C1", "C2", "C3")
+MODELS = ("jenkins", "iwan4")
+SAMPLE = Sample(seed=11, n_designs=240, chunk_size=30, n_replicates=3)  # 8 chunks per model
+DAMPING_CASES = {"low": (2e-4, 3e-4, 2e-4), "high": (1e-3, 1.5e-3, 1e-3)}  # zeta_0 of C1, C2, C3
+N_LEVELS = 8
+STARTUP_TIMEOUT_S = 120  # a process importing numba, scipy and the project on a busy 2-core machine
+KILLED_AT_WRITE = 10  # the killed study finishes jenkins chunks 0-7 and iwan4 chunk 0, dies writing iwan4 chunk 1
+
+
+def asb_files(configuration: str) -> tuple[Path, Path]:
+    """The ASB configuration's reduced model and measured backbone."""
+    models = asb_data_folder()
+    return (models / f"MAT_NULLRED_{configuration}.mat",
+            models.parent / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat")
+
+
+def asb_exploration(n_levels: int = N_LEVELS, sample: Sample = SAMPLE) -> Exploration:
+    """The study of these tests, built from the files as a user's script builds it (the killed study's
+    subprocess imports this function)."""
+    structures = []
+    for configuration in CONFIGURATIONS:
+        model_path, backbone_path = asb_files(configuration)
+        structures.append(structure(configuration, asb_superelement(model_path), read_asb_backbone(backbone_path),
+                                    DAMPING_CASES["low"][len(structures)], n_levels=n_levels,
+                                    measurement_path=str(backbone_path)))
+    return Exploration(tuple(structures), MODELS, sample, DAMPING_CASES)
+
+
+@pytest.fixture(scope="module")
+def exploration() -> Exploration:
+    for configuration in CONFIGURATIONS:
+        for path in asb_files(configuration):
+            if not path.exists():
+                pytest.skip(f"ASB data not available at {path} (shared data folder absent)")
+    return asb_exploration()
+
+
+@pytest.fixture(scope="module")
+def serial_folder(exploration, tmp_path_factory) -> Path:
+    """The uninterrupted serial run: every other run is compared with it."""
+    folder = tmp_path_factory.mktemp("serial")
+    explore(exploration, folder, progress=False)
+    return folder
+
+
+def all_chunks(exploration: Exploration) -> set[tuple[str, int]]:
+    return {(model, chunk) for model in exploration.models for chunk in range(exploration.sample.n_chunks)}
+
+
+def chunk_files(folder: Path) -> set[tuple[str, int]]:
+    """(model, chunk) of every chunk file a reader sees in ``folder``."""
+    return {(path.parent.name, int(re.fullmatch(r"chunk-(\d+)", path.stem)[1]))
+            for path in Path(folder).glob("*/chunk-*.parquet")}
+
+
+def file_identities(folder: Path) -> dict[str, tuple[int, int, int]]:
+    """Inode, size and modification time of every file under ``folder``: a rewrite changes them."""
+    return {str(path.relative_to(folder)): (path.stat().st_ino, path.stat().st_size, path.stat().st_mtime_ns)
+            for path in Path(folder).rglob("*") if path.is_file()}
+
+
+def assert_same_chunk(path: Path, reference: Path) -> None:
+    """Same schema and file metadata, and the same values bit for bit, NaN where the reference has NaN
+    (pyarrow's Table.equals treats NaN as unequal to itself)."""
+    table, expected = pq.read_table(path), pq.read_table(reference)
+    assert table.schema.equals(expected.schema, check_metadata=True), f"{path}: schema differs from {reference}"
+    frame, expected_frame = table.to_pandas(), expected.to_pandas()
+    assert list(frame.columns) == list(expected_frame.columns)
+    for name in frame.columns:
+        values, expected_values = frame[name].to_numpy(), expected_frame[name].to_numpy()
+        if values.dtype.kind == "f":
+            np.testing.assert_array_equal(values.view(np.int64), expected_values.view(np.int64),
+                                          err_msg=f"{path}: column {name}")
+        else:
+            assert values.tolist() == expected_values.tolist(), f"{path}: column {name}"
+
+
+def assert_same_study(folder: Path, reference: Path, exploration: Exploration) -> None:
+    assert chunk_files(folder) == all_chunks(exploration)
+    for model, chunk in sorted(all_chunks(exploration)):
+        assert_same_chunk(chunk_path(folder, model, chunk), chunk_path(reference, model, chunk))
+    assert manifest(folder) == manifest(reference)
+
+
+def test_reference_study_has_unconverged_designs(exploration, serial_folder):
+    """The study exercises NaN errors (designs not converged on some structure), so the comparisons below
+    check NaN placement too; and every design of the sample is there once."""
+    for model in exploration.models:
+        rows = read_exploration(serial_folder, model)
+        assert rows["design"].tolist() == list(range(exploration.sample.n_designs))
+    converged = read_exploration(serial_folder, "jenkins")[[f"converged[{name}]" for name in exploration.names]]
+    assert not converged.to_numpy().all()
+
+
+KILLED_STUDY = """
+import sys, time
+sys.path.insert(0, {tests!r})
+import pyarrow.parquet as pq
+from test_exploration import asb_exploration
+from study.exploration import explore
+
+write_table, writes = pq.write_table, []
+
+
+def write_table_then_die(table, where, **options):
+    # Write number {killed_at} stops half-way: its temporary file holds half a Parquet file when the test kills us.
+    writes.append(where)
+    write_table(table, where, **options)
+    if len(writes) == {killed_at}:
+        with open(where, "r+b") as handle:
+            handle.truncate(handle.seek(0, 2) // 2)
+        print("held", where, flush=True)
+        time.sleep(600)
+
+
+pq.write_table = write_table_then_die
+explore(asb_exploration(), sys.argv[1], progress=False)
+"""
+
+
+def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, serial_folder, tmp_path,
+                                                                   monkeypatch):
+    """SIGKILL while a chunk's temporary file is half written: only whole chunks are visible (the temporary
+    file is neither a chunk nor read), the rerun evaluates exactly the missing chunks, leaves the finished ones
+    untouched (same inode, size and mtime), and the study equals an uninterrupted run."""
+    script = tmp_path / "killed_study.py"
+    script.write_text(KILLED_STUDY.format(tests=str(Path(__file__).parent), killed_at=KILLED_AT_WRITE))
+    folder, log = tmp_path / "study", tmp_path / "killed_study.log"
+    with open(log, "w") as output:
+        child = subprocess.Popen([sys.executable, str(script), str(folder)], cwd=REPOSITORY, stdout=output,
+                                 stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + STARTUP_TIMEOUT_S
+        while "held" not in log.read_text():
+            if child.poll() is not None:
+                pytest.fail(f"the study ended (exit {child.returncode}) before it could be killed:\n{log.read_text()}")
+            if time.monotonic() > deadline:
+                pytest.fail(f"the study wrote no {KILLED_AT_WRITE} chunks in {STARTUP_TIMEOUT_S} s:\n{log.read_text()}")
+            time.sleep(0.05)
+        os.kill(child.pid, signal.SIGKILL)
+        assert child.wait(timeout=30) == -signal.SIGKILL
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+
+    finished = chunk_files(folder)
+    assert finished == {("jenkins", chunk) for chunk in range(8)} | {("iwan4", 0)}
+    temporary = sorted(folder.glob("*/.chunk-*"))
+    assert [path.parent.name for path in temporary] == ["iwan4"] and temporary[0].name.startswith(".chunk-000001-")
+    with pytest.raises(pa.ArrowInvalid):
+        pq.read_table(temporary[0])  # half a file: the kill left it partial (and a rerun leaves it there)
+    assert finished_chunks(exploration, folder) == finished
+    assert read_exploration(folder, "iwan4")["design"].tolist() == list(range(exploration.sample.chunk_size))
+    for model, chunk in finished:
+        assert_same_chunk(chunk_path(folder, model, chunk), chunk_path(serial_folder, model, chunk))
+    before = {name: identity for name, identity in file_identities(folder).items() if "/chunk-" in name}
+
+    evaluated = []
+
+    def recording(exploration, model, chunk):
+        evaluated.append((model, chunk))
+        return evaluate(exploration, model, chunk)
+
+    evaluate = exploration_module._evaluate
+    monkeypatch.setattr(exploration_module, "_evaluate", recording)
+    explore(exploration, folder, progress=False)
+
+    assert sorted(evaluated) == sorted(all_chunks(exploration) - finished)  # each missing chunk once, no other
+    after = file_identities(folder)
+    assert {name: after[name] for name in before} == before
+    assert_same_study(folder, serial_folder, exploration)
+
+
+@pytest.fixture
+def local_cluster():
+    from distributed import Client, LocalCluster
+
+    with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                       silence_logs=logging.ERROR) as cluster,
+          Client(cluster) as client):
+        yield client
+
+
+@pytest.fixture
+def external_scheduler(tmp_path):
+    """A `dask scheduler` and two `dask worker --nthreads 1` processes started from the venv's `dask`
+    command, each in a session of its own; the finaliser ends every process of those sessions (the workers'
+    nannies and their worker processes) even when the test fails."""
+    from distributed import Client
+
+    dask = Path(sys.executable).parent / "dask"
+    scheduler_file = tmp_path / "scheduler.json"
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPOSITORY),
+                                                                            os.environ.get("PYTHONPATH")]))}
+    processes = []
+
+    def start(*arguments):
+        log = open(tmp_path / f"dask-{len(processes)}.log", "w")
+        processes.append(subprocess.Popen([str(dask), *arguments], cwd=REPOSITORY, env=environment, stdout=log,
+                                          stderr=subprocess.STDOUT, start_new_session=True))
+        log.close()
+
+    try:
+        start("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file",
+              str(scheduler_file))
+        deadline = time.monotonic() + STARTUP_TIMEOUT_S
+        while not scheduler_file.exists() or not scheduler_file.read_text().strip().endswith("}"):
+            assert processes[0].poll() is None, (tmp_path / "dask-0.log").read_text()
+            assert time.monotonic() < deadline, f"no scheduler file {scheduler_file} in {STARTUP_TIMEOUT_S} s"
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        for _ in range(2):
+            start("worker", address, "--nthreads", "1", "--no-dashboard", "--death-timeout", "60")
+        with Client(address, timeout=STARTUP_TIMEOUT_S) as client:
+            client.wait_for_workers(2, timeout=STARTUP_TIMEOUT_S)
+            yield client
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGTERM)
+        for process in processes:
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+            try:  # a worker process its nanny left behind
+                os.killpg(process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.mark.parametrize("cluster", ["local_cluster", "external_scheduler"])
+def test_cluster_writes_the_serial_rows(exploration, serial_folder, tmp_path, request, cluster):
+    """A chunk's rows depend on its seed and inputs only: two worker processes (a LocalCluster, or an external
+    scheduler with two `dask worker` processes) write the same floats, NaNs and metadata as the serial run,
+    and the chunks were evaluated on the workers."""
+    client = request.getfixturevalue(cluster)
+    folder = tmp_path / "study"
+    explore(exploration, folder, client=client, progress=False)
+    assert_same_study(folder, serial_folder, exploration)
+    splits_formed = client.run(lambda: len(getattr(sys.modules.get("study.exploration"), "_SPLITS", {})))
+    assert len(splits_formed) == 2 and sum(splits_formed.values()) >= 1
+
+
+def other_parquet_reader():
+    """(name, read) of a Parquet reader other than pyarrow: read(path) gives the columns as numpy arrays, each
+    column's kind ('integer', 'float', 'bool', 'string') and the file's key-value metadata. DuckDB, else
+    Polars, else fastparquet; the test skips where none is installed."""
+    try:
+        import duckdb
+    except ImportError:
+        pass
+    else:
+        def read_duckdb(path):
+            connection = duckdb.connect()
+            source = f"read_parquet('{path}')"
+            kinds = {"BIGINT": "integer", "INTEGER": "integer", "SMALLINT": "integer", "DOUBLE": "float",
+                     "BOOLEAN": "bool", "VARCHAR": "string"}
+            types = {row[0]: kinds.get(row[1], row[1]) for row in connection.sql(f"DESCRIBE SELECT * FROM {source}")
+                     .fetchall()}
+            columns = connection.sql(f"SELECT * FROM {source}").fetchnumpy()
+            metadata = dict(connection.sql(f"SELECT key, value FROM parquet_kv_metadata('{path}')").fetchall())
+            return {name: np.asarray(values) for name, values in columns.items()}, types, metadata
+        return "duckdb", read_duckdb
+    try:
+        import polars
+    except ImportError:
+        pass
+    else:
+        def read_polars(path):
+            frame = polars.read_parquet(path, use_pyarrow=False)
+            types = {name: "integer" if dtype.is_integer() else "float" if dtype.is_float() else
+                     "bool" if dtype == polars.Boolean else "string" if dtype in (polars.String, polars.Categorical)
+                     else str(dtype) for name, dtype in frame.schema.items()}
+            metadata = {key.encode(): value.encode() for key, value in polars.read_parquet_metadata(path).items()}
+            return {name: frame[name].cast(polars.String).to_numpy() if types[name] == "string"
+                    else frame[name].to_numpy() for name in frame.columns}, types, metadata
+        return "polars", read_polars
+    try:
+        import fastparquet
+    except ImportError:
+        pytest.skip("no Parquet reader other than pyarrow installed (duckdb, polars or fastparquet)")
+
+    def read_fastparquet(path):
+        file = fastparquet.ParquetFile(str(path))
+        frame = file.to_pandas()
+        kinds = {"i": "integer", "f": "float", "b": "bool", "O": "string"}
+        types = {name: "string" if str(dtype) == "category" else kinds.get(dtype.kind, str(dtype))
+                 for name, dtype in frame.dtypes.items()}
+        metadata = {key.encode(): value.encode() for key, value in file.key_value_metadata.items()}
+        return {name: frame[name].astype(object if types[name] == "string" else frame[name].dtype).to_numpy()
+                for name in frame.columns}, types, metadata
+    return "fastparquet", read_fastparquet
+
+
+def documented_columns(exploration: Exploration, model: str) -> dict[str, str]:
+    """Column name -> kind, as the study.exploration module docstring documents the row of a design."""
+    columns = {"model": "string", "design": "integer", "chunk": "integer", "replicate": "integer",
+               "seed": "integer"}
+    columns.update({name: "float" for name in parameter_names(model, exploration.n_groups)})
+    for name in exploration.names:
+        columns[f"frequency_error_hz[{name}]"] = "float"
+        columns.update({f"damping_error[{name}][{case}]": "float" for case in exploration.damping_cases})
+        columns[f"converged[{name}]"] = "bool"
+        columns[f"reason[{name}]"] = "string"
+        columns[f"stuck_frequency_hz[{name}]"] = "float"
+    return columns
+
+
+def test_chunks_read_by_another_parquet_reader(exploration, serial_folder):
+    """Another reader than pyarrow sees the documented columns in order with their kinds, the values pyarrow
+    reads (NaN where pyarrow has NaN), and the study key and seed in the file's metadata."""
+    name, read = other_parquet_reader()
+    for model, chunk in sorted(all_chunks(exploration)):
+        path = chunk_path(serial_folder, model, chunk)
+        columns, types, metadata = read(path)
+        assert types == documented_columns(exploration, model), f"{name}: {path}"
+        assert list(types) == list(documented_columns(exploration, model)), f"{name}: {path}: column order"
+        assert metadata[b"study_key"].decode() == exploration.key() == manifest(serial_folder)["study_key"]
+        assert metadata[b"seed"].decode() == str(exploration.sample.seed)
+        expected = pq.read_table(path).to_pandas()
+        for column, values in columns.items():
+            if types[column] == "string":
+                assert values.tolist() == expected[column].astype(str).tolist(), f"{name}: {path}: {column}"
+            else:
+                np.testing.assert_array_equal(values, expected[column].to_numpy(), err_msg=f"{name}: {path}: {column}")
+        assert columns["design"].tolist() == list(range(chunk * exploration.sample.chunk_size,
+                                                       (chunk + 1) * exploration.sample.chunk_size))
+
+
+@pytest.mark.parametrize("difference", ["seed", "damping case", "levels"])
+def test_folder_of_another_study_is_refused(exploration, serial_folder, tmp_path, difference):
+    """A study whose sample, zeta_0 cases or measured levels differ refuses the folder, naming the first chunk
+    file, and writes nothing (not even its manifest)."""
+    folder = tmp_path / "study"
+    shutil.copytree(serial_folder, folder)
+    before = file_identities(folder)
+    other = {"seed": lambda: replace(exploration, sample=replace(exploration.sample, seed=12)),
+             "damping case": lambda: replace(exploration, damping_cases={**DAMPING_CASES, "high": (1e-3,) * 3}),
+             "levels": lambda: asb_exploration(n_levels=N_LEVELS - 1)}[difference]()
+    assert other.key() != exploration.key()
+    with pytest.raises(StudyError, match=re.escape(str(chunk_path(folder, MODELS[0], 0)))):
+        explore(other, folder, progress=False)
+    assert file_identities(folder) == before
