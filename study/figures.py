@@ -24,8 +24,12 @@ def save(figure, destination: Path) -> None:
 def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance) -> None:
     """Each structure's sample in the error plane (log axes), its non-dominated front, NSGA-II's front and the
     acceptance box (paper Fig. 6)."""
-    figure, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False)
-    for index, (axis, name) in enumerate(zip(axes[0], names)):
+    columns = min(3, len(names))
+    rows = -(-len(names) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False)
+    for axis in axes.ravel()[len(names):]:
+        axis.set_visible(False)
+    for index, (axis, name) in enumerate(zip(axes.ravel(), names)):
         axis.loglog(errors.frequency_error_hz[:, index], errors.damping_error[:, index], ".", ms=1.5,
                     color="0.75", label="sample", rasterized=True)
         front = fronts.sample[index]
