@@ -2,7 +2,7 @@
 
 import importlib
 
-STAGES = ("benchmarks.geometry", "benchmarks.fem", "benchmarks.qsma")
+STAGES = ("benchmarks.geometry", "benchmarks.fem", "benchmarks.qsma", "benchmarks.study")
 
 for module_name in STAGES:
     importlib.import_module(module_name).main()

@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from experiment.backbone import ModeBackbone
+from experiment.backbone import Backbone, ModeBackbone
 from nonlinear.condensation import JointSpace, joint_space
+from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import Superelement, load_superelement, read_asb_superelement, stuck_joint_modes
 
 N_LEVELS = 20  # modal amplitudes per structure at which designs are evaluated
@@ -151,3 +152,18 @@ def structure(name: str, superelement: Superelement, measured: ModeBackbone, lin
     target = measured_levels(measured, n_levels, measurement_path)
     _, shape, choice = target_mode(superelement, target.low_amplitude_frequency_hz)
     return Structure(name, joint_space(superelement, reference_mode=shape), target, float(linear_damping), choice)
+
+
+def qsma_measurement(space: JointSpace, name: str, model: str, design, amplitudes, linear_damping: float
+                     ) -> ModeBackbone:
+    """A virtual measurement with a known answer: the QSMA backbone of one ``design`` of ``model`` at
+    ``amplitudes`` (m kg^0.5), labelled virtual (for tests of the study and its benchmark)."""
+    amplitudes = np.asarray(amplitudes, dtype=float)
+    result = qsma_designs(space, model, np.atleast_2d(design), amplitudes=amplitudes, linear_damping=linear_damping)
+    if not result.converged.all():
+        raise StructureError(f"{name}: QSMA of the design did not converge ({set(result.reason[0])})")
+    unknown = np.full(amplitudes.size, np.nan)
+    backbone = Backbone(amplitudes, result.frequency[0] / (2 * np.pi), unknown, unknown, result.damping[0], unknown,
+                        unknown, np.ones(amplitudes.size, dtype=int))
+    return ModeBackbone(name, float(backbone.natural_frequency_hz[0]), "m kg^0.5", "virtual",
+                        f"QSMA of {model} design {np.ravel(design).tolist()}", backbone)

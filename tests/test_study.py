@@ -19,12 +19,12 @@ from experiment.backbone import Backbone, ModeBackbone
 from experiment.backbone_files import read_backbone, write_backbone
 from nonlinear.condensation import joint_space
 from nonlinear.joint import parameter_limits, parameter_names, to_unit
-from nonlinear.qsma_vectorised import qsma_designs
 from study.designs import design_chunk
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
 from study.analysis import model_errors
-from study.structures import StructureError, beam_superelement, measured_levels, structure, target_mode
+from study.structures import (StructureError, beam_superelement, measured_levels, qsma_measurement, structure,
+                              target_mode)
 from study.surrogacy import surrogacy_matrix
 
 MODEL = "iwan4"
@@ -33,17 +33,6 @@ MODEL = "iwan4"
 TRUE_DESIGN = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
 N_LEVELS = 12
 ZETA0 = 1.6659e-3
-
-
-def synthetic_measurement(space, name: str, levels: np.ndarray) -> ModeBackbone:
-    """QSMA backbone of the true design at ``levels`` (m kg^0.5) as a virtual measurement."""
-    result = qsma_designs(space, MODEL, TRUE_DESIGN[None, :], amplitudes=levels, linear_damping=ZETA0)
-    assert result.converged.all()
-    nan = np.full(levels.size, np.nan)
-    backbone = Backbone(levels, result.frequency[0] / (2 * np.pi), nan, nan, result.damping[0], nan, nan,
-                        np.ones(levels.size, dtype=int))
-    return ModeBackbone(name, float(backbone.natural_frequency_hz[0]), "m kg^0.5", "virtual",
-                        f"QSMA of the true {MODEL} design", backbone)
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +44,8 @@ def beams(beam_roms):
         superelement = beam_superelement(beam_roms / f"{beam}.npz")
         space = joint_space(superelement)
         levels = np.geomspace(1e-7, 3e-5, N_LEVELS)
-        structures.append(structure(beam, superelement, synthetic_measurement(space, beam, levels), 0.0, N_LEVELS))
+        measured = qsma_measurement(space, beam, MODEL, TRUE_DESIGN, levels, ZETA0)
+        structures.append(structure(beam, superelement, measured, 0.0, N_LEVELS))
     brb = structures[0]
     low = replace(brb.target, amplitude=brb.target.amplitude[:N_LEVELS // 2],
                   frequency_hz=brb.target.frequency_hz[:N_LEVELS // 2], damping=brb.target.damping[:N_LEVELS // 2])
