@@ -9,9 +9,12 @@ export OMP_NUM_THREADS ?= 1
 RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
 MODE_HZ ?= 80.5
 
-.PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib bench clean system-packages
+STUDY_DESIGNS ?= 100000
+ASB_DATA ?= ../shared/data
 
-demo: beams fe rom freevib
+.PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib study bench clean system-packages
+
+demo: beams fe rom freevib study
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -44,6 +47,16 @@ freevib: $(STAMP)
 	@if [ -f "$(RINGDOWN)" ]; then \
 	  $(BIN)/surrogacy freevib $(RINGDOWN) --mode-hz $(MODE_HZ) --per-channel --out results/freevib; \
 	else echo "freevib: $(RINGDOWN) not found, skipped (set RINGDOWN=file)"; fi
+
+# The surrogacy study (paper sections 4.4, 5.2) of the three beams on their virtual experiments, and of the real
+# ASB assembly on its measured backbones where ../shared/data is present: results/study-<dataset>/report.md.
+# STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped.
+study: rom
+	$(BIN)/surrogacy study --out results/study-beams --rom build/rom --set sample.n_designs=$(STUDY_DESIGNS)
+	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
+	  $(BIN)/surrogacy study --out results/study-asb --data $(ASB_DATA) --set study.dataset=asb \
+	    --set sample.n_designs=$(STUDY_DESIGNS); \
+	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

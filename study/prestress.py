@@ -32,6 +32,7 @@ from study.structures import beam_superelement
 
 MODEL = "iwan4"
 BEAM = "SBRB"
+DESIGNS = 2000  # the first designs of the sample compared (a dense eigen-solve each, about 2 ms)
 RIGID_EIGENVALUE = (2 * np.pi * 1.0) ** 2  # rad^2/s^2: below 1 Hz a mode is rigid-body motion (round-off)
 LOWEST_MODES = 16  # modes searched for the first bending (12 rigid-body modes of the halves at most, then it)
 

@@ -116,7 +116,7 @@ def analyse(paths: Paths, parameters: dict) -> None:
             sbrb = explored.structures[names.index(prestress.BEAM)]
             designs = read_exploration(paths.designs, prestress.MODEL,
                                        parameter_names(prestress.MODEL, explored.n_groups))
-            comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs.to_numpy(),
+            comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs.to_numpy()[:prestress.DESIGNS],
                                            sbrb.target.low_amplitude_frequency_hz)
             prestress.write_comparison(comparison, out / "prestress.md", out / "prestress.png")
 
