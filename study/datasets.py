@@ -17,7 +17,6 @@ study reads only those files, whatever the source:
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
@@ -29,17 +28,6 @@ ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")
 DATASETS = ("beams", "asb")
 DATASET_MODELS = {"beams": ("jenkins", "iwan4", "iwan5", "iwan4_stuck"), "asb": ("jenkins", "iwan4", "iwan5")}
 DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
-
-
-def read_table1(path: Path) -> dict[str, tuple[float, float]]:
-    """Paper Table 1 (``paper_table1_low_amplitude.csv``): beam -> (frequency Hz, linear damping ratio)."""
-    path = Path(path)
-    try:
-        with open(path, newline="") as stream:
-            return {row["beam"]: (float(row["frequency_hz"]), float(row["damping_factor"]))
-                    for row in csv.DictReader(stream)}
-    except (OSError, KeyError, ValueError) as error:
-        raise StructureError(f"{path}: expected columns beam, frequency_hz, damping_factor ({error})") from None
 
 
 def measurement_path(folder: Path, name: str) -> Path:
@@ -85,7 +73,8 @@ def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_
 
 
 def damping_cases(dataset: str, structures: list[Structure], table1: dict | None = None) -> dict[str, list[float]]:
-    """Linear damping cases (module docstring): case name -> zeta_0 of each structure."""
+    """Linear damping cases (module docstring): case name -> zeta_0 of each structure. table1: paper Table 1
+    (``study.virtual_experiment.read_low_amplitude_measurements``), for the beams."""
     if dataset == "beams":
-        return {beam: [table1[beam][1]] * len(structures) for beam in BEAMS}
+        return {beam: [table1[beam].damping] * len(structures) for beam in BEAMS}
     return {"measured": [float(s.target.damping[0]) for s in structures]}

@@ -25,11 +25,11 @@ from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_uni
 from pipeline.files import atomic_path
 from study import anova, figures, pareto, prestress, surrogacy
 from study.analysis import anova_observations, model_errors, representative_designs, sample_front
-from study.datasets import (DEFAULT_DAMPING_CASE, dataset_structures, damping_cases, read_table1,
-                            write_asb_measurements)
+from study.datasets import DEFAULT_DAMPING_CASE, dataset_structures, damping_cases, write_asb_measurements
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, explore, read_exploration
 from study.report import write_report
+from study.virtual_experiment import TABLE1, TABLE3, read_low_amplitude_measurements, virtual_experiments
 
 
 class Paths(NamedTuple):
@@ -51,21 +51,18 @@ class Paths(NamedTuple):
         return self.out / "analysis"
 
 
-def measurements(paths: Paths, parameters: dict) -> list[Path]:
+def measurements(paths: Paths, parameters: dict):
     """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones)."""
     if parameters["study"].dataset == "asb":
         return write_asb_measurements(paths.data, paths.measurements)
-    from study import virtual_experiment
-
-    return virtual_experiment.write_virtual_experiments(paths.rom, paths.measurements,
-                                                        paths.reference / "paper_table1_low_amplitude.csv")
+    return virtual_experiments(paths.rom, paths.measurements, paths.reference / TABLE1, paths.reference / TABLE3)
 
 
 def exploration(paths: Paths, parameters: dict) -> Exploration:
     """The study's structures, models, sample and damping cases from the measurement files."""
     study = parameters["study"]
     structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels)
-    table1 = read_table1(paths.reference / "paper_table1_low_amplitude.csv") if study.dataset == "beams" else None
+    table1 = read_low_amplitude_measurements(paths.reference / TABLE1) if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
                        damping_cases(study.dataset, structures, table1))
 

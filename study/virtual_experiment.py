@@ -1,0 +1,428 @@
+"""Virtual experiments of the three Brake-Reuss beams: one reference joint, hammer ring-downs, a measured backbone.
+
+The paper's Fig. 3 backbones of the BRB, LBRB and SBRB (seed paper section 3: first out-of-plane bending mode,
+Hilbert (FreeVib) estimates averaged over seven hammer hits) are not public. A virtual experiment stands in for
+each (DESIGN section 7): the same reference joint in all three beams, the beam's linear damping from the paper's
+Table 1, seven hammer hits simulated on the project's superelement, ten accelerometers with sensor noise, and
+the records processed exactly like a measurement (:func:`experiment.backbone.ringdown_backbone`: modal filter with
+the low-level mode shapes, band-pass, FreeVib, averaging over the hits). Its backbone is labelled ``virtual``.
+
+Reference joint (:func:`reference_joint`). A uniform interface over the lap: every patch pair carries stiffness
+and slip force in proportion to its area A_p (Table 3's parameters are per patch pair, N and N/m):
+
+    K_T,p = k_t A_p,   K_z,p = (2 - nu) / (2 (1 - nu)) k_t A_p (Mindlin's normal-to-tangential ratio, nu = 0.29),
+    F_S,p = mu p_c A_p,   p_c = 3 x 11,580 N / sum_p A_p (the three bolts' preload spread over the lap),
+
+with mu = 0.3, the Iwan exponent chi = -0.5 (dissipation per cycle ~ amplitude^2.5, within the 2-3 measured on
+bolted laps) and beta = 0.1 (a small macroslip spike). The tangential contact stiffness k_t (N/m per m^2) is the
+root (Brent, on log10 k_t) at which the BRB's stuck first bending frequency is the measured 169.48 Hz: k_t = 1.2e12
+N/m^3 (K_T 4.6e8 and 8.6e8 N/m per patch pair); the superelement with its patches tied gives 182.84 Hz, so the
+joint is compliant. F_S only sets the amplitude scale (all patches share F_S / K_T): F_S 1,376 and 2,557 N. QSMA
+of the BRB: 0.33 % softer than stuck at 1.6e-5 m kg^0.5 (damping 2.55e-3, 1.5 times Table 1's), 1.83 % at
+2.5e-4 (damping 7.97e-3, 4.8 times): the paper's "approximately 2 %" and "large increase" (section 3).
+
+Hammer test (:class:`HammerTest`). Seven half-sine hits of 3 ms (a soft tip: first spectral zero at 500 Hz) at the
+accelerometer at the beam's free end (where the first bending mode moves most), along its axis. FreeVib discards
+the first 12 periods, in which a hard hit's damping (1-3e-2) takes the amplitude down by a factor 2-3, and a
+record of 70 periods keeps a factor 2-4 of decay; one impulse level cannot cover the decade from near-linear to
+the 2 % drop in a record the demo can afford, so the hits are spread as an experimenter spreads them: nominal
+impulses log-spaced from 1.6 N s (peak force 840 N) down by a factor 20, each scattered by 5 % (seeded), the
+ranges of neighbouring hits overlapping (every grid amplitude has data). The same hammer test is run on every
+beam. The sensors record displacement (ring_down's output). Sensor noise: Gaussian, standard deviation 1e-3 of the
+tracked mode's largest displacement at any sensor during the hit (60 dB below the peak, a typical usable dynamic range of a hammer
+ring-down once range setting, cables and mounting are counted), independent per channel and sample.
+
+Time step. The transient (:func:`nonlinear.transient.ring_down`) integrates with Newmark's average acceleration
+rule, whose period error (omega dt)^2 / 12 is the virtual experiment's only systematic frequency error: 50 samples
+per period give 0.13 % (0.22 Hz on the BRB), measured so against QSMA. Its Newton loop updates 2,508 sliders per
+joint element every iteration, 1.7-3 ms per step: 6-11 s per hit, about a minute per beam.
+"""
+
+from __future__ import annotations
+
+import csv
+import platform
+import time as clock
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import brentq
+
+from experiment.backbone import MeasuredBackbone, ModeBackbone, mode_backbone, ringdown_backbone
+from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
+from experiment.ringdown import RingDown
+from experiment.ringdown_files import write_ringdown_mat
+from nonlinear.condensation import JointSpace, joint_space
+from nonlinear.joint import parameter_names
+from nonlinear.qsma_vectorised import qsma_designs
+from nonlinear.transient import Hammer, ring_down, sensor_modes
+from pipeline.cache import package_versions
+from pipeline.files import atomic_path, sha256_file, write_json
+from study.structures import beam_superelement, target_mode
+
+BEAMS = ("BRB", "LBRB", "SBRB")
+TABLE1 = "paper_table1_low_amplitude.csv"  # beam, frequency_hz, damping_factor
+TABLE3 = "paper_table3_parameter_limits.csv"  # parameter, minimum, maximum, sampling, unit
+MODEL = "iwan4"
+POISSON_RATIO = 0.29  # paper section 4.1
+BOLT_PRELOAD = 11_580.0  # N per bolt at 20 N m (paper section 4.1)
+N_BOLTS = 3
+FRICTION_COEFFICIENT = 0.3  # mu of F_S = mu p_c A_p
+CHI = -0.5  # Iwan exponent: dissipation per cycle ~ amplitude^(3 + chi)
+BETA = 0.1  # Iwan macroslip spike relative to the power-law part
+LOW_AMPLITUDE = 1e-9  # m kg^0.5: QSMA level called for the stuck eigenproblem (its frequency does not depend on it)
+
+
+@dataclass(frozen=True)
+class LowAmplitudeMeasurement:
+    """One row of the paper's Table 1: the first bending mode's low-amplitude frequency (Hz) and damping factor."""
+
+    beam: str
+    frequency_hz: float
+    damping: float
+
+
+def reference_folder() -> Path:
+    """Where the paper's tables live (outside the repository, beside the ASB data): ../shared/reference."""
+    return Path(__file__).resolve().parents[2] / "shared" / "reference"
+
+
+def read_low_amplitude_measurements(path: Path) -> dict[str, LowAmplitudeMeasurement]:
+    """Paper Table 1 from its CSV (columns beam, frequency_hz, damping_factor): beam -> measurement."""
+    with open(path, newline="") as stream:
+        return {row["beam"]: LowAmplitudeMeasurement(row["beam"], float(row["frequency_hz"]),
+                                                     float(row["damping_factor"]))
+                for row in csv.DictReader(stream)}
+
+
+def read_parameter_limits(path: Path) -> dict[str, tuple[float, float]]:
+    """Paper Table 3 from its CSV (columns parameter, minimum, maximum, ...): parameter -> (minimum, maximum)."""
+    with open(path, newline="") as stream:
+        return {row["parameter"]: (float(row["minimum"]), float(row["maximum"])) for row in csv.DictReader(stream)}
+
+
+def outside_limits(design, names: list[str], limits: dict[str, tuple[float, float]]) -> list[str]:
+    """The design's entries outside Table 3's limits, as 'name = value' strings (empty: all inside)."""
+    outside = []
+    for name, value in zip(names, np.asarray(design, dtype=float)):
+        low, high = limits[name.split("[")[0]]
+        if not low <= value <= high:
+            outside.append(f"{name} = {value:g} (limits {low:g} to {high:g})")
+    return outside
+
+
+def beam_space(rom_path: Path, frequency_hz: float) -> JointSpace:
+    """Joint space of a beam's superelement (``build/rom/<beam>.npz``, the unstressed halves as the study uses
+    them, :func:`study.structures.beam_superelement`) tracking the mode a measurement at ``frequency_hz`` saw
+    (:func:`study.structures.target_mode`: its tied first bending mode for the three beams)."""
+    superelement = beam_superelement(Path(rom_path))
+    _, shape, _ = target_mode(superelement, frequency_hz)
+    return joint_space(superelement, reference_mode=shape)
+
+
+def group_areas(space: JointSpace) -> np.ndarray:
+    """Area (m^2) of one patch of each parameter group, (n_groups,) (the patches of a group are mirror images)."""
+    groups = np.asarray(space.superelement.patch_groups)
+    return np.array([space.superelement.patch_areas[np.flatnonzero(groups == g)[0]] for g in range(groups.max() + 1)])
+
+
+def contact_pressure(space: JointSpace, bolt_preload: float = BOLT_PRELOAD, n_bolts: int = N_BOLTS) -> float:
+    """Mean clamping pressure over the lap (Pa): the bolts' preload (N each) over the patches' total area."""
+    return n_bolts * bolt_preload / float(np.sum(space.superelement.patch_areas))
+
+
+def uniform_interface(areas, tangential_stiffness: float, slip_traction: float, chi: float = CHI,
+                      beta: float = BETA, poisson_ratio: float = POISSON_RATIO) -> np.ndarray:
+    """iwan4 design (5 n_groups,) of a uniform interface, groups in order (F_S, K_T, chi, beta, K_z).
+
+    areas: (n_groups,) patch area per group, m^2. tangential_stiffness: k_t, N/m per m^2 of contact.
+    slip_traction: mu p_c, Pa. Per patch pair K_T = k_t A, K_z = (2 - nu) / (2 (1 - nu)) K_T (Mindlin's ratio of
+    normal to tangential contact stiffness), F_S = mu p_c A; chi, beta common.
+    """
+    areas = np.asarray(areas, dtype=float)
+    stiffness = tangential_stiffness * areas
+    normal = (2.0 - poisson_ratio) / (2.0 * (1.0 - poisson_ratio)) * stiffness
+    return np.column_stack([slip_traction * areas, stiffness, np.full_like(areas, chi), np.full_like(areas, beta),
+                            normal]).ravel()
+
+
+def stuck_frequency_hz(space: JointSpace, design, model: str = MODEL) -> float:
+    """The tracked mode's stuck (low-amplitude) natural frequency (Hz) of one design, from QSMA's stuck
+    eigenproblem (``nonlinear.qsma_vectorised.qsma_designs``)."""
+    result = qsma_designs(space, model, np.asarray(design, dtype=float)[None, :], amplitudes=[LOW_AMPLITUDE])
+    return float(result.stuck_frequency[0]) / (2.0 * np.pi)
+
+
+def reference_joint(space: JointSpace, frequency_hz: float, friction_coefficient: float = FRICTION_COEFFICIENT,
+                    chi: float = CHI, beta: float = BETA, log_stiffness_bracket=(9.0, 14.0)) -> np.ndarray:
+    """The reference joint (module docstring): the uniform interface whose tracked stuck frequency in ``space``
+    is ``frequency_hz`` (the BRB's measured 169.48 Hz), iwan4 design (15,) for the BRB's three groups.
+
+    log_stiffness_bracket: log10 of k_t (N/m per m^2) bracketing the root; the stuck frequency increases with k_t
+    towards the tied one (raises ValueError when ``frequency_hz`` is outside the bracket's frequencies).
+    """
+    areas = group_areas(space)
+    traction = friction_coefficient * contact_pressure(space)
+
+    def frequency_error(log_stiffness):
+        return stuck_frequency_hz(space, uniform_interface(areas, 10.0 ** log_stiffness, traction, chi, beta)) \
+            - frequency_hz
+
+    log_stiffness = brentq(frequency_error, *log_stiffness_bracket, xtol=1e-12, rtol=1e-14)
+    return uniform_interface(areas, 10.0 ** log_stiffness, traction, chi, beta)
+
+
+@dataclass(frozen=True)
+class HammerTest:
+    """How a beam is hit and recorded (module docstring).
+
+    n_hits: hammer hits. sensor: row of the superelement's sensors hit (along its axis), 0-based.
+    peak_modal_amplitude: modal amplitude q (m kg^0.5) the hardest hit gives the tracked mode, the same on every
+    beam: its impulse is q omega / |phi(struck point)| (an ideal impulse I gives q' = I phi, q = q' / omega).
+    impulse_range: hardest over softest nominal impulse (the nominal impulses are log-spaced between them). impulse_scatter: relative standard deviation of each hit's
+    impulse about its nominal one. contact_time: s. periods: record length in periods of the Table 1 frequency.
+    samples_per_period: integrator steps (and samples) per period. noise: standard deviation of the sensor noise
+    relative to the largest displacement of the tracked mode at any sensor during the hit. seed: of the numpy
+    Generator that draws the impulses, then the noise.
+    """
+
+    n_hits: int = 7
+    sensor: int = 0
+    peak_modal_amplitude: float = 1.2e-3
+    impulse_range: float = 20.0
+    impulse_scatter: float = 0.05
+    contact_time: float = 3e-3
+    periods: float = 70.0
+    samples_per_period: int = 50
+    noise: float = 1e-3
+    seed: int = 20190617
+
+    def time_step(self, frequency_hz: float) -> float:
+        """Integrator step and sampling interval (s) for a mode of ``frequency_hz``."""
+        return 1.0 / (self.samples_per_period * frequency_hz)
+
+    def duration(self, frequency_hz: float) -> float:
+        """Record length (s) for a mode of ``frequency_hz``."""
+        return self.periods / frequency_hz
+
+
+def hit_impulses(test: HammerTest, hardest_impulse: float, rng: np.random.Generator) -> np.ndarray:
+    """Impulses (n_hits,) N s, softest first: nominal ones log-spaced from hardest / range to ``hardest_impulse``
+    (N s), each times 1 + scatter x a standard normal draw (clipped at +-3)."""
+    nominal = hardest_impulse * np.geomspace(1.0 / test.impulse_range, 1.0, test.n_hits)
+    return nominal * (1.0 + test.impulse_scatter * np.clip(rng.standard_normal(test.n_hits), -3.0, 3.0))
+
+
+def with_sensor_noise(hit: RingDown, level: float, rng: np.random.Generator) -> RingDown:
+    """The hit with independent Gaussian noise of standard deviation ``level`` (its unit) on every channel and
+    sample."""
+    return replace(hit, signals=hit.signals + level * rng.standard_normal(hit.signals.shape))
+
+
+def modal_test_shapes(space: JointSpace, design, n_modes: int = 5, visibility: float = 1e-2, model: str = MODEL):
+    """Mode shapes at the sensors (n_sensors, n_modes) as a low-level modal test identifies them: of the stuck
+    modes the sensors see (norm of the shape at the sensors at least ``visibility`` times the tracked mode's), the
+    ``n_modes`` nearest the tracked one in frequency, the tracked one first; in m per unit modal amplitude q
+    (m kg^0.5), so that modal filtering gives q. Also returns the tracked frequency, Hz.
+
+    The beams' sensors read u_z on the centre line, blind to the in-plane and torsion modes between the bending
+    ones (their shapes there are 1e-4 of the bending modes'); a modal filter including them would divide the
+    sensor noise by those near-zero singular values. Fewer modes than sensors make the filter a least-squares fit.
+    """
+    frequencies, shapes, target = sensor_modes(space, model, design)
+    seen = np.linalg.norm(shapes, axis=0) >= visibility * np.linalg.norm(shapes[:, target])
+    candidates = np.flatnonzero(seen)
+    nearest = candidates[np.argsort(np.abs(frequencies[candidates] - frequencies[target]), kind="stable")[:n_modes]]
+    return shapes[:, nearest], float(frequencies[target]) / (2.0 * np.pi)
+
+
+class HammerHits(NamedTuple):
+    """The records of a hammer test: hits (noisy sensor displacements, :class:`~experiment.ringdown.RingDown`),
+    impulses (n_hits,) N s, noise_levels (n_hits,) m, runtime_s (n_hits,) seconds of simulation per hit,
+    unconverged_steps (n_hits,) Newton steps that missed the tolerance (0 for a trustworthy run)."""
+
+    hits: list[RingDown]
+    impulses: np.ndarray
+    noise_levels: np.ndarray
+    runtime_s: np.ndarray
+    unconverged_steps: np.ndarray
+
+
+def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
+                test: HammerTest = HammerTest(), model: str = MODEL) -> HammerHits:
+    """Simulate the hits of ``test`` on the joint ``design`` in the beam of ``space``.
+
+    Each hit is a transient ring-down (:func:`nonlinear.transient.ring_down`) from rest under a half-sine hammer
+    pulse at the test's sensor, linear damping zeta_0 = ``linear_damping`` on every stuck mode, time step and
+    length from the beam's measured ``frequency_hz`` (``test``); the sensors' displacements get independent
+    Gaussian noise of ``test.noise`` times the largest displacement of the tracked mode at any sensor.
+    The seeded Generator draws the impulses first, then the noise hit by hit.
+    """
+    design = np.asarray(design, dtype=float)
+    superelement = space.superelement
+    rng = np.random.default_rng(test.seed)
+    frequencies, shapes, target = sensor_modes(space, model, design)
+    hardest = test.peak_modal_amplitude * frequencies[target] / abs(shapes[test.sensor, target])
+    impulses = hit_impulses(test, hardest, rng)
+    largest_sensor_shape = np.max(np.abs(shapes[:, target]))
+    hits, levels, runtime, unconverged = [], [], [], []
+    for number, impulse in enumerate(impulses, start=1):
+        start = clock.perf_counter()
+        decay = ring_down(space, model, design, test.duration(frequency_hz), test.time_step(frequency_hz),
+                          hammer=Hammer(superelement.sensors[test.sensor], float(impulse), test.contact_time),
+                          linear_damping=linear_damping)
+        runtime.append(clock.perf_counter() - start)
+        unconverged.append(decay.unconverged_steps)
+        levels.append(test.noise * np.max(np.abs(decay.modal_amplitude)) * largest_sensor_shape)
+        record = replace(decay.sensors, source=f"virtual experiment {beam}", hit=f"hit {number}")
+        hits.append(with_sensor_noise(record, levels[-1], rng))
+    return HammerHits(hits, impulses, np.array(levels), np.array(runtime), np.array(unconverged))
+
+
+@dataclass(frozen=True)
+class VirtualExperiment:
+    """One beam's virtual experiment.
+
+    beam: name. backbone: the Hilbert backbone labelled virtual (amplitude: modal amplitude q, m kg^0.5).
+    measured: both estimators as :func:`experiment.backbone.ringdown_backbone` returns them. records: the hits.
+    stuck_frequency_hz: the design's stuck frequency in this beam. configuration: everything that generated it
+    (JSON-ready).
+    """
+
+    beam: str
+    backbone: ModeBackbone
+    measured: MeasuredBackbone = field(repr=False)
+    records: HammerHits = field(repr=False)
+    stuck_frequency_hz: float
+    configuration: dict = field(repr=False)
+
+
+def measured_backbone(space: JointSpace, design, records: HammerHits, model: str = MODEL) -> MeasuredBackbone:
+    """The hits processed as a measurement: :func:`experiment.backbone.ringdown_backbone` with the low-level mode
+    shapes of :func:`modal_test_shapes` (modal filter, band-pass 0.7-1.3 f, FreeVib, mean over hits)."""
+    shapes, mode_frequency_hz = modal_test_shapes(space, design, model=model)
+    return ringdown_backbone(records.hits, mode_frequency_hz, mode_shapes=shapes, mode_index=0)
+
+
+def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
+                       test: HammerTest = HammerTest(), model: str = MODEL) -> VirtualExperiment:
+    """Hammer test of the joint ``design`` in the beam of ``space`` (:func:`hammer_hits`), processed as a
+    measurement (:func:`measured_backbone`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
+    since the filter's shapes are mass-normalised.
+
+    linear_damping: zeta_0 of the beam's other mechanisms (paper Table 1). frequency_hz: the beam's measured
+    (Table 1) frequency, which sets the time step and the record length.
+    """
+    design = np.asarray(design, dtype=float)
+    superelement = space.superelement
+    records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model)
+    measured = measured_backbone(space, design, records, model)
+    stuck = stuck_frequency_hz(space, design, model)
+    names = parameter_names(model, int(np.max(superelement.patch_groups)) + 1)
+    configuration = {
+        "provenance": "virtual", "beam": beam, "model": model,
+        "parameter_names": names, "design": design.tolist(),
+        "stuck_frequency_hz": stuck, "linear_damping": linear_damping, "table1_frequency_hz": frequency_hz,
+        "hammer": {"sensor_row": test.sensor, "direction": "the sensor's measuring axis (u_z)",
+                   "pulse": "half-sine", "contact_time_s": test.contact_time,
+                   "peak_modal_amplitude": test.peak_modal_amplitude, "impulse_range": test.impulse_range,
+                   "impulse_scatter": test.impulse_scatter, "impulses_Ns": records.impulses.tolist()},
+        "sensors": {"count": len(superelement.sensors), "quantity": "displacement",
+                    "noise": "Gaussian, independent per channel and sample, standard deviation relative to the "
+                             "largest displacement of the tracked mode at any sensor during the hit",
+                    "relative_noise": test.noise, "noise_levels_m": records.noise_levels.tolist()},
+        "seed": test.seed, "time_step_s": test.time_step(frequency_hz), "duration_s": test.duration(frequency_hz),
+        "samples_per_period": test.samples_per_period,
+        "integrator": "Newmark average acceleration, period error (omega dt)^2/12 = "
+                      f"{(2 * np.pi / test.samples_per_period) ** 2 / 12:.2e}",
+        "processing": "experiment.backbone.ringdown_backbone: modal filter with the 5 stuck modes the sensors see "
+                      "nearest the tracked one, band-pass 0.7-1.3 f, FreeVib (Hilbert), mean over hits",
+        "runtime_s_per_hit": records.runtime_s.tolist(),
+        "unconverged_steps": records.unconverged_steps.tolist(),
+    }
+    backbone = replace(mode_backbone(measured, beam, "virtual"), amplitude_unit=ASB_MODAL_AMPLITUDE_UNIT,
+                       source=f"virtual experiment: {model} reference joint in {superelement.name}, "
+                              f"{test.n_hits} simulated hammer hits (seed {test.seed})")
+    return VirtualExperiment(beam, backbone, measured, records, stuck, configuration)
+
+
+def versions() -> dict:
+    """Versions recorded with a virtual experiment: Python and the numerical packages."""
+    return {"python": platform.python_version(), **package_versions("numpy", "scipy", "numba")}
+
+
+def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_path: Path,
+                             ring_downs: bool = True) -> dict[str, Path]:
+    """Write ``<folder>/<beam>.csv`` (the backbone CSV of :mod:`experiment.backbone_files`, provenance virtual),
+    ``<folder>/<beam>_experiment.json`` (the generating configuration, the superelement file and its SHA-256,
+    versions, runtimes) and, with ``ring_downs``, ``<folder>/<beam>_ringdowns.mat`` (the noisy hits), each
+    atomically; the JSON last. rom_path: the superelement file the experiment's joint space came from (its
+    unstressed halves; recorded). Returns kind -> path."""
+    folder = Path(folder)
+    paths = {"backbone": folder / f"{experiment.beam}.csv",
+             "configuration": folder / f"{experiment.beam}_experiment.json"}
+    write_backbone(experiment.backbone, paths["backbone"])
+    if ring_downs:
+        paths["ring_downs"] = folder / f"{experiment.beam}_ringdowns.mat"
+        write_ringdown_mat(experiment.records.hits, paths["ring_downs"])
+    write_json(paths["configuration"], {
+        **experiment.configuration,
+        "superelement": {"file": str(rom_path), "sha256": sha256_file(rom_path),
+                         "stiffness": "unstressed halves (study.structures.beam_superelement)"},
+        "versions": versions(),
+        "files": {kind: {"name": path.name, "sha256": sha256_file(path)} for kind, path in paths.items()
+                  if kind != "configuration"},
+    })
+    return paths
+
+
+def low_amplitude_table(experiments: dict[str, VirtualExperiment],
+                        measurements: dict[str, LowAmplitudeMeasurement]) -> list[dict]:
+    """Each beam's virtual low-amplitude frequency (the backbone's value at its lowest amplitude) against Table 1:
+    rows {beam, virtual_hz, table1_hz, difference_percent}, in the order of ``experiments``."""
+    rows = []
+    for beam, experiment in experiments.items():
+        virtual, measured = experiment.backbone.low_amplitude_frequency_hz, measurements[beam].frequency_hz
+        rows.append({"beam": beam, "virtual_hz": virtual, "table1_hz": measured,
+                     "difference_percent": 100.0 * (virtual / measured - 1.0)})
+    return rows
+
+
+def write_low_amplitude_table(rows: list[dict], destination: Path) -> None:
+    """Write :func:`low_amplitude_table`'s rows as CSV (beam, virtual_hz, table1_hz, difference_percent), atomically."""
+    with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=["beam", "virtual_hz", "table1_hz", "difference_percent"])
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def virtual_experiments(rom_folder: Path, out_folder: Path, table1_path: Path | None = None,
+                        table3_path: Path | None = None, test: HammerTest = HammerTest(), beams=BEAMS,
+                        ring_downs: bool = True) -> list[dict]:
+    """The three beams' virtual experiments with one reference joint, written to ``out_folder``.
+
+    rom_folder: holds ``<beam>.npz`` (the reduction stage's output). The reference joint is tuned on the BRB to
+    its Table 1 frequency and checked against Table 3's limits (ValueError naming the parameters otherwise); each
+    beam is tested with ``test`` and its Table 1 linear damping, then written by :func:`write_virtual_experiment`;
+    ``low_amplitude.csv`` compares the virtual low-amplitude frequencies with Table 1. Returns its rows.
+    """
+    rom_folder, out_folder = Path(rom_folder), Path(out_folder)
+    measurements = read_low_amplitude_measurements(table1_path or reference_folder() / TABLE1)
+    spaces = {beam: beam_space(rom_folder / f"{beam}.npz", measurements[beam].frequency_hz)
+              for beam in dict.fromkeys(("BRB", *beams))}
+    design = reference_joint(spaces["BRB"], measurements["BRB"].frequency_hz)
+    names = parameter_names(MODEL, int(np.max(spaces["BRB"].superelement.patch_groups)) + 1)
+    outside = outside_limits(design, names, read_parameter_limits(table3_path or reference_folder() / TABLE3))
+    if outside:
+        raise ValueError(f"reference joint outside paper Table 3's limits: {'; '.join(outside)}")
+    experiments = {}
+    for beam in beams:
+        measurement = measurements[beam]
+        experiments[beam] = virtual_experiment(spaces[beam], beam, design, measurement.damping,
+                                               measurement.frequency_hz, test)
+        write_virtual_experiment(out_folder, experiments[beam], rom_folder / f"{beam}.npz", ring_downs)
+    rows = low_amplitude_table(experiments, measurements)
+    write_low_amplitude_table(rows, out_folder / "low_amplitude.csv")
+    return rows
