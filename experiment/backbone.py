@@ -15,7 +15,7 @@ frequency, provenance); its file format is in :mod:`experiment.backbone_files`.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 
 import numpy as np
 
@@ -48,6 +48,11 @@ class Backbone:
     damping_ratio_spread: np.ndarray
     damping_ratio_standard_error: np.ndarray
     n_records: np.ndarray
+
+    def with_data(self) -> "Backbone":
+        """The grid points that at least one record reaches (a backbone to fit has no empty points)."""
+        kept = self.n_records > 0
+        return Backbone(*(np.asarray(values)[kept] for values in astuple(self)))
 
     @property
     def natural_frequency_uncertainty_hz(self) -> np.ndarray:

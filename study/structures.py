@@ -13,10 +13,11 @@ below f_m, and that mode is taken; the choice and the tied frequencies are state
 (174-201 Hz): their target is the second mode.
 
 Levels. A measured backbone holds hundreds to thousands of scattered estimates (ASB) or a few tens of averaged
-points (ring-downs). The model is evaluated at ``n_levels`` modal amplitudes q_i, log-spaced between the
-smallest and largest measured amplitude, and compared with the measurement's median frequency and damping in
-the amplitude bin around each q_i (bin edges at the geometric midpoints): the L-infinity errors of paper
-Eqs. 26-27 are then taken at the measured amplitudes, robust against the scatter of single estimates.
+points (ring-downs). Its amplitude range is cut into ``n_levels`` bins of equal logarithmic width (edges at the
+geometric midpoints of log-spaced targets); each bin with points gives one level: the median amplitude,
+frequency and damping of its points. The model is evaluated at those modal amplitudes (measured ones for an
+averaged backbone), so the L-infinity errors of paper Eqs. 26-27 are taken at the measured amplitudes, robust
+against the scatter of single estimates; bins without points (a gap between hits) give no level.
 """
 
 from __future__ import annotations
@@ -70,9 +71,9 @@ class Structure:
 
 
 def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Target:
-    """The measured backbone's median frequency and damping in ``n_levels`` log-spaced amplitude bins (module
-    docstring). Raises StructureError naming ``path`` and the field for NaN values, fewer than MIN_POINTS
-    amplitudes, a non-positive or non-increasing amplitude, or an empty bin."""
+    """The measured backbone's medians in up to ``n_levels`` log-spaced amplitude bins (module docstring).
+    Raises StructureError naming ``path`` and the field for NaN values, fewer than MIN_POINTS amplitudes (or
+    filled bins), a non-positive or non-increasing amplitude."""
     backbone = measured.backbone
     amplitude = np.asarray(backbone.amplitude, dtype=float)
     columns = {"modal_amplitude": amplitude, "natural_frequency": np.asarray(backbone.natural_frequency_hz, float),
@@ -87,15 +88,14 @@ def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str 
     if amplitude[0] <= 0.0 or np.any(np.diff(amplitude) < 0.0) or amplitude[-1] <= amplitude[0]:
         raise StructureError(f"{path}: field modal_amplitude: expected positive amplitudes in non-decreasing order "
                              f"spanning a range; got {amplitude[:3].tolist()}...{amplitude[-2:].tolist()}")
-    levels = np.geomspace(amplitude[0], amplitude[-1], n_levels)
-    edges = np.concatenate([[amplitude[0]], np.sqrt(levels[1:] * levels[:-1]), [amplitude[-1]]])
-    bins = np.clip(np.searchsorted(edges, amplitude, side="right") - 1, 0, n_levels - 1)
-    counts = np.bincount(bins, minlength=n_levels)
-    if np.any(counts == 0):
-        raise StructureError(f"{path}: field modal_amplitude: no measured point near {levels[counts == 0][:3]} "
-                             f"(expected points across the range for {n_levels} levels; use fewer levels)")
-    frequency = np.array([np.median(columns["natural_frequency"][bins == i]) for i in range(n_levels)])
-    damping = np.array([np.median(columns["damping_ratio"][bins == i]) for i in range(n_levels)])
+    targets = np.geomspace(amplitude[0], amplitude[-1], n_levels)
+    edges = np.sqrt(targets[1:] * targets[:-1])
+    bins = np.searchsorted(edges, amplitude, side="right")
+    filled = np.flatnonzero(np.bincount(bins, minlength=n_levels))
+    if filled.size < MIN_POINTS:
+        raise StructureError(f"{path}: field modal_amplitude: points in {filled.size} of {n_levels} amplitude bins "
+                             f"(expected at least {MIN_POINTS})")
+    levels, frequency, damping = (np.array([np.median(values[bins == i]) for i in filled]) for values in columns.values())
     return Target(levels, frequency, damping, float(measured.low_amplitude_frequency_hz), measured.provenance,
                   measured.source)
 

@@ -343,7 +343,8 @@ def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: flo
         "runtime_s_per_hit": records.runtime_s.tolist(),
         "unconverged_steps": records.unconverged_steps.tolist(),
     }
-    backbone = replace(mode_backbone(measured, beam, "virtual"), amplitude_unit=ASB_MODAL_AMPLITUDE_UNIT,
+    labelled = mode_backbone(measured, beam, "virtual")
+    backbone = replace(labelled, backbone=labelled.backbone.with_data(), amplitude_unit=ASB_MODAL_AMPLITUDE_UNIT,
                        source=f"virtual experiment: {model} reference joint in {superelement.name}, "
                               f"{test.n_hits} simulated hammer hits (seed {test.seed})")
     return VirtualExperiment(beam, backbone, measured, records, stuck, configuration)
