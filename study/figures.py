@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -62,6 +63,8 @@ def plot_responses(destination: Path, model: str, curves) -> None:
             for k, index in enumerate(indices):
                 axes[0, column].semilogx(amplitude, result.frequency[k] / (2 * np.pi), label=f"design {index}")
                 axes[1, column].semilogx(amplitude, result.damping[k], label=f"design {index}")
+        for axis in axes[:, column]:
+            axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         axes[0, column].set(title=structure.name, ylabel="natural frequency (Hz)")
         axes[1, column].set(xlabel="modal amplitude (m kg^0.5)", ylabel="damping ratio (-)")
         axes[0, column].legend(fontsize=7)

@@ -35,6 +35,10 @@ SHORT_TEST = HammerTest(n_hits=2, impulse_range=2.5)
 # One coarse hit, enough for FreeVib (50 periods, 20 samples per period; about 3 s): files and seeds.
 TINY_TEST = HammerTest(n_hits=1, periods=50, samples_per_period=20)
 FREQUENCY_TOLERANCE = 5e-4  # relative, after Newmark's period error: measured 2.8e-4 at most
+# The LBRB's hardest hits ring its neighbouring modes (tied 85.8 and 99.7 Hz) whose joint motion adds slip that
+# QSMA's single-mode backbone does not see: its hammer backbone lies up to 1.3e-3 below QSMA at the top, while the
+# same transient started in the mode's shape agrees within 2.6e-4 (test_lbrb_single_mode_start_follows_qsma).
+MULTI_MODE_TOLERANCE = 1.5e-3
 DAMPING_TOLERANCE = 0.10  # relative: measured 8.4 % at most (other modes' slip, growing with amplitude; as in
 # test_transient's hammer ring-down of the ASB)
 
@@ -180,10 +184,36 @@ def test_three_beams_virtual_experiments(tmp_path, table1, beam_roms):
         qsma = qsma_designs(space, "iwan4", design[None, :], amplitudes=backbone.amplitude,
                             linear_damping=table1[beam].damping)
         expected = qsma.frequency[0] / (2 * np.pi) * (1 - newmark_period_error(HammerTest()))
-        np.testing.assert_allclose(backbone.natural_frequency_hz, expected, rtol=FREQUENCY_TOLERANCE)
+        np.testing.assert_allclose(backbone.natural_frequency_hz, expected,
+                                   rtol=MULTI_MODE_TOLERANCE if beam == "LBRB" else FREQUENCY_TOLERANCE)
         np.testing.assert_allclose(backbone.damping_ratio, qsma.damping[0], rtol=DAMPING_TOLERANCE)
         drops[beam] = 1 - backbone.natural_frequency_hz[-1] / backbone.natural_frequency_hz[0]
         if beam == "BRB":
             assert 0.01 <= drops[beam] <= 0.03
             assert backbone.damping_ratio[-1] >= 4 * table1[beam].damping
     assert drops["SBRB"] < min(drops["BRB"], drops["LBRB"])
+
+
+@pytest.mark.slow
+def test_lbrb_single_mode_start_follows_qsma(table1, beam_roms):
+    """The LBRB's hammer backbone departs from QSMA by more than Newmark's error at large amplitude; the same
+    transient started in the tracked mode's shape (no other mode rung) follows QSMA within FREQUENCY_TOLERANCE,
+    so the departure is the other modes' slip, not the integrator or the estimator (about 20 s)."""
+    from experiment.hilbert import freevib
+    from nonlinear.transient import ring_down, sensor_modes
+
+    design = reference_joint(beam_space(ROM / "BRB.npz", table1["BRB"].frequency_hz), table1["BRB"].frequency_hz)
+    space = beam_space(ROM / "LBRB.npz", table1["LBRB"].frequency_hz)
+    test = HammerTest()
+    frequencies, shapes, target = sensor_modes(space, "iwan4", design)
+    velocity = test.peak_modal_amplitude * frequencies[target]
+    decay = ring_down(space, "iwan4", design, test.duration(table1["LBRB"].frequency_hz),
+                      test.time_step(table1["LBRB"].frequency_hz), initial_modal_velocity=velocity,
+                      linear_damping=table1["LBRB"].damping)
+    estimate = freevib(decay.sensors.time, decay.modal_amplitude, frequencies[target] / (2 * np.pi))
+    order = np.argsort(estimate.amplitude)
+    amplitudes = np.geomspace(*np.percentile(estimate.amplitude, [20, 80]), 4)
+    qsma = qsma_designs(space, "iwan4", design[None, :], amplitudes=amplitudes, linear_damping=table1["LBRB"].damping)
+    expected = qsma.frequency[0] / (2 * np.pi) * (1 - newmark_period_error(test))
+    measured = np.interp(amplitudes, estimate.amplitude[order], estimate.natural_frequency_hz[order])
+    np.testing.assert_allclose(measured, expected, rtol=FREQUENCY_TOLERANCE)
