@@ -1,3 +1,20 @@
-"""The study stage (DESIGN section 7): virtual experiments, designs, errors, Pareto fronts, acceptance,
-surrogacy, ANOVA, the discrepancy loop and the report. Nothing is implemented here yet.
+"""The study stage (DESIGN section 7; paper sections 4.4, 5.2): can a joint fitted on one structure (the
+surrogate) be trusted in another (the real one)? ``surrogacy study`` runs it step by step (:mod:`study.commands`,
+:mod:`study.workflow`).
+
+Measurements to fit (:mod:`study.datasets`, :mod:`study.virtual_experiment`, :mod:`study.structures`)
+    virtual_experiments         the beams' virtual hammer tests of one reference joint (labelled virtual)
+    write_asb_measurements      the ASB's measured backbones in the backbone CSV format
+    structure, Structure        superelement, target mode chosen from the measured frequency, levels to fit
+Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.exploration`)
+    design_chunk                chunk c of a replicated Latin hypercube over paper Table 3, from the seed
+    design_errors, accepted     L-infinity errors of paper Eqs. 26-27 per design and structure, acceptance
+    explore, read_exploration   every chunk on every structure to Parquet; resumable; serial or dask
+Answers (:mod:`study.surrogacy`, :mod:`study.pareto`, :mod:`study.anova`, :mod:`study.prestress`)
+    surrogacy_matrix            SC_IJ (Eq. 29) with binomial intervals; replicate spread; bounds sweep
+    non_dominated, nsga2_front  Pareto fronts of the sample and of NSGA-II seeded from it (Fig. 6)
+    surrogacy_anova             Table 6's four-way ANOVA (statsmodels)
+    compare                     the SBRB with and without prestress (Fig. 12)
+Files (:mod:`study.analysis`, :mod:`study.figures`, :mod:`study.report`)
+    analysis tables and figures, report.md
 """

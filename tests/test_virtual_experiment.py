@@ -38,7 +38,9 @@ FREQUENCY_TOLERANCE = 5e-4  # relative, after Newmark's period error: measured 2
 # The LBRB's hardest hits ring its neighbouring modes (tied 85.8 and 99.7 Hz) whose joint motion adds slip that
 # QSMA's single-mode backbone does not see: its hammer backbone lies up to 1.3e-3 below QSMA at the top, while the
 # same transient started in the mode's shape agrees within 2.6e-4 (test_lbrb_single_mode_start_follows_qsma).
+# and its damping up to 31 % above (extra slip, extra dissipation), while the single-mode start is within 10 %.
 MULTI_MODE_TOLERANCE = 1.5e-3
+MULTI_MODE_DAMPING_TOLERANCE = 0.35
 DAMPING_TOLERANCE = 0.10  # relative: measured 8.4 % at most (other modes' slip, growing with amplitude; as in
 # test_transient's hammer ring-down of the ASB)
 
@@ -186,7 +188,11 @@ def test_three_beams_virtual_experiments(tmp_path, table1, beam_roms):
         expected = qsma.frequency[0] / (2 * np.pi) * (1 - newmark_period_error(HammerTest()))
         np.testing.assert_allclose(backbone.natural_frequency_hz, expected,
                                    rtol=MULTI_MODE_TOLERANCE if beam == "LBRB" else FREQUENCY_TOLERANCE)
-        np.testing.assert_allclose(backbone.damping_ratio, qsma.damping[0], rtol=DAMPING_TOLERANCE)
+        if beam == "LBRB":  # the other modes' slip only adds dissipation: above QSMA, by up to 31 % at the top
+            assert np.all(backbone.damping_ratio >= (1 - DAMPING_TOLERANCE) * qsma.damping[0])
+            np.testing.assert_allclose(backbone.damping_ratio, qsma.damping[0], rtol=MULTI_MODE_DAMPING_TOLERANCE)
+        else:
+            np.testing.assert_allclose(backbone.damping_ratio, qsma.damping[0], rtol=DAMPING_TOLERANCE)
         drops[beam] = 1 - backbone.natural_frequency_hz[-1] / backbone.natural_frequency_hz[0]
         if beam == "BRB":
             assert 0.01 <= drops[beam] <= 0.03
@@ -196,9 +202,10 @@ def test_three_beams_virtual_experiments(tmp_path, table1, beam_roms):
 
 @pytest.mark.slow
 def test_lbrb_single_mode_start_follows_qsma(table1, beam_roms):
-    """The LBRB's hammer backbone departs from QSMA by more than Newmark's error at large amplitude; the same
-    transient started in the tracked mode's shape (no other mode rung) follows QSMA within FREQUENCY_TOLERANCE,
-    so the departure is the other modes' slip, not the integrator or the estimator (about 20 s)."""
+    """The LBRB's hammer backbone departs from QSMA by more than Newmark's error at large amplitude (frequency
+    1.3e-3 below, damping 31 % above); the same transient started in the tracked mode's shape (no other mode rung)
+    follows QSMA within FREQUENCY_TOLERANCE and DAMPING_TOLERANCE, so the departure is the other modes' slip, not
+    the integrator or the estimator (about 20 s)."""
     from experiment.hilbert import freevib
     from nonlinear.transient import ring_down, sensor_modes
 
@@ -217,3 +224,5 @@ def test_lbrb_single_mode_start_follows_qsma(table1, beam_roms):
     expected = qsma.frequency[0] / (2 * np.pi) * (1 - newmark_period_error(test))
     measured = np.interp(amplitudes, estimate.amplitude[order], estimate.natural_frequency_hz[order])
     np.testing.assert_allclose(measured, expected, rtol=FREQUENCY_TOLERANCE)
+    damping = np.interp(amplitudes, estimate.amplitude[order], estimate.damping_ratio[order])
+    np.testing.assert_allclose(damping, qsma.damping[0], rtol=DAMPING_TOLERANCE)
