@@ -11,6 +11,7 @@ MODE_HZ ?= 80.5
 
 STUDY_DESIGNS ?= 100000
 ASB_DATA ?= ../shared/data
+REFERENCE ?= ../shared/reference
 
 .PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib study bench clean system-packages
 
@@ -52,10 +53,13 @@ freevib: $(STAMP)
 # ASB assembly on its measured backbones where ../shared/data is present: results/study-<dataset>/report.md.
 # STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped.
 study: rom
-	$(BIN)/surrogacy study --out results/study-beams --rom build/rom --set sample.n_designs=$(STUDY_DESIGNS)
-	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
-	  $(BIN)/surrogacy study --out results/study-asb --data $(ASB_DATA) --set study.dataset=asb \
+	@if [ -f "$(REFERENCE)/paper_table1_low_amplitude.csv" ]; then \
+	  $(BIN)/surrogacy study --out results/study-beams --rom build/rom --reference $(REFERENCE) \
 	    --set sample.n_designs=$(STUDY_DESIGNS); \
+	else echo "study: $(REFERENCE) lacks the paper's Table 1, beams' study skipped (set REFERENCE=folder)"; fi
+	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
+	  $(BIN)/surrogacy study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) \
+	    --set study.dataset=asb --set sample.n_designs=$(STUDY_DESIGNS); \
 	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi
 
 bench: $(STAMP)

@@ -22,14 +22,20 @@ import pandas as pd
 
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
-from pipeline.files import atomic_path
+from pipeline.cache import is_current, package_versions, sidecar_record
+from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from study.analysis import anova_observations, model_errors, representative_designs, sample_front
-from study.datasets import DEFAULT_DAMPING_CASE, dataset_structures, damping_cases, write_asb_measurements
+from study.datasets import (ASB_CONFIGURATIONS, BEAMS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
+                            measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, explore, read_exploration
 from study.report import write_report
+from study.structures import StructureError
 from study.virtual_experiment import TABLE1, TABLE3, read_low_amplitude_measurements, virtual_experiments
+
+
+VERSIONS = package_versions("numpy", "scipy", "numba")
 
 
 class Paths(NamedTuple):
@@ -51,11 +57,29 @@ class Paths(NamedTuple):
         return self.out / "analysis"
 
 
-def measurements(paths: Paths, parameters: dict):
-    """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones)."""
-    if parameters["study"].dataset == "asb":
-        return write_asb_measurements(paths.data, paths.measurements)
-    return virtual_experiments(paths.rom, paths.measurements, paths.reference / TABLE1, paths.reference / TABLE3)
+def measurements(paths: Paths, parameters: dict) -> None:
+    """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones),
+    unless ``measurements/measurements.json`` records them for the same input files (then nothing is redone)."""
+    dataset = parameters["study"].dataset
+    if dataset == "asb":
+        sources = [paths.data / "asb-backbones" / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
+    else:
+        sources = [paths.rom / f"{beam}.npz" for beam in BEAMS] + [paths.reference / TABLE1, paths.reference / TABLE3]
+    missing = [str(source) for source in sources if not source.exists()]
+    if missing:
+        raise StructureError(f"{', '.join(missing)}: missing (inputs of the {dataset} measurements)")
+    inputs = {"dataset": dataset, "sources": {source.name: sha256_file(source) for source in sources}}
+    sidecar = paths.measurements / "measurements.json"
+    kinds = [measurement_path(paths.measurements, name).stem for name in structure_names(dataset)]
+    if is_current(sidecar, inputs, VERSIONS, kinds):
+        print(f"measurements: {paths.measurements} is current")
+        return
+    if dataset == "asb":
+        write_asb_measurements(paths.data, paths.measurements)
+    else:
+        virtual_experiments(paths.rom, paths.measurements, paths.reference / TABLE1, paths.reference / TABLE3)
+    files = {kind: paths.measurements / f"{kind}.csv" for kind in kinds}
+    write_json(sidecar, sidecar_record(inputs, VERSIONS, files))
 
 
 def exploration(paths: Paths, parameters: dict) -> Exploration:
