@@ -124,3 +124,20 @@ def test_unknown_model_and_inverted_bounds_are_refused(beams, tmp_path):
     with pytest.raises(StudyError, match="damping case 'BRB'"):
         Exploration(tuple(structures), (MODEL,), Sample(), {"BRB": [ZETA0]})
     assert not any(tmp_path.iterdir())
+
+
+def test_study_command_refuses_bad_configuration_and_missing_measurements(tmp_path, capsys, beam_roms):
+    """The ``surrogacy study`` command: an unknown friction model or a non-positive bound is refused naming the
+    source, section and field before anything is written; a structure without its measurement file is refused
+    naming the file, and no design chunk is written."""
+    from pipeline.cli import main as surrogacy
+
+    out = tmp_path / "study"
+    assert surrogacy(["study", "--out", str(out), "--set", 'study.models=["coulomb"]']) == 2
+    assert "field 'models'" in capsys.readouterr().err and not out.exists()
+    assert surrogacy(["study", "--out", str(out), "--set", "acceptance.frequency_tolerance_hz=-1"]) == 2
+    assert "frequency_tolerance_hz" in capsys.readouterr().err and not out.exists()
+    assert surrogacy(["study", "--out", str(out), "--rom", str(beam_roms), "--steps", "explore"]) == 2
+    error = capsys.readouterr().err
+    assert "measurements/BRB.csv" in error and "missing" in error
+    assert not (out / "designs").exists()
