@@ -69,13 +69,21 @@ def natural_modes(stiffness: sp.spmatrix, mass: sp.spmatrix, n_modes: int, shift
 
     stiffness, mass: (n, n) symmetric, K positive semidefinite (free-free allowed), M positive definite.
     Returns (frequencies, shapes): frequencies (n_modes,) Hz ascending (signed, see ``frequencies_hz``),
-    shapes (n, n_modes) mass-normalised (phi^T M phi = I).
+    shapes (n, n_modes) mass-normalised (phi^T M phi = I), signs by ``sign_convention``. The Lanczos start vector
+    is fixed, so the same matrices give the same floats run after run (and the FE files the same hashes).
     """
     sigma = -(2 * np.pi * shift_hz) ** 2
     solve = factorize((stiffness - sigma * mass).tocsc(), method)
     inverse = spla.LinearOperator(stiffness.shape, matvec=solve, dtype=float)
-    eigenvalues, shapes = spla.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, OPinv=inverse, which="LM")
+    eigenvalues, shapes = spla.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, OPinv=inverse, which="LM",
+                                     v0=np.ones(stiffness.shape[0]))
     order = np.argsort(eigenvalues)
     shapes = shapes[:, order]
     shapes /= np.sqrt(np.einsum("ij,ij->j", shapes, mass @ shapes))
-    return frequencies_hz(eigenvalues[order]), shapes
+    return frequencies_hz(eigenvalues[order]), sign_convention(shapes)
+
+
+def sign_convention(shapes: np.ndarray) -> np.ndarray:
+    """Mode shapes (n, n_modes) with each column's largest entry positive (reproducible files; a mode's sign is
+    arbitrary)."""
+    return shapes * np.sign(shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])])

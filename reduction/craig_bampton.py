@@ -53,7 +53,7 @@ import scipy.sparse.linalg as spla
 
 from fem.elasticity import rigid_body_modes
 from fem.modes import node_dofs
-from fem.solver import factorize, frequencies_hz
+from fem.solver import factorize, frequencies_hz, sign_convention
 
 from .superelement import DOFS_PER_PATCH
 
@@ -180,8 +180,7 @@ def fixed_interface_modes(stiffness: sp.spmatrix, mass: sp.spmatrix,
     shapes = shapes[:, order]
     shapes -= constraints.T @ np.linalg.solve((constraints @ constraints.T).toarray(), constraints @ shapes)
     shapes /= np.sqrt(np.einsum("ij,ij->j", shapes, mass @ shapes))
-    shapes *= np.sign(shapes[np.argmax(np.abs(shapes), axis=0), np.arange(n_modes)])
-    return frequencies_hz(eigenvalues[order]), shapes
+    return frequencies_hz(eigenvalues[order]), sign_convention(shapes)
 
 
 def reduced_matrix(matrix: sp.spmatrix, basis: np.ndarray) -> np.ndarray:

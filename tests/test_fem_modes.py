@@ -52,3 +52,15 @@ def test_tied_first_bending_is_below_the_solid_bar(brb):
     bending = shapes[:, 6].reshape(-1, 3)
     # Out-of-plane (z) bending, normal to the lap, is the first elastic mode.
     assert np.linalg.norm(bending[:, 2]) > 10 * np.linalg.norm(bending[:, 1])
+
+
+def test_modes_are_reproducible_to_the_last_bit(brb):
+    """A fixed Lanczos start vector and the sign convention (largest entry positive): the same matrices give the
+    same floats twice, so the FE files keep their hashes and the reduction's cache holds (issue 17, item 4)."""
+    _, stiffness, mass, lower, upper = brb
+    first = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), 8)
+    second = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), 8)
+    for a, b in zip(first, second):
+        assert np.array_equal(a, b)
+    shapes = first[1]
+    assert np.all(shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])] > 0)
