@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 
 STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands")
 
@@ -22,14 +24,26 @@ def parser() -> argparse.ArgumentParser:
     return root
 
 
+def terminate(signal_number, frame) -> None:
+    """SIGTERM as a clean exit: the stage's ``finally`` blocks run (temporary files removed) before it ends."""
+    raise SystemExit(128 + signal_number)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run one stage; errors in the inputs print one clear line and exit with status 2."""
+    """Run one stage; errors in the inputs print one clear line and exit with status 2; SIGTERM and Ctrl-C end it
+    cleanly (no temporary file left) with 143 and 130."""
     arguments = parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, terminate)
     try:
         arguments.run(arguments)
     except ValueError as error:
         print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"surrogacy {arguments.command}: interrupted; finished results are kept, rerun to go on",
+              file=sys.stderr)
+        return 130
     return 0
 
 

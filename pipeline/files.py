@@ -2,17 +2,28 @@
 
 A stage writes each output to a temporary file in the destination folder and renames it into place, so a
 reader (or an interrupted run) never sees a half-written file; the JSON sidecar is renamed last and marks the
-set as complete.
+set as complete. Temporary files are named ``.partial-<stem>-<random><suffix>``: a run killed outright (SIGKILL)
+leaves them behind, and the next run of the stage sweeps them (``sweep_partial_files``) while it holds the
+folder's lock (``folder_lock``), so that it never removes a file another run is still writing.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import json
 import os
 import tempfile
 from pathlib import Path
+
+
+PARTIAL = ".partial-"  # prefix of the temporary files of atomic_path
+LOCK = ".lock"
+
+
+class FolderBusyError(ValueError):
+    """Another run holds the lock of the folder this run would write."""
 
 
 def sha256_file(path: Path) -> str:
@@ -37,7 +48,7 @@ def atomic_path(destination: Path):
     """
     destination = Path(destination)
     destination.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{destination.stem}-", suffix=destination.suffix,
+    handle, temporary = tempfile.mkstemp(prefix=f"{PARTIAL}{destination.stem}-", suffix=destination.suffix,
                                          dir=destination.parent)
     os.close(handle)
     umask = os.umask(0)
@@ -55,3 +66,32 @@ def write_json(destination: Path, value) -> None:
     """Write ``value`` as indented JSON, atomically."""
     with atomic_path(destination) as temporary:
         temporary.write_text(json.dumps(value, indent=2, sort_keys=True) + "\n")
+
+
+def sweep_partial_files(folder: Path) -> list[Path]:
+    """Remove the temporary files an interrupted run left in ``folder`` and below (hold ``folder_lock``);
+    returns them."""
+    swept = sorted(Path(folder).rglob(f"{PARTIAL}*"))
+    for path in swept:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+    return swept
+
+
+@contextlib.contextmanager
+def folder_lock(folder: Path):
+    """Hold an exclusive lock on ``folder`` (a ``.lock`` file in it, flock) while writing there: a second run
+    into the same folder is refused with FolderBusyError instead of duplicating the work or racing it. The lock
+    dies with its process, so a killed run never leaves the folder locked."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / LOCK, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusyError(f"{folder}: another run is writing here (it holds {folder / LOCK}); wait for it "
+                                  "to finish or use another folder") from None
+        try:
+            yield folder
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)

@@ -35,7 +35,7 @@ from tqdm import tqdm
 from nonlinear.condensation import modal_split
 from nonlinear.joint import FRICTION_MODELS, parameter_names
 from nonlinear.parameters import FrictionParameterError
-from pipeline.files import atomic_path, sha256_json, write_json
+from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
 from study.designs import design_chunk
 from study.errors import design_errors
 from study.structures import Structure
@@ -187,9 +187,16 @@ def _splits(exploration: Exploration):
 
 def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True) -> list[Path]:
     """Evaluate every chunk not yet in ``folder``, in this process (client None) or on a dask.distributed
-    ``client``; returns the chunk files of the whole study. Writes ``<folder>/exploration.json`` (the study
-    key, sample, models, structures and damping cases) first."""
+    ``client``; returns the chunk files of the whole study. Holds the folder's lock (a second run into it is
+    refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
+    Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first."""
     folder = Path(folder)
+    with folder_lock(folder):
+        sweep_partial_files(folder)
+        return _explore(exploration, folder, client, progress)
+
+
+def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> list[Path]:
     done = finished_chunks(exploration, folder)
     _write_manifest(exploration, folder)
     pending = [(model, chunk) for model in exploration.models for chunk in range(exploration.sample.n_chunks)

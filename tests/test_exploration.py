@@ -183,10 +183,11 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
 
     finished = chunk_files(folder)
     assert finished == {("jenkins", chunk) for chunk in range(8)} | {("iwan4", 0)}
-    temporary = sorted(folder.glob("*/.chunk-*"))
-    assert [path.parent.name for path in temporary] == ["iwan4"] and temporary[0].name.startswith(".chunk-000001-")
+    temporary = sorted(folder.glob("*/.partial-*"))
+    assert [path.parent.name for path in temporary] == ["iwan4"]
+    assert temporary[0].name.startswith(".partial-chunk-000001-")
     with pytest.raises(pa.ArrowInvalid):
-        pq.read_table(temporary[0])  # half a file: the kill left it partial (and a rerun leaves it there)
+        pq.read_table(temporary[0])  # half a file: the kill left it partial (the rerun sweeps it)
     assert finished_chunks(exploration, folder) == finished
     assert read_exploration(folder, "iwan4")["design"].tolist() == list(range(exploration.sample.chunk_size))
     for model, chunk in finished:
@@ -204,6 +205,7 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
     explore(exploration, folder, progress=False)
 
     assert sorted(evaluated) == sorted(all_chunks(exploration) - finished)  # each missing chunk once, no other
+    assert not list(folder.rglob(".partial-*"))  # the killed run's temporary file swept
     after = file_identities(folder)
     assert {name: after[name] for name in before} == before
     assert_same_study(folder, serial_folder, exploration)
@@ -381,3 +383,22 @@ def test_folder_of_another_study_is_refused(exploration, serial_folder, tmp_path
     with pytest.raises(StudyError, match=re.escape(str(chunk_path(folder, MODELS[0], 0)))):
         explore(other, folder, progress=False)
     assert file_identities(folder) == before
+
+
+def test_second_run_into_a_busy_folder_is_refused(exploration, tmp_path):
+    """While one run holds a study folder, a second explore into it is refused (FolderBusyError naming the
+    folder) and writes nothing; once the first is done the folder is free again."""
+    import fcntl
+
+    from pipeline.files import FolderBusyError
+
+    folder = tmp_path / "busy"
+    folder.mkdir()
+    with open(folder / ".lock", "a") as holder:
+        fcntl.flock(holder, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(FolderBusyError, match=str(folder)):
+            explore(exploration, folder, progress=False)
+        assert sorted(path.name for path in folder.iterdir()) == [".lock"]
+        fcntl.flock(holder, fcntl.LOCK_UN)
+    explore(exploration, folder, progress=False)
+    assert finished_chunks(exploration, folder) == all_chunks(exploration)
