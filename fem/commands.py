@@ -36,7 +36,7 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BEAMS, BeamParameters
 from pipeline.cache import StageInputError, is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, write_json
+from pipeline.files import atomic_path, stage_folder, write_json
 
 from . import calibration, convergence
 from .bolts import Bolt
@@ -133,10 +133,11 @@ def run(arguments: argparse.Namespace) -> None:
     options = [("material", field, getattr(arguments, field)) for field in MATERIAL_OPTIONS
                if getattr(arguments, field) is not None]
     resolved = configuration(arguments, {"material": Material(), "bolt": Bolt()}, options)
-    for name in tqdm(arguments.beam, desc="FE models", unit="beam"):
-        sidecar = make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],
-                          arguments.modes)
-        tqdm.write(f"{name}: {sidecar}")
+    with stage_folder(arguments.out):
+        for name in tqdm(arguments.beam, desc="FE models", unit="beam"):
+            sidecar = make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],
+                              arguments.modes)
+            tqdm.write(f"{name}: {sidecar}")
 
 
 def register(subparsers) -> None:

@@ -13,6 +13,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from pipeline.config import add_config_arguments, configuration
+from pipeline.files import stage_folder
 
 from .beams import make_beam
 from .parameters import BEAMS, MeshParameters
@@ -20,9 +21,10 @@ from .parameters import BEAMS, MeshParameters
 
 def run(arguments: argparse.Namespace) -> None:
     resolved = configuration(arguments, {"mesh": MeshParameters(), **BEAMS})
-    for name in tqdm(arguments.beam, desc="meshing beams", unit="beam"):
-        sidecar = make_beam(resolved[name], resolved["mesh"], arguments.out, render=not arguments.no_render)
-        tqdm.write(f"{name}: {sidecar}")
+    with stage_folder(arguments.out):
+        for name in tqdm(arguments.beam, desc="meshing beams", unit="beam"):
+            sidecar = make_beam(resolved[name], resolved["mesh"], arguments.out, render=not arguments.no_render)
+            tqdm.write(f"{name}: {sidecar}")
 
 
 def register(subparsers) -> None:

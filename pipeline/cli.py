@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, terminate)
     try:
         arguments.run(arguments)
-    except ValueError as error:
+    except (ValueError, OSError) as error:  # bad input, or a file or folder that cannot be read or written
         print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -95,3 +95,12 @@ def folder_lock(folder: Path):
             yield folder
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def stage_folder(folder: Path):
+    """A stage's output folder while it writes there: locked (``folder_lock``) and swept of the temporaries an
+    interrupted run left (``sweep_partial_files``)."""
+    with folder_lock(folder):
+        sweep_partial_files(folder)
+        yield Path(folder)

@@ -47,7 +47,7 @@ from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.parameters import BEAMS
 from pipeline.cache import is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, write_json
+from pipeline.files import atomic_path, stage_folder, write_json
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
                             virtual_dof_labels)
@@ -179,8 +179,9 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
 def run(arguments: argparse.Namespace) -> None:
     options = [("reduction", "fixed_interface_modes", arguments.modes)] if arguments.modes is not None else []
     parameters = configuration(arguments, {"reduction": ReductionParameters()}, options)["reduction"]
-    for name in tqdm(arguments.beam, desc="superelements", unit="beam"):
-        tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, parameters)}")
+    with stage_folder(arguments.out):
+        for name in tqdm(arguments.beam, desc="superelements", unit="beam"):
+            tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, parameters)}")
 
 
 def register(subparsers) -> None:

@@ -29,7 +29,7 @@ from pathlib import Path
 
 from pipeline.cache import package_versions
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import write_json
+from pipeline.files import stage_folder, write_json
 from study import workflow
 from study.datasets import DATASET_MODELS, DATASETS
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
@@ -116,6 +116,12 @@ def cluster_client(scheduler: str | None):
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
     parameters = configuration(arguments, defaults())
+    with stage_folder(arguments.out):
+        run_steps(arguments, parameters)
+
+
+def run_steps(arguments: argparse.Namespace, parameters: dict) -> None:
+    """The chosen steps, in order, into ``arguments.out`` (held by the caller)."""
     out = Path(arguments.out)
     write_json(out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},
