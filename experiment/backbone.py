@@ -198,6 +198,21 @@ def estimate_record(source: str, label: str, time: np.ndarray, signal: np.ndarra
         raise RingDownError(source, label, str(error)) from error
 
 
+def check_identified(record: ModeRecord, band_hz: tuple[float, float], source: str) -> None:
+    """Refuse an estimate that is not the mode asked for: its median natural frequency outside the band (the
+    band held no decaying mode, and what was estimated is a neighbour's leakage), or a negative median damping
+    (the signal grows: not a free decay). Raises RingDownError naming the source, the record and the options."""
+    frequency = float(np.median(record.hilbert.natural_frequency_hz))
+    damping = float(np.median(record.hilbert.damping_ratio))
+    if not band_hz[0] <= frequency <= band_hz[1]:
+        raise RingDownError(source, record.label, f"identified {frequency:.2f} Hz lies outside the band "
+                            f"{band_hz[0]:.2f}-{band_hz[1]:.2f} Hz set by --mode-hz / --band: no decaying mode "
+                            "there; give the mode's frequency")
+    if damping <= 0.0:
+        raise RingDownError(source, record.label, f"identified damping ratio {damping:.3g} <= 0 (the signal does not "
+                            "decay): not a free decay of this mode")
+
+
 def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                       band_hz: tuple[float, float] | None = None, mode_shapes: np.ndarray | None = None,
                       mode_index: int = 0, per_channel: bool = False, channels: list[str] | None = None,
@@ -222,8 +237,10 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
         except ModalFilterError as error:
             raise RingDownError(hit.source, "band / mode shapes", str(error)) from error
         shapes.append(shape)
-        records += [estimate_record(hit.source, label, hit.time, signal, mode_frequency_hz, hit.quantity, cycles,
-                                    freevib_options) for label, signal in signals]
+        for label, signal in signals:
+            records.append(estimate_record(hit.source, label, hit.time, signal, mode_frequency_hz, hit.quantity,
+                                           cycles, freevib_options))
+            check_identified(records[-1], band_hz, hit.source)
     grid = amplitude_grid([record.hilbert for record in records], grid_points)
     return MeasuredBackbone(", ".join(dict.fromkeys(hit.source for hit in hits)), mode_frequency_hz,
                             "m" if mode_shapes is None else "m / shape unit",

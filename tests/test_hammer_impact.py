@@ -65,3 +65,20 @@ def test_hilbert_and_cycle_estimators_agree_within_their_uncertainty(per_channel
     assert np.all(np.abs(hilbert.natural_frequency_hz - cycles.natural_frequency_hz) <= frequency_bound)
     assert np.all(np.abs(hilbert.damping_ratio - cycles.damping_ratio) <= damping_bound)
     assert np.max(frequency_bound / hilbert.natural_frequency_hz) < 1e-3  # the check is sharp: below 0.1 %
+
+
+@pytest.mark.parametrize("mode_hz", [190.0, 120.0, 60.0])
+def test_a_band_without_the_mode_is_refused_not_estimated(mode_hz):
+    """A guess whose band holds no decaying mode: the leakage of a neighbour (80.5 or 298 Hz) is not passed off as
+    this band's mode; the error names the file, the record and the option."""
+    from experiment.ringdown import RingDownError
+
+    with pytest.raises(RingDownError, match=f"{DATA.name}.*outside the band.*--mode-hz"):
+        ringdown_backbone(read_ringdown(DATA), mode_hz, per_channel=True)
+
+
+def test_out_of_range_option_is_named():
+    from experiment.ringdown import RingDownError
+
+    with pytest.raises(RingDownError, match="option trim_periods = -5.0"):
+        ringdown_backbone(read_ringdown(DATA), MODE_HZ, trim_periods=-5.0)
