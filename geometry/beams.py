@@ -21,7 +21,7 @@ from pipeline.files import atomic_path, write_json
 from . import properties
 from .beam_mesh import read_beam_mesh
 from .brake_reuss import build_beam_mesh, cad_measures, gmsh_session, write_msh
-from .parameters import BeamParameters, MeshParameters
+from .parameters import BeamParameters, MeshParameters, check_mesh_size
 from .render import render_patches
 
 FORMAT_VERSION = 2  # 2: sidecar layout of pipeline.cache
@@ -63,6 +63,7 @@ def _measured(beam: BeamParameters, mesh) -> dict:
 
 def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render: bool = True) -> Path:
     """Mesh one beam into ``folder`` unless a current result is already there. Returns the sidecar's path."""
+    check_mesh_size(beam, sizes)
     folder = Path(folder)
     inputs = input_record(beam, sizes)
     sidecar = folder / f"{beam.name}.json"

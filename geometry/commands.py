@@ -16,11 +16,13 @@ from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 
 from .beams import make_beam
-from .parameters import BEAMS, MeshParameters
+from .parameters import BEAMS, MeshParameters, check_mesh_size
 
 
 def run(arguments: argparse.Namespace) -> None:
     resolved = configuration(arguments, {"mesh": MeshParameters(), **BEAMS})
+    for name in arguments.beam:  # every beam's mesh size checked before anything is written
+        check_mesh_size(resolved[name], resolved["mesh"])
     with stage_folder(arguments.out):
         for name in tqdm(arguments.beam, desc="meshing beams", unit="beam"):
             sidecar = make_beam(resolved[name], resolved["mesh"], arguments.out, render=not arguments.no_render)

@@ -99,8 +99,23 @@ class MeshParameters:
 
     def __post_init__(self) -> None:
         for field in ("size", "lap_size", "hole_size"):
-            _require(getattr(self, field) > 0, field, "a positive element size in m", getattr(self, field))
+            value = getattr(self, field)
+            _require(0 < value < MAX_DIMENSION, field, f"a positive element size in m below {MAX_DIMENSION:g}", value)
         _require(self.order in (1, 2), "order", "1 or 2", self.order)
+
+
+MAX_DIMENSION = 10.0  # m: no dimension or element size of a lab beam reaches it (catches inf and unit slips)
+MAX_DENSITY = 1e5  # kg/m^3
+MAX_ELEMENTS = 5_000_000  # tetrahedra: beyond it the FE stage would not fit in this machine's memory
+
+
+def check_mesh_size(beam: BeamParameters, sizes: MeshParameters) -> None:
+    """Refuse, before meshing, element sizes that would give more than MAX_ELEMENTS tetrahedra: about
+    6 V / h^3 for a body of volume V at element size h (the bulk size; the lap and hole sizes refine locally)."""
+    volume = 2 * beam.half_length * beam.width * beam.height
+    estimate = 6 * volume / sizes.size ** 3
+    _require(estimate <= MAX_ELEMENTS, "size", f"an element size giving at most {MAX_ELEMENTS:,} tetrahedra "
+             f"(about {estimate:.2g} at this size for the {beam.name})", sizes.size)
 
 
 def _require(condition: bool, field: str, expected: str, value) -> None:
@@ -112,7 +127,9 @@ def validate_beam(beam: BeamParameters) -> None:
     """Raise GeometryError naming the first parameter that makes the beam unbuildable."""
     for field in ("body_length", "lap_length", "width", "height", "hole_diameter",
                   "washer_outer_diameter", "density", "spring_length", "spring_offset"):
-        _require(getattr(beam, field) > 0, field, "a positive value", getattr(beam, field))
+        value = getattr(beam, field)
+        _require(0 < value < (MAX_DENSITY if field == "density" else MAX_DIMENSION), field,
+                 "a positive, finite value (m; kg/m^3 for density)", value)
     _require(beam.hole_diameter < min(beam.width, beam.height), "hole_diameter",
              f"smaller than the section ({min(beam.width, beam.height)} m)", beam.hole_diameter)
     _require(beam.hole_diameter < beam.washer_outer_diameter < beam.width, "washer_outer_diameter",

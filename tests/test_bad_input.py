@@ -1,0 +1,28 @@
+"""Bad input at the door of the stages (issue 17): one line naming the source, the field and what was expected,
+exit 2, and nothing written; never a traceback, a hang or a silently wrong result."""
+
+import pytest
+
+from pipeline.cli import main as surrogacy
+
+CASES = [
+    (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=abc"], "field 'size' = 'abc': expected float"),
+    (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=true"], "field 'size' = True: expected float"),
+    (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=inf"], "parameter 'size' = inf"),
+    (["beams", "--beam", "BRB", "--no-render", "--set", "BRB.body_length=inf"], "parameter 'body_length' = inf"),
+    (["beams", "--beam", "BRB", "--no-render", "--set", "BRB.density=inf"], "parameter 'density' = inf"),
+    (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=1e-4"], "at most 5,000,000 tetrahedra"),
+    (["study", "--set", "study.dataset=bridge"], "field 'dataset' = 'bridge'"),
+    (["study", "--set", "study.n_levels=2"], "field 'n_levels' = 2"),
+    (["study", "--set", "sample.n_designs=0"], "n_designs must be at least 1"),
+    (["study", "--set", "acceptance.damping_tolerance=0"], "field 'damping_tolerance' = 0"),
+]
+
+
+@pytest.mark.parametrize("arguments, message", CASES, ids=[" ".join(case[0][:1] + case[0][-1:]) for case in CASES])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, arguments, message):
+    out = tmp_path / "out"
+    assert surrogacy([*arguments, "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert message in error and "Traceback" not in error and len(error.strip().splitlines()) == 1
+    assert not out.exists() or not any(out.iterdir())
