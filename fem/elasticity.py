@@ -29,11 +29,24 @@ CHUNK_ELEMENTS = 20000
 
 @dataclass(frozen=True)
 class Material:
-    """Isotropic linear elastic material: Young's modulus Pa, Poisson's ratio, density kg/m^3."""
+    """Isotropic linear elastic material: Young's modulus Pa, Poisson's ratio, density kg/m^3.
+
+    Validated against the range of structural solids (rubber to diamond): E in [1e6, 1e13] Pa, nu in [0, 0.5),
+    density in [1, 1e5] kg/m^3; a value outside (190 typed for 190e9 Pa, nu = 0.5) is refused naming the field,
+    before an eigensolver spins on a model whose modes all sit near 0 Hz.
+    """
 
     youngs_modulus: float = 190e9
     poissons_ratio: float = 0.29
     density: float = 7800.0
+
+    def __post_init__(self):
+        for field, low, high, unit in (("youngs_modulus", 1e6, 1e13, "Pa"), ("density", 1.0, 1e5, "kg/m^3")):
+            value = getattr(self, field)
+            if not low <= value <= high:
+                raise ValueError(f"field '{field}' = {value!r}: expected {low:g} to {high:g} {unit}")
+        if not 0.0 <= self.poissons_ratio < 0.5:
+            raise ValueError(f"field 'poissons_ratio' = {self.poissons_ratio!r}: expected 0 <= nu < 0.5")
 
 
 #: The material of the public BRB ABAQUS input deck (DESIGN section 3); the default is ``Material()``.

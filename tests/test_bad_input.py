@@ -26,3 +26,16 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, arguments, m
     error = capsys.readouterr().err
     assert message in error and "Traceback" not in error and len(error.strip().splitlines()) == 1
     assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("option, value, field", [("--youngs-modulus", "190", "youngs_modulus"),
+                                                  ("--poissons-ratio", "0.5", "poissons_ratio"),
+                                                  ("--density", "-1", "density")])
+def test_material_outside_structural_solids_is_refused(tmp_path, capsys, option, value, field):
+    """E typed in GPa made ARPACK spin for minutes on modes all near 0 Hz; nu = 0.5 and a negative density broke
+    the factorisation: refused at the door, naming the field, before the geometry stage's files are read."""
+    out = tmp_path / "fe"
+    assert surrogacy(["fe", "--beam", "BRB", "--beams", str(tmp_path / "no_beams"), "--out", str(out),
+                      option, value]) == 2
+    assert f"field '{field}'" in capsys.readouterr().err
+    assert not out.exists()
