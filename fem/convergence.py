@@ -143,6 +143,10 @@ def study_record(beam: BeamParameters, sizes: MeshParameters, material: Material
 
 
 def run(arguments: argparse.Namespace) -> None:
+    if not 0.0 < arguments.tolerance < 1.0:
+        raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
+    if not all(0.0 < factor < 100.0 for factor in arguments.factors):
+        raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
     beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
     material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
     rows = convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)

@@ -39,3 +39,11 @@ def test_material_outside_structural_solids_is_refused(tmp_path, capsys, option,
                       option, value]) == 2
     assert f"field '{field}'" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("arguments, message", [(["--tolerance", "-1"], "option --tolerance = -1.0"),
+                                                (["--factors", "0"], "option --factors = [0.0]")])
+def test_convergence_options_are_checked_before_meshing(tmp_path, capsys, arguments, message):
+    out = tmp_path / "convergence"
+    assert surrogacy(["fe-convergence", "--out", str(out), *arguments]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
