@@ -36,7 +36,7 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BEAMS, BeamParameters
 from pipeline.cache import StageInputError, is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, stage_folder, write_json
+from pipeline.files import atomic_path, sha256_json, stage_folder, write_json
 
 from . import calibration, convergence
 from .bolts import Bolt
@@ -54,8 +54,9 @@ FeInputError = StageInputError  # what the FE and reduction stages raise for a m
 def beam_inputs(beams_folder: Path, name: str) -> tuple[Path, BeamParameters, str]:
     """The mesh file, beam parameters and mesh SHA-256 of one beam, from the geometry stage's sidecar.
 
-    Raises FeInputError when the sidecar or mesh is missing, a field is absent, or the mesh's hash differs from
-    the one recorded (a mesh changed since the geometry stage wrote it).
+    Raises FeInputError when the sidecar or mesh is missing, a field is absent, the mesh's hash differs from
+    the one recorded (a mesh changed since the geometry stage wrote it), the sidecar describes another beam or
+    its inputs no longer hash to its recorded input_hash (edited by hand): never trusted, always checked.
     """
     sidecar = Path(beams_folder) / f"{name}.json"
     mesh_path, record = upstream_file(sidecar, "msh", "beams")
@@ -65,6 +66,12 @@ def beam_inputs(beams_folder: Path, name: str) -> tuple[Path, BeamParameters, st
     except (KeyError, AttributeError, TypeError, ValueError) as error:
         raise FeInputError(f"{sidecar}: field inputs.beam is not a valid BeamParameters ({error!r}); "
                            f"rerun make beams") from None
+    if beam.name != name or mesh_path.stem != name:
+        raise FeInputError(f"{sidecar}: describes beam {beam.name!r} meshed in {mesh_path.name}, not the {name} "
+                           "asked for; rerun make beams")
+    if record.get("input_hash") != sha256_json(record["inputs"]):
+        raise FeInputError(f"{sidecar}: field inputs no longer matches its input_hash (edited after meshing); "
+                           "rerun make beams")
     return mesh_path, beam, record["files"]["msh"]["sha256"]
 
 

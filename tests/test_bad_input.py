@@ -47,3 +47,43 @@ def test_convergence_options_are_checked_before_meshing(tmp_path, capsys, argume
     out = tmp_path / "convergence"
     assert surrogacy(["fe-convergence", "--out", str(out), *arguments]) == 2
     assert message in capsys.readouterr().err and not out.exists()
+
+
+@pytest.fixture(scope="module")
+def coarse_beams(tmp_path_factory):
+    """Coarse BRB and LBRB meshes from the geometry stage."""
+    folder = tmp_path_factory.mktemp("coarse_beams")
+    assert surrogacy(["beams", "--beam", "BRB", "LBRB", "--no-render", "--out", str(folder),
+                      "--set", "mesh.size=0.0127", "--set", "mesh.lap_size=0.0064", "--set", "mesh.hole_size=0.0032"]) == 0
+    return folder
+
+
+def test_fe_refuses_a_sidecar_of_another_beam(coarse_beams, tmp_path, capsys):
+    """The LBRB's files with the BRB's name made the FE stage build the LBRB as 'BRB' (exit 0, 91.5 Hz instead of
+    198.3): the sidecar now has to describe the beam asked for."""
+    import shutil
+
+    swapped = tmp_path / "swap"
+    swapped.mkdir()
+    for path in coarse_beams.glob("LBRB.*"):
+        shutil.copy(path, swapped / path.name)
+    shutil.copy(swapped / "LBRB.json", swapped / "BRB.json")
+    out = tmp_path / "fe"
+    assert surrogacy(["fe", "--beam", "BRB", "--beams", str(swapped), "--out", str(out)]) == 2
+    assert "describes beam 'LBRB'" in capsys.readouterr().err and not any(out.glob("*.npz"))
+
+
+def test_fe_refuses_a_hand_edited_sidecar(coarse_beams, tmp_path, capsys):
+    """Editing beam.height in the geometry sidecar moved the first bending silently: the sidecar's inputs must
+    still hash to its recorded input_hash."""
+    import json
+    import shutil
+
+    edited = tmp_path / "edited"
+    shutil.copytree(coarse_beams, edited)
+    record = json.loads((edited / "BRB.json").read_text())
+    record["inputs"]["beam"]["height"] *= 1.1
+    (edited / "BRB.json").write_text(json.dumps(record))
+    out = tmp_path / "fe"
+    assert surrogacy(["fe", "--beam", "BRB", "--beams", str(edited), "--out", str(out)]) == 2
+    assert "edited after meshing" in capsys.readouterr().err and not any(out.glob("*.npz"))
