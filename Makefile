@@ -51,14 +51,15 @@ freevib: $(STAMP)
 
 # The surrogacy study (paper sections 4.4, 5.2) of the three beams on their virtual experiments, and of the real
 # ASB assembly on its measured backbones where ../shared/data is present: results/study-<dataset>/report.md.
-# STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped.
+# STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped, and chunks computed for
+# other inputs (a rebuilt superelement, new measurements) are recomputed.
 study: rom
 	@if [ -f "$(REFERENCE)/paper_table1_low_amplitude.csv" ]; then \
-	  $(BIN)/surrogacy study --out results/study-beams --rom build/rom --reference $(REFERENCE) \
+	  $(BIN)/surrogacy study --out results/study-beams --rom build/rom --reference $(REFERENCE) --restart-stale \
 	    --set sample.n_designs=$(STUDY_DESIGNS); \
 	else echo "study: $(REFERENCE) lacks the paper's Table 1, beams' study skipped (set REFERENCE=folder)"; fi
 	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
-	  $(BIN)/surrogacy study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) \
+	  $(BIN)/surrogacy study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) --restart-stale \
 	    --set study.dataset=asb --set sample.n_designs=$(STUDY_DESIGNS); \
 	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi
 

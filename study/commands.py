@@ -134,7 +134,7 @@ def run_steps(arguments: argparse.Namespace, parameters: dict) -> None:
             workflow.measurements(paths, parameters)
         elif step == "explore":
             with cluster_client(arguments.scheduler) as client:
-                workflow.explore_designs(paths, parameters, client)
+                workflow.explore_designs(paths, parameters, client, arguments.restart_stale)
         elif step == "analyse":
             workflow.analyse(paths, parameters)
         else:
@@ -155,5 +155,8 @@ def register(subparsers) -> None:
     command.add_argument("--steps", nargs="+", choices=STEPS, default=list(STEPS), help="steps to run, in order")
     command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
                                              "(default: evaluate in this process)")
+    command.add_argument("--restart-stale", action="store_true",
+                         help="discard design chunks written for other inputs (a changed measurement, superelement "
+                              "or sample) and recompute them, instead of refusing the folder")
     add_config_arguments(command, "[study], [sample], [acceptance], [pareto]", "sample.n_designs=20000")
     command.set_defaults(run=run)

@@ -163,7 +163,8 @@ def finished_chunks(exploration: Exploration, folder: Path) -> set[tuple[str, in
             stored = (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode()
             if stored != key:
                 raise StudyError(f"{path}: written by another study (study_key {stored[:12]}..., this study "
-                                 f"{key[:12]}...); use another results folder")
+                                 f"{key[:12]}...); use another results folder, or discard them with "
+                                 "--restart-stale")
             done.add((model, chunk))
     return done
 
@@ -185,14 +186,29 @@ def _splits(exploration: Exploration):
     return _SPLITS[key]
 
 
-def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True) -> list[Path]:
+def discard_stale_chunks(exploration: Exploration, folder: Path) -> list[Path]:
+    """Remove the chunk files in ``folder`` that another study wrote (other inputs: a changed measurement,
+    superelement or sample), so that this study recomputes them; returns them. Only chunk files are touched."""
+    key, stale = exploration.key(), []
+    for path in sorted(Path(folder).glob("*/chunk-*.parquet")):
+        if (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode() != key:
+            path.unlink()
+            stale.append(path)
+    return stale
+
+
+def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True,
+            restart_stale: bool = False) -> list[Path]:
     """Evaluate every chunk not yet in ``folder``, in this process (client None) or on a dask.distributed
     ``client``; returns the chunk files of the whole study. Holds the folder's lock (a second run into it is
     refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
-    Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first."""
+    Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first.
+    A chunk another study wrote is refused (StudyError), or with ``restart_stale`` discarded and recomputed."""
     folder = Path(folder)
     with folder_lock(folder):
         sweep_partial_files(folder)
+        if restart_stale:
+            discard_stale_chunks(exploration, folder)
         return _explore(exploration, folder, client, progress)
 
 

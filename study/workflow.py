@@ -91,9 +91,9 @@ def exploration(paths: Paths, parameters: dict) -> Exploration:
                        damping_cases(study.dataset, structures, table1))
 
 
-def explore_designs(paths: Paths, parameters: dict, client=None) -> list[Path]:
-    """Evaluate every design chunk not yet written."""
-    return explore(exploration(paths, parameters), paths.designs, client)
+def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: bool = False) -> list[Path]:
+    """Evaluate every design chunk not yet written (``study.exploration.explore``)."""
+    return explore(exploration(paths, parameters), paths.designs, client, restart_stale=restart_stale)
 
 
 def analyse(paths: Paths, parameters: dict) -> None:

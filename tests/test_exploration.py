@@ -402,3 +402,20 @@ def test_second_run_into_a_busy_folder_is_refused(exploration, tmp_path):
         fcntl.flock(holder, fcntl.LOCK_UN)
     explore(exploration, folder, progress=False)
     assert finished_chunks(exploration, folder) == all_chunks(exploration)
+
+
+def test_restart_stale_discards_only_another_studys_chunks(exploration, serial_folder, tmp_path):
+    """With restart_stale, the chunks of another study (other seed) are discarded and recomputed; the result is
+    the study's own serial rows."""
+    import dataclasses
+    import shutil
+
+    folder = tmp_path / "restart"
+    shutil.copytree(serial_folder, folder)
+    other = dataclasses.replace(exploration, sample=dataclasses.replace(exploration.sample, seed=12))
+    with pytest.raises(StudyError, match="--restart-stale"):
+        explore(other, folder, progress=False)
+    explore(other, folder, progress=False, restart_stale=True)
+    assert finished_chunks(other, folder) == all_chunks(other)
+    explore(exploration, folder, progress=False, restart_stale=True)
+    assert_same_study(folder, serial_folder, exploration)
