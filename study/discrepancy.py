@@ -36,7 +36,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit, logit
 
+from experiment.backbone import ModeBackbone
 from nonlinear.modal_joint import modal_joint_backbone
+from study.structures import N_LEVELS, measured_levels
 
 EVIDENCE = 10.0  # BIC decrease an effect must bring to be added
 AT_NOISE = 1.5  # chi^2 per degree of freedom at which the residual is the measurement's noise
@@ -88,6 +90,15 @@ class Measurement:
     @property
     def sigma_damping(self) -> np.ndarray:
         return np.fmax(np.nan_to_num(self.damping_uncertainty, nan=0.0), DAMPING_FLOOR * np.abs(self.damping))
+
+
+def measurement_from_backbone(measured: ModeBackbone, n_levels: int = N_LEVELS, source: str = "backbone"
+                              ) -> Measurement:
+    """A backbone (measured or virtual) at up to ``n_levels`` levels with the uncertainty of each
+    (``study.structures.measured_levels``: the study's levels, so the loop sees what the study fitted)."""
+    target = measured_levels(measured, n_levels, source)
+    return Measurement(target.amplitude, target.frequency_hz, target.damping, target.frequency_uncertainty_hz,
+                       target.damping_uncertainty, source)
 
 
 def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nominal_damping: float):
@@ -203,22 +214,25 @@ def errors(measurement: Measurement, model: Fit) -> dict:
 
 def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float,
                      library=tuple(EFFECTS)) -> Verdict:
-    """Run the loop (module docstring) on ``measurement`` from the reference model."""
+    """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
+    then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
+    forward steps can take a look-alike first when two effects are in the data)."""
     n = 2 * len(measurement.amplitude)
+    starts = base_starts(measurement, nominal_frequency_hz)
+
+    def fitted(effects, previous=None):
+        return fit(measurement, tuple(effects), nominal_frequency_hz, nominal_damping,
+                   ([dict(previous.parameters)] if previous is not None else []) + [dict(s) for s in starts])
 
     def step(effect, model, candidates):
         dof = max(n - len(BASE) - sum(len(EFFECTS[e]) for e in model.effects), 1)
         return Step(effect, model, errors(measurement, model), model.chi_squared / dof, candidates)
 
-    current = fit(measurement, (), nominal_frequency_hz, nominal_damping, base_starts(measurement, nominal_frequency_hz))
+    current = fitted(())
     verdict = Verdict(steps=[step(None, current, {})])
     while verdict.steps[-1].reduced_chi_squared > AT_NOISE:
-        trials = {}
-        for effect in library:
-            if effect in current.effects:
-                continue
-            starts = [dict(current.parameters)] + [dict(s) for s in base_starts(measurement, nominal_frequency_hz)[::3]]
-            trials[effect] = fit(measurement, (*current.effects, effect), nominal_frequency_hz, nominal_damping, starts)
+        trials = {effect: fitted((*current.effects, effect), current) for effect in library
+                  if effect not in current.effects}
         if not trials:
             break
         best = min(trials, key=lambda e: trials[e].bic)
@@ -227,7 +241,31 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
             verdict.steps[-1] = verdict.steps[-1]._replace(candidates=candidates)
             break
         current = trials[best]
-        verdict.effects.append(best)
         verdict.steps.append(step(best, current, candidates))
+    refined = stepwise_refinement(current, library, fitted)
+    if refined.effects != current.effects:
+        verdict.steps.append(step("refined: " + ", ".join(refined.effects), refined,
+                                  {"before refinement": current.bic}))
+    verdict.effects = list(refined.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict
+
+
+def stepwise_refinement(current: Fit, library, fitted) -> Fit:
+    """Swap an effect of the model for one outside it, or drop one, while that lowers the BIC (dropping: while
+    the BIC rises by less than EVIDENCE, i.e. the effect did not earn its parameters in the final model)."""
+    improved = True
+    while improved and current.effects:
+        improved = False
+        for effect in current.effects:
+            others = tuple(e for e in current.effects if e != effect)
+            dropped = fitted(others, current)
+            if dropped.bic < current.bic + EVIDENCE:
+                current, improved = dropped, True
+                break
+            swaps = [fitted((*others, candidate), current) for candidate in library if candidate not in current.effects]
+            better = [trial for trial in swaps if trial.bic < current.bic - 1e-9]
+            if better:
+                current, improved = min(better, key=lambda trial: trial.bic), True
+                break
+    return current

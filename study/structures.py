@@ -47,7 +47,8 @@ class Target:
 
     amplitude: (n_levels,) modal amplitudes q (m kg^0.5), increasing; frequency_hz: (n_levels,) measured natural
     frequency (Hz); damping: (n_levels,) measured damping ratio; low_amplitude_frequency_hz: the measurement's;
-    provenance: "measured" or "virtual"; source: where the backbone came from.
+    provenance: "measured" or "virtual"; source: where the backbone came from; frequency_uncertainty_hz,
+    damping_uncertainty: (n_levels,) standard uncertainty of each level's median (NaN where unknown).
     """
 
     amplitude: np.ndarray
@@ -56,6 +57,8 @@ class Target:
     low_amplitude_frequency_hz: float
     provenance: str
     source: str
+    frequency_uncertainty_hz: np.ndarray | None = None
+    damping_uncertainty: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -96,8 +99,25 @@ def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str 
         raise StructureError(f"{path}: field modal_amplitude: points in {filled.size} of {n_levels} amplitude bins "
                              f"(expected at least {MIN_POINTS})")
     levels, frequency, damping = (np.array([np.median(values[bins == i]) for i in filled]) for values in columns.values())
+    uncertainties = (median_uncertainty(columns[name], stated, bins, filled) for name, stated in (
+        ("natural_frequency", backbone.natural_frequency_uncertainty_hz), ("damping_ratio", backbone.damping_ratio_uncertainty)))
     return Target(levels, frequency, damping, float(measured.low_amplitude_frequency_hz), measured.provenance,
-                  measured.source)
+                  measured.source, *uncertainties)
+
+
+def median_uncertainty(values, stated, bins, filled) -> np.ndarray:
+    """Standard uncertainty of each filled bin's median: from the scatter of its points where it holds three or
+    more (1.2533 s / sqrt(n), the median's standard error for normal scatter), else the points' stated
+    uncertainty (root mean square; NaN where none is stated or it is zero)."""
+    result = []
+    for i in filled:
+        inside = values[bins == i]
+        if inside.size >= 3:
+            result.append(1.2533 * np.std(inside, ddof=1) / np.sqrt(inside.size))
+        else:
+            given = np.asarray(stated, dtype=float)[bins == i]
+            result.append(np.sqrt(np.mean(given ** 2)) if np.all(given > 0) else np.nan)
+    return np.array(result)
 
 
 def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, np.ndarray, str]:

@@ -1,0 +1,98 @@
+"""The discrepancy loop on data with undeclared effects (issue 15): backbones of a reference joint with library
+effects put in and noise, written as backbone CSVs that do not say what was put in and read back as a user's
+file would be.
+
+- each library effect alone: the loop names it, and the error of what it acts on falls to at most half;
+- two effects: both named, in either order;
+- no effect beyond the reference joint: nothing added;
+- an effect outside the library (a ripple of the frequency in log amplitude): "unexplained", no attribution;
+- the one-mode model's backbone against its closed form for a Jenkins element;
+- bad input: NaNs, a single amplitude, non-increasing amplitudes: a clear error naming the file and field.
+"""
+
+import numpy as np
+import pytest
+
+from experiment.backbone_files import read_backbone
+from nonlinear.modal_joint import modal_joint_backbone
+from study.discrepancy import Measurement, DiscrepancyError, discrepancy_loop, measurement_from_backbone
+from study.discrepancy_data import (EFFECT_INSTANCES, REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ,
+                                    write_undeclared_backbone)
+from study.structures import StructureError
+
+DAMPING_EFFECTS = {"linear_damping", "amplitude_damping"}
+
+
+def loop_on_file(tmp_path, effects=(), **options):
+    """Write the undeclared data, check the file says nothing of the effects, read it back and run the loop."""
+    path = tmp_path / "measured.csv"
+    write_undeclared_backbone(path, effects, **options)
+    text = path.read_text()
+    assert "virtual" in text and not any(effect in text for effect in EFFECT_INSTANCES)
+    measurement = measurement_from_backbone(read_backbone(path), source=str(path))
+    return discrepancy_loop(measurement, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
+
+
+@pytest.mark.parametrize("effect", sorted(EFFECT_INSTANCES))
+def test_each_effect_is_named_and_halves_the_error(tmp_path, effect):
+    verdict = loop_on_file(tmp_path, (effect,))
+    assert verdict.effects == [effect] and not verdict.unexplained
+    before, after = verdict.steps[0].errors, verdict.steps[-1].errors
+    quantities = ["damping_linf"] if effect in DAMPING_EFFECTS else ["frequency_linf_hz", "damping_linf"]
+    worst = max(quantities, key=lambda name: before[name] / after[name] if after[name] else np.inf)
+    assert after[worst] <= 0.5 * before[worst]
+    assert verdict.steps[-1].reduced_chi_squared < 1.5
+
+
+@pytest.mark.parametrize("effects", [("microslip", "linear_damping"), ("stiffness_change", "amplitude_damping")])
+def test_two_effects_are_both_named(tmp_path, effects):
+    verdict = loop_on_file(tmp_path, effects, seed=3)
+    assert sorted(verdict.effects) == sorted(effects) and not verdict.unexplained
+
+
+def test_reference_joint_alone_adds_nothing(tmp_path):
+    verdict = loop_on_file(tmp_path, (), seed=5)
+    assert verdict.effects == [] and not verdict.unexplained
+    assert len(verdict.steps) == 1
+
+
+def test_effect_outside_the_library_is_unexplained(tmp_path):
+    verdict = loop_on_file(tmp_path, (), outside_library=lambda q: 0.3 * np.sin(3 * np.log(q / q[0])))
+    assert verdict.effects == [] and verdict.unexplained
+
+
+def test_jenkins_mode_against_its_closed_form():
+    """Stuck below q_s = F_S / K_T: omega_0; beyond, omega^2 = k_inf + F_S / q and D = 4 F_S (q - q_s)."""
+    f0, kappa, slip_force = 100.0, 0.2, 50.0
+    omega_0 = 2 * np.pi * f0
+    q_slip = slip_force / (kappa * omega_0 ** 2)
+    q = np.array([0.5, 2.0, 10.0]) * q_slip
+    frequency, damping = modal_joint_backbone(q, f0, kappa, slip_force)
+    omega_squared = np.where(q < q_slip, omega_0 ** 2, (1 - kappa) * omega_0 ** 2 + slip_force / q)
+    np.testing.assert_allclose(frequency, np.sqrt(omega_squared) / (2 * np.pi), rtol=1e-14)
+    dissipation = 4 * slip_force * np.maximum(q - q_slip, 0.0)
+    np.testing.assert_allclose(damping, dissipation / (2 * np.pi * q ** 2 * omega_squared), rtol=1e-12, atol=1e-300)
+
+
+@pytest.mark.parametrize("amplitude, frequency, field", [
+    ([1e-6, 2e-6, 3e-6], [100.0, np.nan, 99.0], "frequency_hz"),
+    ([1e-6], [100.0], "amplitude"),
+    ([1e-6, 3e-6, 2e-6], [100.0, 99.5, 99.0], "amplitude"),
+])
+def test_bad_measurements_are_refused(amplitude, frequency, field):
+    with pytest.raises(DiscrepancyError, match=f"ring.csv: field {field}"):
+        Measurement(np.array(amplitude), np.array(frequency), np.full(len(amplitude), 1e-3),
+                    np.full(len(amplitude), np.nan), np.full(len(amplitude), np.nan), "ring.csv")
+
+
+def test_backbone_file_with_nan_is_refused_naming_the_file(tmp_path):
+    path = tmp_path / "measured.csv"
+    write_undeclared_backbone(path)
+    text = path.read_text().splitlines()
+    row = next(i for i, line in enumerate(text) if line and line[0].isdigit())
+    values = text[row].split(",")
+    values[1] = "nan"
+    text[row] = ",".join(values)
+    path.write_text("\n".join(text) + "\n")
+    with pytest.raises(StructureError, match=f"{path}: field natural_frequency"):
+        measurement_from_backbone(read_backbone(path), source=str(path))
