@@ -12,7 +12,8 @@ import signal
 import sys
 import threading
 
-STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands")
+STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands",
+                  "study.discrepancy_commands")
 
 
 def parser() -> argparse.ArgumentParser:

@@ -45,6 +45,7 @@ AT_NOISE = 1.5  # chi^2 per degree of freedom at which the residual is the measu
 UNEXPLAINED = 3.0  # chi^2 per degree of freedom above which a remaining residual is reported unexplained
 FREQUENCY_FLOOR = 1e-4  # relative floor of the frequency uncertainty
 DAMPING_FLOOR = 2e-2  # relative floor of the damping uncertainty
+UNDEFINED_MISFIT = 1e8  # residual given to a point where the model is undefined (the optimiser moves away)
 
 # Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "linear".
 EFFECTS = {
@@ -116,12 +117,17 @@ def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nom
     return frequency, damping
 
 
+def _logit(p):
+    """logit kept finite at the ends of a bounded map (a previous fit may sit on a bound)."""
+    return logit(np.clip(p, 1e-12, 1.0 - 1e-12))
+
+
 # kind -> (map from the fitted variable to the parameter, its inverse); bounded maps stay inside the open
 # intervals the element laws require however far the optimiser goes.
 TRANSFORMS = {
-    "log": (lambda v: np.exp(np.clip(v, -300.0, 300.0)), np.log),
-    "unit": (lambda v: 1e-6 + (1 - 2e-6) * expit(v), lambda p: logit((p - 1e-6) / (1 - 2e-6))),
-    "chi": (lambda v: -0.005 - 0.99 * expit(v), lambda p: logit((-p - 0.005) / 0.99)),
+    "log": (lambda v: np.exp(np.clip(v, -300.0, 300.0)), lambda p: np.log(np.clip(p, 1e-300, 1e300))),
+    "unit": (lambda v: 1e-6 + (1 - 2e-6) * expit(v), lambda p: _logit((p - 1e-6) / (1 - 2e-6))),
+    "chi": (lambda v: -0.005 - 0.99 * expit(v), lambda p: _logit((-p - 0.005) / 0.99)),
     "linear": (float, float),
 }
 
@@ -156,8 +162,9 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     def residual(vector):
         frequency, damping = model_backbone(_to_parameters(vector, specification), measurement.amplitude,
                                             nominal_frequency_hz, nominal_damping)
-        return np.concatenate([(frequency - measurement.frequency_hz) / measurement.sigma_frequency,
-                               (damping - measurement.damping) / measurement.sigma_damping])
+        misfit = np.concatenate([(frequency - measurement.frequency_hz) / measurement.sigma_frequency,
+                                 (damping - measurement.damping) / measurement.sigma_damping])
+        return np.where(np.isfinite(misfit), misfit, UNDEFINED_MISFIT)  # e.g. a start past the law's range
 
     best = None
     for start in starts:

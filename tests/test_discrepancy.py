@@ -96,3 +96,33 @@ def test_backbone_file_with_nan_is_refused_naming_the_file(tmp_path):
     path.write_text("\n".join(text) + "\n")
     with pytest.raises(StructureError, match=f"{path}: field natural_frequency"):
         measurement_from_backbone(read_backbone(path), source=str(path))
+
+
+def test_command_reports_the_effect_and_the_errors_before_and_after(tmp_path, capsys):
+    """``surrogacy discrepancy`` on a user's backbone file: the report names the effect, its table holds the
+    errors before and after, the JSON the same numbers; nothing else is left in the folder."""
+    import json
+
+    from pipeline.cli import main as surrogacy
+
+    path = tmp_path / "measured.csv"
+    write_undeclared_backbone(path, ("linear_damping",), seed=2)
+    out = tmp_path / "report"
+    assert surrogacy(["discrepancy", str(path), "--nominal-frequency-hz", str(REFERENCE_FREQUENCY_HZ),
+                      "--nominal-damping", str(REFERENCE_DAMPING), "--out", str(out)]) == 0
+    assert "linear_damping" in capsys.readouterr().out
+    record = json.loads((out / "discrepancy.json").read_text())
+    assert record["effects"] == ["linear_damping"] and not record["unexplained"]
+    before, after = record["steps"][0]["errors"], record["steps"][-1]["errors"]
+    assert after["damping_linf"] <= 0.5 * before["damping_linf"]
+    assert "| 1 | linear_damping |" in (out / "discrepancy.md").read_text()
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "discrepancy.json", "discrepancy.md", "discrepancy.png"]
+
+
+def test_command_refuses_a_ring_down_without_its_mode(tmp_path, capsys):
+    from pipeline.cli import main as surrogacy
+
+    path = tmp_path / "measured.csv"
+    path.write_text("time [s],acc1 [m/s^2]\n0,1\n")
+    assert surrogacy(["discrepancy", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert str(path) in capsys.readouterr().err

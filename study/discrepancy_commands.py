@@ -1,0 +1,104 @@
+"""``surrogacy discrepancy FILE``: what the model of a measured mode lacks (``study.discrepancy``), on a backbone
+CSV, an ASB measured backbone (.mat with Q, W, Z) or a ring-down (.csv, .mat, .uff with ``--mode-hz``).
+
+The reference model is the one-mode joint model with the nominal low-amplitude frequency and linear damping of
+the structure's model (``--nominal-frequency-hz``, ``--nominal-damping``; default: the measurement's own values at
+its lowest amplitude, so that only the amplitude dependence is questioned). Writes to ``--out``:
+``discrepancy.md`` (the effect found at each step, the evidence: chi^2 per degree of freedom, BIC of every
+candidate, L-infinity and RMS errors of frequency and damping before and after), ``discrepancy.png`` (measurement
+and the model before and after) and ``discrepancy.json`` (the same numbers and the fitted parameters).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from experiment.backbone import mode_backbone, ringdown_backbone
+from experiment.backbone_files import read_asb_backbone, read_backbone
+from experiment.ringdown_files import read_ringdown
+from pipeline.files import atomic_path, stage_folder, write_json
+from study.discrepancy import Verdict, discrepancy_loop, measurement_from_backbone
+from study.figures import plt, save
+
+
+def read_measured_backbone(path: Path, mode_hz: float | None):
+    """A backbone from a backbone CSV, an ASB .mat backbone (Q, W, Z) or a ring-down file (needs mode_hz)."""
+    path = Path(path)
+    if mode_hz is not None:
+        return mode_backbone(ringdown_backbone(read_ringdown(path), mode_hz), path.stem, "measured")
+    if path.suffix.lower() == ".mat":
+        return read_asb_backbone(path)
+    return read_backbone(path)
+
+
+def verdict_markdown(verdict: Verdict, source: str) -> str:
+    """The loop's steps as a Markdown table with the evidence and the errors before and after."""
+    lines = [f"Discrepancy loop on {source}.", "",
+             "| step | effect added | chi^2/dof | BIC | L-inf f (Hz) | RMS f (Hz) | L-inf zeta | RMS zeta |",
+             "|---|---|---|---|---|---|---|---|"]
+    for number, step in enumerate(verdict.steps):
+        e = step.errors
+        lines.append(f"| {number} | {step.effect or 'reference (Jenkins, nominal f_0 and zeta_0)'} | "
+                     f"{step.reduced_chi_squared:.3g} | {step.fit.bic:.4g} | {e['frequency_linf_hz']:.4g} | "
+                     f"{e['frequency_rms_hz']:.4g} | {e['damping_linf']:.3g} | {e['damping_rms']:.3g} |")
+    last = verdict.steps[-1]
+    if last.candidates:
+        lines += ["", "Candidates at the last decision (BIC; an effect is added when it lowers the BIC by more "
+                      "than 10): " + ", ".join(f"{k} {v:.4g}" for k, v in sorted(last.candidates.items(),
+                                                                                  key=lambda item: item[1]))]
+    found = ", ".join(verdict.effects) or "none"
+    lines += ["", f"Effects found: {found}. " + ("A residual above the measurement's noise remains UNEXPLAINED "
+                                                  "by the library." if verdict.unexplained else
+                                                  "The residual is at the measurement's noise.")]
+    return "\n".join(lines) + "\n"
+
+
+def plot_verdict(verdict: Verdict, measurement, destination: Path) -> None:
+    figure, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for axis, measured, sigma, attribute, label in (
+            (axes[0], measurement.frequency_hz, measurement.sigma_frequency, "frequency_hz", "natural frequency (Hz)"),
+            (axes[1], measurement.damping, measurement.sigma_damping, "damping", "damping ratio (-)")):
+        axis.errorbar(measurement.amplitude, measured, sigma, fmt="ko", ms=3, label="measurement")
+        axis.semilogx(measurement.amplitude, getattr(verdict.steps[0].fit, attribute), "C0--", label="reference model")
+        axis.semilogx(measurement.amplitude, getattr(verdict.steps[-1].fit, attribute), "C3-",
+                      label="with " + (", ".join(verdict.effects) or "nothing added"))
+        axis.set(xlabel="modal amplitude", ylabel=label)
+    axes[0].legend(fontsize=7)
+    figure.tight_layout()
+    save(figure, destination)
+
+
+def run(arguments: argparse.Namespace) -> None:
+    """Run the loop on one measured backbone and write its report."""
+    measured = read_measured_backbone(arguments.file, arguments.mode_hz)
+    measurement = measurement_from_backbone(measured, arguments.levels, str(arguments.file))
+    frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
+    damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
+    with stage_folder(arguments.out) as out:
+        verdict = discrepancy_loop(measurement, frequency, damping)
+        with atomic_path(out / "discrepancy.md") as temporary:
+            temporary.write_text(verdict_markdown(verdict, f"{arguments.file} ({measured.provenance})"))
+        plot_verdict(verdict, measurement, out / "discrepancy.png")
+        write_json(out / "discrepancy.json", {
+            "source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
+            "nominal_damping": damping, "effects": verdict.effects, "unexplained": verdict.unexplained,
+            "steps": [{"effect": step.effect, "parameters": {k: float(v) for k, v in step.fit.parameters.items()},
+                       "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
+                       "candidates": step.candidates} for step in verdict.steps]})
+    print(f"{arguments.file}: effects {verdict.effects or 'none'}"
+          f"{' (residual unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
+
+
+def register(subparsers) -> None:
+    """Add the ``discrepancy`` subcommand."""
+    command = subparsers.add_parser(
+        "discrepancy", help="what the model of a measured mode lacks: effects found, errors before and after",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("file", type=Path, help="backbone CSV, ASB backbone .mat, or ring-down (with --mode-hz)")
+    command.add_argument("--mode-hz", type=float, help="the mode's frequency guess: FILE is a ring-down")
+    command.add_argument("--nominal-frequency-hz", type=float, help="the model's low-amplitude frequency, Hz")
+    command.add_argument("--nominal-damping", type=float, help="the model's linear damping ratio")
+    command.add_argument("--levels", type=int, default=20, help="amplitude levels the measurement is binned to")
+    command.add_argument("--out", type=Path, default=Path("results/discrepancy"), help="output folder")
+    command.set_defaults(run=run)
