@@ -137,11 +137,14 @@ def split_label(source, header: str) -> tuple[str, str]:
 def read_csv(path: Path) -> list[RingDown]:
     """Ring-down hits from a CSV file (layout in the module docstring)."""
     path = Path(path)
-    with open(path, newline="") as stream:
+    with open(path, newline="", encoding="utf-8-sig") as stream:  # utf-8-sig: Excel's "CSV UTF-8" starts with a BOM
         lines = [line for line in stream if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise RingDownError(path, "header", "file holds no header row")
     headers = [column.strip() for column in next(csv.reader(lines[:1]))]
+    repeated = sorted({header for header in headers if headers.count(header) > 1})
+    if repeated:
+        raise RingDownError(path, ", ".join(repeated), "column named more than once (each column needs its own name)")
     try:
         table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
     except ValueError as error:
@@ -203,7 +206,7 @@ def read_mat(path: Path) -> list[RingDown]:
     path = Path(path)
     try:
         contents = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-    except (ValueError, OSError) as error:
+    except (ValueError, OSError, scipy.io.matlab.MatReadError) as error:
         raise RingDownError(path, "file", f"not a readable MATLAB file: {error}") from error
     variables = mat_fields(contents)
     structs = {name: value for name, value in variables.items()

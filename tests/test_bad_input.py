@@ -1,6 +1,7 @@
 """Bad input at the door of the stages (issue 17): one line naming the source, the field and what was expected,
 exit 2, and nothing written; never a traceback, a hang or a silently wrong result."""
 
+import numpy as np
 import pytest
 
 from pipeline.cli import main as surrogacy
@@ -87,3 +88,27 @@ def test_fe_refuses_a_hand_edited_sidecar(coarse_beams, tmp_path, capsys):
     out = tmp_path / "fe"
     assert surrogacy(["fe", "--beam", "BRB", "--beams", str(edited), "--out", str(out)]) == 2
     assert "edited after meshing" in capsys.readouterr().err and not any(out.glob("*.npz"))
+
+
+def test_ring_down_csv_with_a_byte_order_mark_reads(tmp_path):
+    """Excel's "CSV UTF-8" starts with a byte-order mark: read as the same file without it."""
+    from experiment.ringdown_files import read_ringdown
+
+    text = "time [s],acc1 [m/s^2]\n" + "\n".join(f"{k / 1000},{np.sin(k / 10)}" for k in range(100)) + "\n"
+    (tmp_path / "plain.csv").write_text(text)
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    plain, bom = read_ringdown(tmp_path / "plain.csv")[0], read_ringdown(tmp_path / "bom.csv")[0]
+    assert bom.channels == plain.channels and np.array_equal(bom.signals, plain.signals)
+
+
+@pytest.mark.parametrize("name, content, message", [
+    ("twice.csv", "time [s],acc1 [m/s^2],acc1 [m/s^2]\n0,1,2\n0.001,1,2\n", "field 'acc1 [m/s^2]': column named more than once"),
+    ("empty.mat", "", "not a readable MATLAB file"),
+])
+def test_unreadable_ring_downs_are_named(tmp_path, capsys, name, content, message):
+    path = tmp_path / name
+    path.write_text(content)
+    out = tmp_path / "out"
+    assert surrogacy(["freevib", str(path), "--mode-hz", "80", "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert str(path) in error and message in error and not out.exists()
