@@ -191,6 +191,26 @@ def base_starts(measurement: Measurement, nominal_frequency_hz: float) -> list[d
     return starts
 
 
+def residual_features(measurement: Measurement, model: Fit) -> dict:
+    """Features of a fit's residual (measurement minus model) of frequency and damping, each in units of the
+    measurement's uncertainty: offset (mean over the three lowest levels), slope and curvature of a quadratic in
+    log amplitude (per decade, per decade squared), sign changes along the amplitude, and the largest kink (second
+    difference). The signatures the effects leave: an offset (stiffness change, linear damping), a slope or
+    curvature (amplitude damping, cubic stiffening), a kink (macroslip against microslip, stiction)."""
+    decades = np.log10(measurement.amplitude / measurement.amplitude[0])
+    features = {}
+    for name, measured, modelled, sigma in (
+            ("frequency", measurement.frequency_hz, model.frequency_hz, measurement.sigma_frequency),
+            ("damping", measurement.damping, model.damping, measurement.sigma_damping)):
+        residual = (measured - modelled) / sigma
+        curvature, slope, _ = np.polyfit(decades, residual, 2)
+        features[name] = {"offset": float(np.mean(residual[:3])), "slope_per_decade": float(slope),
+                          "curvature_per_decade2": float(curvature),
+                          "sign_changes": int(np.count_nonzero(np.diff(np.sign(residual)) != 0)),
+                          "largest_kink": float(np.max(np.abs(np.diff(residual, 2)))) if residual.size > 2 else 0.0}
+    return features
+
+
 class Step(NamedTuple):
     """One step of the loop: the effect added (None for the reference model), the fit, its errors (L-infinity
     and RMS of frequency in Hz and of damping), chi^2 per degree of freedom, and every candidate's BIC."""

@@ -18,7 +18,7 @@ from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.backbone_files import read_asb_backbone, read_backbone
 from experiment.ringdown_files import read_ringdown
 from pipeline.files import atomic_path, stage_folder, write_json
-from study.discrepancy import Verdict, discrepancy_loop, measurement_from_backbone
+from study.discrepancy import Verdict, discrepancy_loop, measurement_from_backbone, residual_features
 from study.figures import plt, save
 
 
@@ -32,9 +32,15 @@ def read_measured_backbone(path: Path, mode_hz: float | None):
     return read_backbone(path)
 
 
-def verdict_markdown(verdict: Verdict, source: str) -> str:
-    """The loop's steps as a Markdown table with the evidence and the errors before and after."""
+def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:
+    """The loop's steps as a Markdown table with the evidence and the errors before and after, after the
+    features of the reference model's residual (``study.discrepancy.residual_features``)."""
     lines = [f"Discrepancy loop on {source}.", "",
+             "Residual of the reference model, in units of the measurement's uncertainty:", "",
+             "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
+    lines += [f"| {name} | {f['offset']:.3g} | {f['slope_per_decade']:.3g} | {f['curvature_per_decade2']:.3g} | "
+              f"{f['sign_changes']} | {f['largest_kink']:.3g} |" for name, f in features.items()]
+    lines += ["",
              "| step | effect added | chi^2/dof | BIC | L-inf f (Hz) | RMS f (Hz) | L-inf zeta | RMS zeta |",
              "|---|---|---|---|---|---|---|---|"]
     for number, step in enumerate(verdict.steps):
@@ -77,12 +83,14 @@ def run(arguments: argparse.Namespace) -> None:
     damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
     with stage_folder(arguments.out) as out:
         verdict = discrepancy_loop(measurement, frequency, damping)
+        features = residual_features(measurement, verdict.steps[0].fit)
         with atomic_path(out / "discrepancy.md") as temporary:
-            temporary.write_text(verdict_markdown(verdict, f"{arguments.file} ({measured.provenance})"))
+            temporary.write_text(verdict_markdown(verdict, f"{arguments.file} ({measured.provenance})", features))
         plot_verdict(verdict, measurement, out / "discrepancy.png")
         write_json(out / "discrepancy.json", {
             "source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
             "nominal_damping": damping, "effects": verdict.effects, "unexplained": verdict.unexplained,
+            "reference_residual_features": features,
             "steps": [{"effect": step.effect, "parameters": {k: float(v) for k, v in step.fit.parameters.items()},
                        "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
                        "candidates": step.candidates} for step in verdict.steps]})

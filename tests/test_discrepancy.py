@@ -126,3 +126,22 @@ def test_command_refuses_a_ring_down_without_its_mode(tmp_path, capsys):
     path.write_text("time [s],acc1 [m/s^2]\n0,1\n")
     assert surrogacy(["discrepancy", str(path), "--out", str(tmp_path / "out")]) == 2
     assert str(path) in capsys.readouterr().err
+
+
+def test_residual_features_carry_each_signature(tmp_path):
+    """The reference model's residual shows the signature of what was put in: a frequency offset for a stiffness
+    change (same sign at every level), a damping offset for a structure-specific linear damping."""
+    from study.discrepancy import base_starts, fit, residual_features
+
+    def features(effect):
+        path = tmp_path / f"{effect}.csv"
+        write_undeclared_backbone(path, (effect,))
+        measurement = measurement_from_backbone(read_backbone(path), source=str(path))
+        reference = fit(measurement, (), REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING,
+                        base_starts(measurement, REFERENCE_FREQUENCY_HZ))
+        return residual_features(measurement, reference)
+
+    stiffness = features("stiffness_change")["frequency"]
+    assert stiffness["offset"] < -10 and stiffness["sign_changes"] <= 2
+    damping = features("linear_damping")["damping"]
+    assert damping["offset"] > 10
