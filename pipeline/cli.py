@@ -8,17 +8,24 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
+import resource
 import signal
 import sys
 import threading
+import time
+from pathlib import Path
 
 STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands",
-                  "study.discrepancy_commands")
+                  "study.discrepancy_commands", "study.report_commands")
 
 
 def parser() -> argparse.ArgumentParser:
     """The argument parser with every stage subcommand."""
     root = argparse.ArgumentParser(prog="surrogacy", description=__doc__.splitlines()[0])
+    root.add_argument("--run-log", type=Path, metavar="FILE",
+                      help="append one JSON line per run to FILE: the command line, its wall time (s), peak memory "
+                           "(MB) and exit status (the report's per-stage timings)")
     subparsers = root.add_subparsers(dest="command", required=True, metavar="STAGE")
     for module_name in STAGE_COMMANDS:
         importlib.import_module(module_name).register(subparsers)
@@ -30,12 +37,25 @@ def terminate(signal_number, frame) -> None:
     raise SystemExit(128 + signal_number)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run one stage; errors in the inputs print one clear line and exit with status 2; SIGTERM and Ctrl-C end it
-    cleanly (no temporary file left) with 143 and 130."""
-    arguments = parser().parse_args(argv)
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, terminate)
+def peak_memory_mb() -> float:
+    """Peak resident memory (MB) of this process or of the largest of its finished children (dask workers,
+    solvers run as subprocesses), whichever is larger (getrusage; ru_maxrss in kB on Linux)."""
+    return max(resource.getrusage(who).ru_maxrss for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)) / 1024
+
+
+def log_run(log: Path, command: list[str], wall_s: float, status: int) -> None:
+    """Append one JSON line (the stage's command line, wall time, peak memory, exit status) to ``log``: one short
+    line written in append mode, so concurrent runs never interleave inside a line."""
+    record = {"command": ["surrogacy", *command], "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+              "wall_s": round(wall_s, 2), "peak_memory_mb": round(peak_memory_mb(), 1), "status": status}
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "a") as stream:
+        stream.write(json.dumps(record) + "\n")
+
+
+def run(arguments) -> int:
+    """Run the stage ``arguments`` selects; errors in the inputs print one clear line and give status 2; SIGTERM
+    and Ctrl-C end it cleanly (no temporary file left) with 143 and 130."""
     try:
         arguments.run(arguments)
     except (ValueError, OSError) as error:  # bad input, or a file or folder that cannot be read or written
@@ -46,6 +66,26 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 130
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse the command line, run the stage, and log the run where ``--run-log`` asks."""
+    start = time.perf_counter()  # the stages' imports count
+    argv = sys.argv[1:] if argv is None else list(argv)
+    arguments = parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, terminate)
+    status = 1  # an exception that escapes run() is a bug: traceback and exit 1
+    try:
+        status = run(arguments)
+    except SystemExit as exit_:  # SIGTERM
+        status = exit_.code
+        raise
+    finally:
+        if arguments.run_log is not None:
+            stage_argv = argv[argv.index(arguments.command):]  # without the root options (--run-log FILE)
+            log_run(arguments.run_log, stage_argv, time.perf_counter() - start, status)
+    return status
 
 
 if __name__ == "__main__":

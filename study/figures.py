@@ -41,7 +41,7 @@ def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance
         axis.axvline(acceptance.frequency_tolerance_hz, color="k", lw=0.8)
         axis.axhline(acceptance.damping_tolerance, color="k", lw=0.8)
         axis.set(title=name, xlabel="L-inf frequency error (Hz)", ylabel="L-inf damping error (-)")
-    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, loc="lower left")  # a fixed place: "best" scans every sample point
     figure.suptitle(f"{model}: Pareto fronts in the error plane")
     figure.tight_layout()
     save(figure, destination)

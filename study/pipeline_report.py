@@ -1,0 +1,263 @@
+"""The pipeline's report: one Markdown file (``results/report.md``) with every stage's figures and tables, read
+back from the files the stages wrote, so it states only what a run produced.
+
+Sections, in the order the data flows: the three meshes (geometry), contact pressure under the bolt preload and
+the tied first bending (fem), the superelements (reduction), the backbones to fit (paper Fig. 3: the beams'
+virtual experiments, the ASB's measured backbones, the Chen 2022 measured ring-down), each dataset's surrogacy
+study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the discrepancy
+loop's before/after table, and the provenance (commit, versions, seeds, configuration, per-stage wall times and
+peak memory from the ``surrogacy --run-log`` file). A stage whose files are missing is named as not run, never
+filled in.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from experiment.backbone_files import read_backbone
+from pipeline.files import atomic_path
+from study.figures import plt, save
+
+BEAMS = ("BRB", "LBRB", "SBRB")
+STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
+
+
+@dataclass(frozen=True)
+class Folders:
+    """Where the stages wrote: ``build`` (beams/, fe/, rom/), ``results`` (freevib/, study-*/, discrepancy/) and
+    the run log of ``surrogacy --run-log`` (None: no timings)."""
+
+    build: Path
+    results: Path
+    run_log: Path | None = None
+
+
+def _read_json(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _relative(target: Path, start: Path) -> str:
+    """``target`` relative to the folder ``start``, with forward slashes (Markdown links)."""
+    return Path(os.path.relpath(Path(target).resolve(), Path(start).resolve())).as_posix()
+
+
+def _image(target: Path, caption: str, report_folder: Path) -> str:
+    if not target.exists():
+        return f"_{caption}: {target} not written (stage not run)_"
+    return f"![{caption}]({_relative(target, report_folder)})"
+
+
+def geometry_section(build: Path, out: Path) -> list[str]:
+    """Table of the meshes (nodes, masses measured on the mesh and from the drawing) and their renders."""
+    lines = ["## 1. Geometry: the three Brake-Reuss beams", "", "| beam | nodes | mass on the mesh (kg) | "
+             "mass from the drawing (kg) | interface area, mesh / drawing (mm^2) |", "|---|---|---|---|---|"]
+    for beam in BEAMS:
+        sidecar = _read_json(build / "beams" / f"{beam}.json")
+        if sidecar is None:
+            lines.append(f"| {beam} | not built | | | |")
+            continue
+        measured, analytic = sidecar["measured"], sidecar["analytic"]
+        area = sum(value for name, value in measured["patch_area_m2"].items() if name.startswith("lower_"))
+        lines.append(f"| {beam} | {sidecar['nodes']} | {measured['mass_kg']:.4f} | {analytic['mass_kg']:.4f} | "
+                     f"{1e6 * area:.1f} / {1e6 * sum(analytic['patch_area_m2']):.1f} |")
+    lines += [""] + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAMS]
+    return lines
+
+
+def fe_section(build: Path, out: Path) -> list[str]:
+    """Tied first bending (unstressed and prestressed), contact pressure range, and the renders."""
+    lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "",
+             "| beam | tied first bending (Hz) | prestressed (Hz) | peak contact pressure (MPa) |", "|---|---|---|---|"]
+    for beam in BEAMS:
+        sidecar = _read_json(build / "fe" / f"{beam}.json")
+        if sidecar is None:
+            lines.append(f"| {beam} | not run | | |")
+            continue
+        bending = sidecar["first_bending_hz"]
+        lines.append(f"| {beam} | {bending['tied']:.2f} | {bending['tied_prestressed']:.2f} | "
+                     f"{1e-6 * sidecar['contact_pressure_range_pa'][1]:.1f} |")
+    lines.append("")
+    for beam in BEAMS:
+        lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out),
+                  _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out)]
+    return lines
+
+
+def reduction_section(build: Path, out: Path) -> list[str]:
+    """Superelements: mass and the stuck-joint frequencies (the joint's stiffest state)."""
+    lines = ["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "",
+             "| beam | mass (kg) | stuck-joint frequencies (Hz) |", "|---|---|---|"]
+    for beam in BEAMS:
+        sidecar = _read_json(build / "rom" / f"{beam}.json")
+        if sidecar is None:
+            lines.append(f"| {beam} | not run | |")
+            continue
+        stuck = ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])
+        lines.append(f"| {beam} | {sidecar['mass_kg']:.4f} | {stuck} |")
+    lines += [""] + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out)
+                     for beam in BEAMS]
+    return lines
+
+
+def plot_backbones(destination: Path, groups: dict) -> None:
+    """Paper Fig. 3: natural frequency relative to its low-amplitude value, and damping ratio, against amplitude;
+    one column per group of backbones (title -> list of ModeBackbone), each curve labelled with its provenance."""
+    figure, axes = plt.subplots(2, len(groups), figsize=(4.6 * len(groups), 6.4), squeeze=False)
+    for column, (title, backbones) in enumerate(groups.items()):
+        for mode in backbones:
+            points = mode.backbone.with_data()
+            label = f"{mode.structure} ({mode.provenance})"
+            axes[0, column].semilogx(points.amplitude, points.natural_frequency_hz / mode.low_amplitude_frequency_hz,
+                                     "o-", ms=3, label=label)
+            axes[1, column].semilogx(points.amplitude, points.damping_ratio, "o-", ms=3, label=label)
+        unit = backbones[0].amplitude_unit
+        axes[0, column].set(title=title, ylabel="f / f(lowest amplitude) (-)")
+        axes[1, column].set(xlabel=f"amplitude ({unit})", ylabel="damping ratio (-)")
+        axes[0, column].legend(fontsize=7)
+    figure.suptitle("Backbones of the structures' first bending modes (paper Fig. 3)")
+    figure.tight_layout()
+    save(figure, destination)
+
+
+def backbone_section(results: Path, out: Path) -> list[str]:
+    """The backbones the studies fit (virtual beams, measured ASB) in one figure, the Chen ring-down's FreeVib
+    backbone, and the virtual experiments' low-amplitude frequencies against paper Table 1."""
+    groups = {}
+    for title, folder in (("beams: VIRTUAL experiments", "study-beams"), ("ASB: measured", "study-asb")):
+        files = sorted((results / folder / "measurements").glob("*.csv"))
+        backbones = [read_backbone(path) for path in files if path.name != "low_amplitude.csv"]
+        if backbones:
+            groups[title] = backbones
+    lines = ["## 4. Backbones to fit (paper Fig. 3)", ""]
+    if groups:
+        plot_backbones(out / "report_backbones.png", groups)
+        lines += ["The beams' backbones are **virtual**: simulated hammer ring-downs of one reference joint in "
+                  "each beam's model, processed as measured data (paper's measured curves are not public). The "
+                  "ASB's are measured.", "", _image(out / "report_backbones.png", "backbones", out), ""]
+    low_amplitude = results / "study-beams" / "measurements" / "low_amplitude.csv"
+    if low_amplitude.exists():
+        table = np.genfromtxt(low_amplitude, delimiter=",", names=True, dtype=None, encoding="utf-8")
+        lines += ["Lowest-amplitude frequency of the virtual experiments against paper Table 1:", "",
+                  "| beam | virtual (Hz) | Table 1 (Hz) | difference (%) |", "|---|---|---|---|"]
+        lines += [f"| {row['beam']} | {row['virtual_hz']:.2f} | {row['table1_hz']:.2f} | "
+                  f"{row['difference_percent']:+.2f} |" for row in np.atleast_1d(table)]
+        lines.append("")
+    figures = sorted((results / "freevib").glob("*.png"))
+    lines += ["Measured ring-down (Chen 2022 BRB hammer test), FreeVib backbone per channel:", ""]
+    lines += [_image(path, path.stem, out) for path in figures] or ["_freevib not run_"]
+    return lines
+
+
+def embedded_study(report: Path, out: Path, number: int) -> list[str]:
+    """A study's own report, its headings moved one level down and its image links made relative to ``out``."""
+    text = report.read_text()
+    text = re.sub(r"^(#+) ", lambda match: "#" + match.group(1) + " ", text, flags=re.MULTILINE)
+    text = re.sub(r"\]\((?!https?:)([^)]+)\)", lambda match: f"]({_relative(report.parent / match.group(1), out)})",
+                  text)
+    return text.replace("## Surrogacy study:", f"## {number}. Surrogacy study:", 1).splitlines()
+
+
+def discrepancy_section(results: Path, out: Path) -> list[str]:
+    """Per measurement: the effects the discrepancy loop found (or "unexplained") and the errors of the reference
+    model (before) and of the final model (after)."""
+    verdicts = sorted((results / "discrepancy").glob("*/discrepancy.json"))
+    lines = ["## 7. Discrepancy loop: what the one-mode joint model lacks", ""]
+    if not verdicts:
+        return lines + ["_discrepancy not run_"]
+    lines += ["| measurement | provenance | effects found | verdict | L-inf f (Hz) before -> after | RMS f (Hz) | "
+              "L-inf zeta | RMS zeta |", "|---|---|---|---|---|---|---|---|"]
+    for path in verdicts:
+        verdict = json.loads(path.read_text())
+        before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
+        changes = [f"{before[key]:.3g} -> {after[key]:.3g}"
+                   for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
+        found = ", ".join(verdict["effects"]) or "none"
+        answer = "residual unexplained" if verdict["unexplained"] else "explained to the noise"
+        lines.append(f"| [{path.parent.name}]({_relative(path.with_suffix('.md'), out)}) | {verdict['provenance']} | "
+                     f"{found} | {answer} | " + " | ".join(changes) + " |")
+    lines.append("")
+    lines += [_image(path.with_suffix(".png"), f"{path.parent.name} before and after", out) for path in verdicts]
+    return lines
+
+
+def git_commit() -> str:
+    """The commit of the code that wrote the report, marked where the checkout has uncommitted changes
+    ('unknown' outside a git checkout)."""
+    def git(*words):
+        return subprocess.run(["git", *words], capture_output=True, text=True, check=True,
+                              cwd=Path(__file__).parent).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "HEAD")
+        return commit + (" with uncommitted changes" if git("status", "--porcelain", "--untracked-files=no") else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def timings_table(run_log: Path | None) -> list[str]:
+    """Per-stage wall time and peak memory: the last logged run of each command line."""
+    if run_log is None or not run_log.exists():
+        return ["_no run log (run the stages with `surrogacy --run-log FILE`, as `make demo` does)_"]
+    runs = {}
+    for line in run_log.read_text().splitlines():
+        record = json.loads(line)
+        runs[" ".join(record["command"])] = record
+    lines = ["| command | finished | wall time (s) | peak memory (MB) | exit status |", "|---|---|---|---|---|"]
+    lines += [f"| `{command}` | {record['finished']} | {record['wall_s']:.1f} | {record['peak_memory_mb']:.0f} | "
+              f"{record['status']} |" for command, record in runs.items()]
+    return lines
+
+
+def provenance_section(folders: Folders) -> list[str]:
+    """Commit, package versions, seeds and configurations of every stage, and the per-stage timings."""
+    lines = ["## 8. Provenance", "", f"Code: commit {git_commit()}.", "", "| stage | versions | seed |",
+             "|---|---|---|"]
+    for stage, sidecar in (("geometry", folders.build / "beams" / "BRB.json"), ("fem", folders.build / "fe" / "BRB.json"),
+                           ("reduction", folders.build / "rom" / "BRB.json")):
+        values = _read_json(sidecar)
+        if values is not None:
+            lines.append(f"| {stage} | {json.dumps(values['versions'])} | - |")
+    for beam in BEAMS:
+        experiment = _read_json(folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json")
+        if experiment is not None:
+            lines.append(f"| virtual experiment {beam} | {json.dumps(experiment['versions'])} | {experiment['seed']} |")
+    configurations = []
+    for dataset, folder in STUDIES:
+        study = _read_json(folders.results / folder / "study.json")
+        if study is not None:
+            lines.append(f"| study ({dataset}) | {json.dumps(study['versions'])} | {study['seed']} |")
+            configurations += [f"Study configuration ({dataset}):", "", "```json",
+                               json.dumps(study["configuration"], indent=1, sort_keys=True), "```", ""]
+    return lines + [""] + configurations + ["### Per-stage wall time and peak memory", "",
+                                            *timings_table(folders.run_log)]
+
+
+def write_pipeline_report(folders: Folders, destination: Path) -> Path:
+    """Write the report (module docstring) to ``destination`` (Markdown) and its backbone figure beside it."""
+    out = Path(destination).parent
+    out.mkdir(parents=True, exist_ok=True)
+    lines = ["# Surrogate system hypothesis for joint mechanics: pipeline report", "",
+             "The beams' \"measurements\" in this report are **VIRTUAL** (simulated ring-downs of a reference joint, "
+             "labelled virtual wherever they appear); the ASB backbones and the Chen 2022 ring-down are measured.",
+             "", "Contents: 1 geometry, 2 finite elements, 3 superelements, 4 backbones, 5-6 surrogacy studies "
+             "(Table 5, Figs. 6, 9-12, Table 6), 7 discrepancy loop, 8 provenance.", ""]
+    lines += geometry_section(folders.build, out) + [""]
+    lines += fe_section(folders.build, out) + [""]
+    lines += reduction_section(folders.build, out) + [""]
+    lines += backbone_section(folders.results, out) + [""]
+    for number, (dataset, folder) in enumerate(STUDIES, start=5):
+        study_report = folders.results / folder / "report.md"
+        lines += (embedded_study(study_report, out, number) if study_report.exists()
+                  else [f"## {number}. Surrogacy study: {dataset}", "", "_study not run_"]) + [""]
+    lines += discrepancy_section(folders.results, out) + [""]
+    lines += provenance_section(folders)
+    with atomic_path(destination) as temporary:
+        temporary.write_text("\n".join(lines) + "\n")
+    return Path(destination)

@@ -1,0 +1,89 @@
+"""The pipeline's report (``surrogacy report``) and the run log it takes its timings from: every number it shows
+is the one the stage wrote, every image it links exists, a stage not run is named as such, and each logged run
+carries its real exit status."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from pipeline.cli import main as surrogacy
+from tests.conftest import asb_data_folder
+
+ASB_C1 = asb_data_folder().parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
+
+
+def test_run_log_records_each_run_with_its_status(tmp_path):
+    log = tmp_path / "runs.jsonl"
+    assert surrogacy(["--run-log", str(log), "freevib", str(tmp_path / "missing.mat"), "--mode-hz", "80"]) == 2
+    assert surrogacy(["--run-log", str(log), "report", "--build", str(tmp_path), "--results", str(tmp_path),
+                      "--out", str(tmp_path / "report.md")]) == 0
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [record["status"] for record in records] == [2, 0]
+    assert records[0]["command"][:2] == ["surrogacy", "freevib"]  # the stage's command line, not the log option
+    assert all(record["wall_s"] >= 0 and record["peak_memory_mb"] > 10 for record in records)
+
+
+@pytest.fixture(scope="module")
+def pipeline_report(beam_roms, tmp_path_factory):
+    """The report of the default beams' build and a small ASB study and one discrepancy loop, with a run log."""
+    if not ASB_C1.exists():
+        pytest.skip(f"ASB measured backbone not available at {ASB_C1} (shared data folder absent)")
+    folder = tmp_path_factory.mktemp("report")
+    log, results = folder / "runs.jsonl", folder / "results"
+    assert surrogacy(["--run-log", str(log), "study", "--out", str(results / "study-asb"), "--data",
+                      str(asb_data_folder().parent), "--set", "study.dataset=asb", "--set", "sample.n_designs=2000",
+                      "--set", "sample.chunk_size=1000", "--set", 'study.models=["jenkins"]',
+                      "--set", "pareto.generations=3", "--set", "pareto.population=16"]) == 0
+    assert surrogacy(["--run-log", str(log), "discrepancy", str(ASB_C1), "--out",
+                      str(results / "discrepancy" / "ASB_C1")]) == 0
+    assert surrogacy(["--run-log", str(log), "report", "--build", str(beam_roms.parent), "--results", str(results),
+                      "--out", str(results / "report.md")]) == 0
+    return results / "report.md", beam_roms.parent, results
+
+
+def test_report_numbers_are_the_stages_own(pipeline_report):
+    report, build, results = pipeline_report
+    text = report.read_text()
+    for beam in ("BRB", "LBRB", "SBRB"):
+        fe = json.loads((build / "fe" / f"{beam}.json").read_text())
+        assert f"| {beam} | {fe['first_bending_hz']['tied']:.2f} |" in text
+        rom = json.loads((build / "rom" / f"{beam}.json").read_text())
+        assert f"| {beam} | {rom['mass_kg']:.4f} | {rom['stuck_joint_frequencies_hz'][0]:.2f}, " in text
+    verdict = json.loads((results / "discrepancy" / "ASB_C1" / "discrepancy.json").read_text())
+    before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
+    assert f"{before['frequency_linf_hz']:.3g} -> {after['frequency_linf_hz']:.3g}" in text
+    assert ", ".join(verdict["effects"]) in text
+    surrogacy_table = (results / "study-asb" / "analysis" / "surrogacy_jenkins.md").read_text().strip()
+    assert surrogacy_table.splitlines()[-1] in text  # Table 5's layout with the paper's values, embedded
+    study = json.loads((results / "study-asb" / "study.json").read_text())
+    assert f"| study (asb) | {json.dumps(study['versions'])} | {study['seed']} |" in text
+
+
+def test_report_shows_every_figure_the_stages_wrote_and_names_stages_not_run(pipeline_report):
+    report, build, results = pipeline_report
+    text = report.read_text()
+    linked = {(report.parent / link).resolve() for link in re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)}
+    assert all(path.exists() for path in linked)
+    written = [*(build / stage / f"{beam}{suffix}" for stage, suffixes in
+                 (("beams", [".png"]), ("fe", ["_contact_pressure.png", "_first_bending.png"]),
+                  ("rom", ["_first_bending.png"])) for suffix in suffixes for beam in ("BRB", "LBRB", "SBRB")),
+               *results.rglob("*.png")]
+    assert {path.resolve() for path in written if path.exists()} == linked
+    assert "_freevib not run_" in text  # this run had no ring-down stage: said, not filled in
+    assert "## 5. Surrogacy study: beams\n\n_study not run_" in text
+    for section in ("## 1. Geometry", "## 2. Finite elements", "## 3. Superelements", "## 4. Backbones",
+                    "## 6. Surrogacy study: asb", "## 7. Discrepancy loop", "## 8. Provenance"):
+        assert section in text
+
+
+def test_report_timings_are_the_logged_runs(pipeline_report):
+    report, _, results = pipeline_report
+    text = report.read_text()
+    records = [json.loads(line) for line in (results.parent / "runs.jsonl").read_text().splitlines()]
+    for record in records[:2]:  # the study and the discrepancy loop (the report logs itself after writing)
+        row = f"| `{' '.join(record['command'])}` | {record['finished']} | {record['wall_s']:.1f} |"
+        assert row in text
