@@ -9,7 +9,11 @@ import time
 
 def _child(function, arguments, queue) -> None:
     start = time.perf_counter()
-    result = function(*arguments)
+    try:
+        result = function(*arguments)
+    except Exception as error:  # reported by the parent, which would otherwise wait for a result forever
+        queue.put(error)
+        raise
     seconds = time.perf_counter() - start
     queue.put((seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, result))
 
@@ -18,7 +22,8 @@ def measure(function, *arguments):
     """Run ``function(*arguments)`` in a new (spawned) process.
 
     Returns (wall seconds of the call, peak resident memory of the process in MiB, the function's result).
-    The function and its result must be picklable (a module-level function, plain values).
+    The function and its result must be picklable (a module-level function, plain values). An exception in the
+    function is raised here as a RuntimeError.
     """
     context = multiprocessing.get_context("spawn")
     queue = context.Queue()
@@ -27,5 +32,6 @@ def measure(function, *arguments):
     outcome = queue.get()
     process.join()
     if process.exitcode != 0:
-        raise RuntimeError(f"benchmark step {function.__name__} failed (exit code {process.exitcode})")
+        raise RuntimeError(f"benchmark step {function.__name__} failed (exit code {process.exitcode}): "
+                           f"{outcome if isinstance(outcome, Exception) else 'no error reported'}")
     return outcome
