@@ -1,0 +1,117 @@
+"""Benchmark of the study on Dask: the same small exploration serially and on LocalClusters of 1 and 2 workers.
+
+Run as ``python -m benchmarks.dask_speedup [--designs N] [--chunk C] [--repeats R]``. The exploration of
+``benchmarks.study`` (the three beams' superelements from build/rom, errors and Parquet included), all four
+friction models, N designs each in chunks of C, is run by ``study.exploration.explore`` in one process (serial)
+and on a dask.distributed LocalCluster of 1 and of 2 worker processes of one thread each, as
+``surrogacy study --scheduler local`` runs it. Each set-up runs in a fresh process (``benchmarks.peak``); the
+cluster's start and the kernels' compilation (a small exploration on every worker first) are not timed. The
+time is the wall clock of the exploration, the best of R runs; the speed-up is the serial time over the
+set-up's, measured in the same benchmark run. The peak memory is that of the process driving the study; the
+workers' peak is in the note.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import logging  # noqa: E402
+import resource  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from benchmarks.peak import measure  # noqa: E402
+from benchmarks.study import BEAMS, DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
+from benchmarks.table import row, show  # noqa: E402
+from nonlinear.joint import FRICTION_MODELS  # noqa: E402
+from study.exploration import Exploration, Sample, explore  # noqa: E402
+
+SETUPS = (("serial, this process", None), ("LocalCluster, 1 worker", 1), ("LocalCluster, 2 workers", 2))
+
+
+@contextlib.contextmanager
+def _client(workers: int | None):
+    """None (serial), or a client of a LocalCluster of ``workers`` single-threaded worker processes."""
+    if workers is None:
+        yield None
+        return
+    from distributed import Client, LocalCluster
+
+    with (LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                       silence_logs=logging.ERROR) as cluster,
+          Client(cluster) as client):
+        yield client
+
+
+def _warm(exploration: Exploration, folder: str) -> None:
+    """Explore a small sample in this process (a worker, or the serial process): compiles and loads the kernels."""
+    explore(exploration, Path(folder) / f"warm-{os.getpid()}", progress=False)
+
+
+def _peak_mib() -> float:
+    """Peak resident memory of this process (a worker), MiB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: int) -> tuple[float, float | None]:
+    """Explore N designs of every model serially (workers None) or on a LocalCluster of ``workers``; returns the
+    shortest wall time of ``repeats`` explorations (s) and the workers' largest peak memory (MiB; None serially)."""
+    structures = beams()
+    warm = Exploration(structures, FRICTION_MODELS, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
+    seconds = []
+    with tempfile.TemporaryDirectory() as folder, _client(workers) as client:
+        if client is None:
+            _warm(warm, folder)
+        else:
+            client.run(_warm, warm, folder)
+        for repeat in range(repeats):
+            # a sample of its own each time: the same study submitted again on one client (same task and data
+            # keys) was cancelled with "lost dependencies" here
+            sample = Sample(seed=1 + repeat, n_designs=n_designs, chunk_size=chunk)
+            exploration = Exploration(structures, FRICTION_MODELS, sample, DAMPING_CASES)
+            start = time.perf_counter()
+            explore(exploration, Path(folder) / f"run-{repeat}", client, progress=False)
+            seconds.append(time.perf_counter() - start)
+        return min(seconds), max(client.run(_peak_mib).values()) if client else None
+
+
+def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterator[dict]:
+    """A row per set-up (``SETUPS``): wall time (s), peak memory of the driving process (MiB) and the speed-up
+    over the serial run."""
+    if not all((ROM / f"{beam}.npz").exists() for beam in BEAMS):
+        yield row("dask", "all set-ups", note=f"skipped: {ROM} lacks the beams' superelements (run `make rom`)")
+        return
+    evaluations = n_designs * len(FRICTION_MODELS) * len(BEAMS)
+    setting = (f"{n_designs:,} designs x {len(FRICTION_MODELS)} models x {len(BEAMS)} beams x {len(LEVELS)} levels "
+               f"in chunks of {chunk:,}, wall clock, best of {repeats}")
+    times = {}
+    for name, workers in SETUPS:
+        _, peak, (seconds, worker_peak) = measure(timed_exploration, workers, n_designs, chunk, repeats)
+        times[workers] = seconds
+        throughput = f"{evaluations / seconds:,.0f} evaluations/s"
+        if workers is None:
+            yield row("dask", name, seconds, peak, note=f"{setting}: {throughput}")
+            continue
+        versus_one = f", {times[1] / seconds:.2f} x 1 worker" if workers > 1 else ""
+        yield row("dask", name, seconds, peak, times[None] / seconds, "x serial",
+                  f"{throughput}{versus_one}; threads per worker 1, workers' peak {worker_peak:,.0f} MiB")
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=10_000, help="designs per model")
+    parser.add_argument("--chunk", type=int, default=2500, help="designs per chunk")
+    parser.add_argument("--repeats", type=int, default=2, help="timed explorations per set-up; the shortest counts")
+    arguments = parser.parse_args(argv)
+    show(rows(arguments.designs, arguments.chunk, arguments.repeats))
+
+
+if __name__ == "__main__":
+    main()
