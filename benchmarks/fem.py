@@ -17,9 +17,11 @@ import argparse
 import os
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from benchmarks.peak import measure
+from benchmarks.table import row, show
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -159,39 +161,52 @@ def calculix_run(folder: str, name: str, extras: dict) -> tuple[float, float, st
 STEPS = (("assemble K, M", assemble_step), ("tied modes", modes_step), ("preload contact", contact_step),
          ("prestressed", prestressed_step))
 CALCULIX_STEPS = (("CalculiX modes", calculix_modes_deck), ("CalculiX preload", calculix_preload_deck))
+SHARED_STEPS = (("tied modes", "CalculiX modes", ("assemble K, M", "tied modes")),
+                ("preload", "CalculiX preload", ("assemble K, M", "preload contact")))  # compared: ccx, ours
 
 
-def main(argv: list[str] | None = None) -> None:
+def rows(coarse: bool = False, beams=("BRB", "LBRB", "SBRB")) -> Iterator[dict]:
+    """A row per beam and step (``STEPS``, then ``CALCULIX_STEPS`` where ccx is installed): the step's own wall
+    time (s) and its process's peak memory (MiB); then per beam the CalculiX / ours time ratio of each analysis
+    both codes make from the mesh (> 1: ours faster). ``coarse``: the coarse test mesh (``COARSE``) instead of
+    the default sizes."""
     from fem.calculix import calculix_available
     from geometry.beams import make_beam
     from geometry.parameters import BEAMS, MeshParameters
+
+    sizes = "coarse" if coarse else "default"
+    with tempfile.TemporaryDirectory() as folder:
+        for beam in beams:
+            msh = str(make_beam(BEAMS[beam], MeshParameters(**(COARSE if coarse else {})), folder,
+                                render=False).with_suffix(".msh"))
+            times = {}
+            for name, step in STEPS:
+                _, peak, (seconds, result) = measure(step, beam, msh, folder)
+                times[name] = seconds
+                yield row("fem", f"{beam} {name}", seconds, peak, note=f"{sizes} mesh: {result}")
+            if not calculix_available():
+                yield row("fem", f"{beam} CalculiX", note="ccx not installed (calculix-ccx): comparison skipped")
+                continue
+            for name, write_deck in CALCULIX_STEPS:
+                _, _, (deck, extras) = measure(write_deck, beam, msh, folder)
+                _, _, (seconds, peak, result) = measure(calculix_run, folder, deck, extras)
+                times[name] = seconds
+                yield row("fem", f"{beam} {name}", seconds, peak, note=f"{sizes} mesh: {result}")
+            for shared, theirs, ours in SHARED_STEPS:
+                mine = sum(times[name] for name in ours)
+                yield row("fem", f"{beam} CalculiX / ours: {shared}", rate=times[theirs] / mine, unit="x",
+                          note=f"{shared} from the mesh: ccx {times[theirs]:.1f} s, ours {mine:.1f} s "
+                               f"({' + '.join(ours)}); > 1: ours faster")
+
+
+def main(argv: list[str] | None = None) -> None:
+    from geometry.parameters import BEAMS
 
     arguments = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     arguments.add_argument("--coarse", action="store_true", help="the coarse test mesh instead of the default")
     arguments.add_argument("--beams", nargs="+", default=list(BEAMS), choices=list(BEAMS))
     options = arguments.parse_args(argv)
-    sizes = COARSE if options.coarse else {}
-    print(f"fem: {'coarse' if sizes else 'default'} meshes, OPENBLAS_NUM_THREADS=1, each step's own time")
-    print(f"{'beam':5} {'step':16} {'time s':>8} {'peak MiB':>9}  result")
-    with tempfile.TemporaryDirectory() as folder:
-        for beam in options.beams:
-            msh = str(make_beam(BEAMS[beam], MeshParameters(**sizes), folder, render=False).with_suffix(".msh"))
-            times = {}
-            for name, step in STEPS:
-                _, peak, (seconds, result) = measure(step, beam, msh, folder)
-                times[name] = seconds
-                print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
-            for name, write_deck in CALCULIX_STEPS if calculix_available() else ():
-                _, _, (deck, extras) = measure(write_deck, beam, msh, folder)
-                _, _, (seconds, peak, result) = measure(calculix_run, folder, deck, extras)
-                times[name] = seconds
-                print(f"{beam:5} {name:16} {seconds:8.2f} {peak:9.0f}  {result}", flush=True)
-            if "CalculiX modes" in times:
-                for shared, theirs, ours in (("tied modes", "CalculiX modes", ("assemble K, M", "tied modes")),
-                                             ("preload", "CalculiX preload", ("assemble K, M", "preload contact"))):
-                    mine = sum(times[name] for name in ours)
-                    print(f"{beam:5} {'CalculiX / ours':16} {times[theirs] / mine:8.2f} {'':9}  {shared} from the "
-                          f"mesh: ccx {times[theirs]:.1f} s, ours {mine:.1f} s ({' + '.join(ours)})")
+    show(rows(options.coarse, options.beams))
 
 
 if __name__ == "__main__":

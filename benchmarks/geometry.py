@@ -6,8 +6,12 @@ Run: ``python -m benchmarks.geometry`` (part of ``make bench``).
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Iterator
 
 from benchmarks.peak import measure
+from benchmarks.table import row, show
+
+BEAMS = ("BRB", "LBRB", "SBRB")
 
 
 def mesh_beam(name: str) -> dict:
@@ -22,12 +26,16 @@ def mesh_beam(name: str) -> dict:
         return {"nodes": len(mesh.points), "tetrahedra": len(mesh.tetrahedra)}
 
 
-def main() -> None:
-    print("geometry: meshing at the default sizes (gmsh, one thread)")
-    print(f"{'beam':6} {'nodes':>8} {'tetrahedra':>11} {'time s':>8} {'peak MiB':>9}")
-    for name in ("BRB", "LBRB", "SBRB"):
+def rows() -> Iterator[dict]:
+    """A row per beam: wall time (s) and peak memory (MiB) of meshing it in a fresh process (gmsh, one thread)."""
+    for name in BEAMS:
         seconds, peak, counts = measure(mesh_beam, name)
-        print(f"{name:6} {counts['nodes']:8d} {counts['tetrahedra']:11d} {seconds:8.2f} {peak:9.0f}")
+        yield row("geometry", f"{name} mesh", seconds, peak,
+                  note=f"default sizes, {counts['nodes']:,} nodes, {counts['tetrahedra']:,} tetrahedra")
+
+
+def main() -> None:
+    show(rows())
 
 
 if __name__ == "__main__":

@@ -1,20 +1,16 @@
 """Benchmark of the vectorised QSMA: design evaluations per second per core for each friction model.
 
 Run as ``python -m benchmarks.qsma [--designs N] [--levels L] [--repeats R] [--configuration CD1] [--models ...]``.
-Each design is
-evaluated at L modal amplitudes (amplitude control, log-spaced over the ASB's measured range) on one core
-(BLAS limited to one thread). The table gives the CPU time of the process (``time.process_time``, so other
-work on the machine does not count; the compiled kernels are loaded before timing; the shortest of
+Each design is evaluated at L modal amplitudes (amplitude control, log-spaced over the ASB's measured range) on
+one core (BLAS limited to one thread). A row per model gives the CPU time of the process (``time.process_time``,
+so other work on the machine does not count; the compiled kernels are loaded before timing; the shortest of
 ``--repeats`` runs, the models taking turns within each, since contention for a shared machine's caches still
-lengthens it, by +-10 % from one minute to the next here), designs per CPU-second,
-the projected time of the paper's full scale (6 x 10^7 design evaluations) on two such cores, were they all
-of that model, the CPU time per design split into the condensation (element parameters and the stuck
-modes, ``nonlinear.condensation.stuck_modes``, timed alone) and the rest (the levels: the compiled kernel),
-and the share of designs with at least one level not converged, by reason. A second table measures what the
-projection assumes: ``--processes`` processes (default 2, the cores here) evaluating designs at the same time,
-their wall-clock throughput together and the paper's full scale at that rate (cores share caches and memory
-bandwidth, so this is below processes times the single-core rate). A last line projects the study itself
-(equal shares of the evaluations per model) from the measured parallel rates.
+lengthens it, by +-10 % from one minute to the next here), designs per CPU-second, the CPU time per design split
+into the condensation (element parameters and the stuck modes, ``nonlinear.condensation.stuck_modes``, timed
+alone) and the rest (the levels: the compiled kernel), and the share of designs with at least one level not
+converged, by reason. A second row per model measures what a projection from the single-core rate assumes:
+``--processes`` processes (default 2, the cores here) evaluating designs at the same time, their wall-clock
+throughput per process (cores share caches and memory bandwidth, so this is below the single-core rate).
 """
 
 from __future__ import annotations
@@ -26,12 +22,15 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import multiprocessing  # noqa: E402
+import resource  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from benchmarks.table import row, show  # noqa: E402
 from nonlinear.condensation import joint_space, modal_split, stuck_modes  # noqa: E402
 from nonlinear.joint import (FRICTION_MODELS, patch_elements, random_designs, stuck_stiffness,  # noqa: E402
                              tangential_rows)
@@ -40,7 +39,6 @@ from reduction.superelement import asb_data_folder, read_asb_superelement  # noq
 
 AMPLITUDE_RANGE = (7e-6, 1.1e-4)  # m kg^0.5, the measured ASB backbones
 CHUNK = 1000  # designs per vectorised call
-PAPER_EVALUATIONS = 6e7  # 5 x 10^6 designs per beam and model (paper section 4.3), three beams, four models
 
 
 def _evaluated(model: str, space, designs, amplitudes, split):
@@ -127,6 +125,31 @@ def parallel_rate(model: str, configuration: str, n_designs: int, n_levels: int,
                for spans in zip(*shares))
 
 
+def rows(models=FRICTION_MODELS, n_designs: int = 4000, n_levels: int = 30, repeats: int = 5,
+         processes: int = 2, configuration: str = "CD1") -> Iterator[dict]:
+    """The rows of the module docstring: per model its single-core rate (designs per CPU-second), then per model
+    its rate per process with ``processes`` processes at once (designs per wall-clock second)."""
+    path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
+    if not path.exists():
+        yield row("qsma", "all models", note=f"skipped: no ASB reduced model {path}")
+        return
+    space = joint_space(read_asb_superelement(path))
+    setting = (f"{n_designs:,} designs x {n_levels} levels, ASB {configuration} ({space.superelement.n_patches} "
+               f"patches, {len(space.eigenvalues)} modes)")
+    for result in benchmark(models, space, n_designs, n_levels, repeats):
+        reasons = "; ".join(f"{reason}: {count}" for reason, count in result["reasons"].items()) or "-"
+        yield row("qsma", f"{result['model']}, 1 core", result["seconds"],
+                  resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, result["rate"], "designs/s/core",
+                  f"{setting}, CPU time, best of {repeats}; us/design: condensation "
+                  f"{1e6 * result['condensation']:.1f} + levels {1e6 * result['levels']:.1f}; not converged "
+                  f"{100 * result['failed']:.2f} % ({reasons})")
+    for model in models:
+        rate = parallel_rate(model, configuration, n_designs, n_levels, processes, repeats)
+        yield row("qsma", f"{model}, {processes} processes", processes * n_designs / rate, rate=rate / processes,
+                  unit="designs/s/core", note=f"{processes} processes at once, {n_designs:,} designs each, wall "
+                                             f"clock, best of {repeats}: {rate:,.0f} designs/s together")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--designs", type=int, default=4000)
@@ -136,33 +159,8 @@ def main(argv=None) -> None:
     parser.add_argument("--configuration", default="CD1", help="ASB reduced model (five patches: CD1)")
     parser.add_argument("--models", nargs="+", default=list(FRICTION_MODELS), choices=FRICTION_MODELS)
     arguments = parser.parse_args(argv)
-    path = asb_data_folder() / f"MAT_NULLRED_{arguments.configuration}.mat"
-    if not path.exists():
-        raise SystemExit(f"benchmark needs the ASB reduced model {path}")
-    space = joint_space(read_asb_superelement(path))
-    print(f"QSMA benchmark: ASB {arguments.configuration} ({space.superelement.n_patches} patches, "
-          f"{len(space.eigenvalues)} modes), {arguments.levels} amplitude levels, one core")
-    print(f"{'model':<12} {'designs':>8} {'CPU s':>8} {'designs/s':>10} {'6e7 on 2 cores':>15} "
-          f"{'us/design: condensation + levels':>33} {'not converged':>14}  reasons")
-    for row in benchmark(arguments.models, space, arguments.designs, arguments.levels, arguments.repeats):
-        model = row["model"]
-        reasons = "; ".join(f"{reason}: {count}" for reason, count in row["reasons"].items()) or "-"
-        full_scale = PAPER_EVALUATIONS / (2 * row["rate"]) / 60
-        stages = f"{1e6 * row['condensation']:.1f} + {1e6 * row['levels']:.1f}"
-        print(f"{model:<12} {row['designs']:>8} {row['seconds']:>8.2f} {row['rate']:>10.0f} {full_scale:>11.0f} min "
-              f"{stages:>33} {100 * row['failed']:>13.2f}%  {reasons}")
-    processes = arguments.processes
-    print(f"{processes} processes at once, {arguments.designs} designs each, wall clock, best of {arguments.repeats}")
-    print(f"{'model':<12} {'designs/s':>10} {'per process':>12} {'6e7 at this rate':>17}")
-    study_minutes = 0.0
-    for model in arguments.models:
-        rate = parallel_rate(model, arguments.configuration, arguments.designs, arguments.levels, processes,
-                             arguments.repeats)
-        full_scale = PAPER_EVALUATIONS / rate / 60
-        study_minutes += full_scale / len(arguments.models)
-        print(f"{model:<12} {rate:>10.0f} {rate / processes:>12.0f} {full_scale:>13.0f} min")
-    print(f"the paper's study (6e7 evaluations, equal shares of these models) with {processes} processes: "
-          f"{study_minutes:.0f} min")
+    show(rows(arguments.models, arguments.designs, arguments.levels, arguments.repeats, arguments.processes,
+              arguments.configuration))
 
 
 if __name__ == "__main__":

@@ -4,11 +4,12 @@ Run as ``python -m benchmarks.study [--designs N] [--chunk C]``. The three beams
 ``make rom``) with a virtual measurement with a known answer (``study.structures.qsma_measurement`` of one
 iwan4 design, 20 levels from 1e-7 to 3e-5 m kg^0.5: the linear range deep into microslip) are explored by
 ``study.exploration.explore`` exactly as ``surrogacy study`` does: designs regenerated from the seed, QSMA on
-every beam, the errors for three linear damping cases, one Parquet file per chunk written atomically. The table
-gives per model the CPU time of the process (``time.process_time``, one core, BLAS single-threaded), the design
-evaluations (designs x beams) per CPU-second, the projection of the paper's full scale (5 x 10^6 designs x 3
-beams per model) on two such cores, and the peak resident memory of the process. The full scale is projected
-from this rate, not measured (it would take most of an hour here).
+every beam, the errors for three linear damping cases, one Parquet file per chunk written atomically. A row per
+model gives the CPU time of the process (``time.process_time``, one core, BLAS single-threaded), the design
+evaluations (designs x beams) per CPU-second, and the peak resident memory of the process so far. Then the
+paper's full scale (5 x 10^6 designs x 3 beams per model, four models) projected from these rates on two such
+cores, and beside it the full-scale run measured once (``MEASURED_FULL_SCALE``; not repeated by the benchmark:
+it takes most of an hour here).
 """
 
 from __future__ import annotations
@@ -22,10 +23,12 @@ import argparse  # noqa: E402
 import resource  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from benchmarks.table import row, show  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.joint import FRICTION_MODELS  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
@@ -36,7 +39,13 @@ BEAMS = ("BRB", "LBRB", "SBRB")
 TRUE_DESIGN = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
 LEVELS = np.geomspace(1e-7, 3e-5, 20)
 DAMPING_CASES = {"BRB": [1.6659e-3] * 3, "LBRB": [9.243e-4] * 3, "SBRB": [9.461e-4] * 3}
-PAPER_DESIGNS = 5e6
+PAPER_DESIGNS = 5e6  # per beam and model (paper section 4.3)
+CORES = 2  # of the machine the projection is for
+MEASURED_FULL_SCALE = row(
+    "study", "paper scale, measured 2026-11-23", 41 * 60 + 17, 435,
+    note="NOT measured by this run: `surrogacy study --steps explore --scheduler local`, 5,000,000 designs per "
+         "model, 4 models, 3 beams, chunks of 5,000, this 2-core machine; wall time, peak RSS of the main "
+         "process (whole process tree about 1.2 GB)")
 
 
 def beams():
@@ -49,20 +58,17 @@ def beams():
     return tuple(structures)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=4000, help="designs per model")
-    parser.add_argument("--chunk", type=int, default=1000, help="designs per chunk")
-    arguments = parser.parse_args(argv)
+def rows(n_designs: int = 4000, chunk: int = 1000) -> Iterator[dict]:
+    """The rows of the module docstring: per model its exploration rate (evaluations per CPU-second), the
+    projected paper scale on ``CORES`` cores (s) and the measured one."""
     if not all((ROM / f"{beam}.npz").exists() for beam in BEAMS):
-        print(f"study benchmark: {ROM} lacks the beams' superelements (run `make rom`); skipped")
+        yield row("study", "all models", note=f"skipped: {ROM} lacks the beams' superelements (run `make rom`)")
+        yield MEASURED_FULL_SCALE
         return
     structures = beams()
-    sample = Sample(seed=1, n_designs=arguments.designs, chunk_size=arguments.chunk)
+    sample = Sample(seed=1, n_designs=n_designs, chunk_size=chunk)
     warm = Exploration(structures, FRICTION_MODELS, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
-    print(f"Study benchmark: {arguments.designs} designs per model on {len(BEAMS)} beams, {len(LEVELS)} levels, "
-          f"chunks of {arguments.chunk}, errors and Parquet included, one core")
-    print(f"{'model':<12} {'CPU s':>8} {'evaluations/s':>14} {'paper scale on 2 cores':>23} {'peak RSS':>9}")
+    projected = 0.0
     with tempfile.TemporaryDirectory() as folder:
         explore(warm, Path(folder) / "warm", progress=False)  # compile and load the kernels first
         for model in FRICTION_MODELS:
@@ -70,10 +76,23 @@ def main(argv=None) -> None:
             start = time.process_time()
             explore(exploration, Path(folder) / model, progress=False)
             seconds = time.process_time() - start
-            rate = arguments.designs * len(BEAMS) / seconds
-            full_scale = PAPER_DESIGNS * len(BEAMS) / (2 * rate) / 60
-            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-            print(f"{model:<12} {seconds:>8.2f} {rate:>14.0f} {full_scale:>19.0f} min {peak:>6.0f} MB")
+            rate = n_designs * len(BEAMS) / seconds
+            projected += PAPER_DESIGNS * len(BEAMS) / (CORES * rate)
+            yield row("study", model, seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, rate,
+                      "evaluations/s/core", f"{n_designs:,} designs x {len(BEAMS)} beams x {len(LEVELS)} levels, "
+                                            f"chunks of {chunk:,}, errors and Parquet included, CPU time")
+    yield row("study", "paper scale, projected", projected,
+              note=f"{PAPER_DESIGNS:.0e} designs x {len(BEAMS)} beams x {len(FRICTION_MODELS)} models at the "
+                   f"rates above on {CORES} cores, perfect scaling assumed (dask rows: the real scaling)")
+    yield MEASURED_FULL_SCALE
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=4000, help="designs per model")
+    parser.add_argument("--chunk", type=int, default=1000, help="designs per chunk")
+    arguments = parser.parse_args(argv)
+    show(rows(arguments.designs, arguments.chunk))
 
 
 if __name__ == "__main__":
