@@ -11,6 +11,10 @@ MODE_HZ ?= 80.5
 
 STUDY_DESIGNS ?= 100000
 STUDY_CHUNK ?= 500
+# The data defaults point into ../shared and a stage whose data is absent there is skipped with a message; a file or
+# folder named on the command line (or in the environment) must exist: make stops before running anything.
+$(foreach name,RINGDOWN ASB_DATA REFERENCE,$(if $(filter command line environment,$(origin $(name))),\
+  $(if $(wildcard $($(name))),,$(error $(name)=$($(name)): no such file or folder))))
 # dask.distributed scheduler address for the studies ("local": a LocalCluster here); empty: in this process.
 SCHEDULER ?=
 # Every stage logs its wall time and peak memory here; the report's provenance section reads it.
