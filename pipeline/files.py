@@ -17,9 +17,13 @@ import os
 import tempfile
 from pathlib import Path
 
+import numpy as np
+import scipy.io
+
 
 PARTIAL = ".partial-"  # prefix of the temporary files of atomic_path
 LOCK = ".lock"
+MAT_DESCRIPTION = b"MATLAB 5.0 MAT-file, written by surrogacy"  # the .mat header's text, fixed (write_mat)
 
 
 class FolderBusyError(ValueError):
@@ -66,6 +70,21 @@ def write_json(destination: Path, value) -> None:
     """Write ``value`` as indented JSON, atomically."""
     with atomic_path(destination) as temporary:
         temporary.write_text(json.dumps(value, indent=2, sort_keys=True) + "\n")
+
+
+def write_mat(path: Path, content: dict) -> None:
+    """Write ``content`` (name -> array) as a compressed MATLAB 5 file whose bytes depend on the content only.
+
+    ``scipy.io.savemat`` stamps the 128-byte file header with the time of writing ("Created on: ..."), so the
+    same inputs gave another .mat (and sidecar hash) on every run. Here the header is written first, with a fixed
+    description (116 bytes, space-padded), no subsystem offset, version 0x0100 and the byte-order mark in the
+    native order savemat writes the data in; savemat, handed the stream past its start, then adds only the
+    variables.
+    """
+    header = MAT_DESCRIPTION.ljust(116, b" ") + bytes(8) + np.array([0x0100, 0x4D49], dtype=np.uint16).tobytes()
+    with open(path, "wb") as stream:
+        stream.write(header)
+        scipy.io.savemat(stream, content, do_compression=True)
 
 
 def sweep_partial_files(folder: Path) -> list[Path]:

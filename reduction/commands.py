@@ -36,7 +36,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 from tqdm import tqdm
 
 from fem.bolts import Bolt
@@ -47,7 +46,7 @@ from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.parameters import BEAMS
 from pipeline.cache import is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, stage_folder, write_json
+from pipeline.files import atomic_path, stage_folder, write_json, write_mat
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
                             virtual_dof_labels)
@@ -162,7 +161,7 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
         temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
         with open(temporary["npz"], "wb") as stream:
             np.savez(stream, **arrays)
-        scipy.io.savemat(temporary["mat"], matlab_arrays(arrays), do_compression=True)
+        write_mat(temporary["mat"], matlab_arrays(arrays))
         if render:
             render_mode(beam_mesh, (arrays["vertex_recovery"] @ shapes[:, 0]).reshape(-1, 3), temporary["png"],
                         f"{name}: first flexible mode, joint stuck, {frequencies[0]:.1f} Hz (superelement)")
