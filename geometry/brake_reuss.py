@@ -28,8 +28,14 @@ _IDENTITY = [1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0]
 
 @contextmanager
 def gmsh_session():
-    """An initialised, quiet, single-threaded (hence deterministic) gmsh session, finalised on exit."""
-    gmsh.initialize(readConfigFiles=False)
+    """An initialised, quiet, single-threaded (hence deterministic) gmsh session, finalised on exit.
+
+    Initialised with ``interruptible=False``: by default gmsh's Python API resets SIGINT to the operating system's
+    default action and never restores it, so once a beam had been meshed, Ctrl-C killed the process outright
+    (no KeyboardInterrupt, no clean-up of temporary files, not exit 130). Python's handler is kept instead; a
+    Ctrl-C during a gmsh call takes effect when that call returns.
+    """
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)
