@@ -1,7 +1,7 @@
 """``make bench``: one table of every stage's benchmark, printed row by row and written to results/bench.
 
 Stages, in order: geometry (each beam meshed), fem (each beam's FE steps and CalculiX beside them; coarse meshes
-by default, ``--fem-meshes default`` for the default meshes, about 15 min more), reduction (each beam's
+by default, ``--fem-meshes default`` for the default meshes: the run then nears 30 min), reduction (each beam's
 superelement from build/fe), qsma and study (designs per second per core per friction model, the paper-scale
 study projected and the one measured earlier), dask (serial against LocalClusters of 1 and 2 workers), and
 last the wall time of the whole run. The table (``benchmarks.table``) is also written to
@@ -30,7 +30,7 @@ def _whole_run(start: float):
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fem-meshes", choices=("coarse", "default"), default="coarse",
-                        help="meshes of the FE benchmark (default: coarse, about 3 min; default: about 15 min)")
+                        help="meshes of the FE benchmark (coarse: about 3.5 min here; default: more than 17 min)")
     parser.add_argument("--out", type=Path, default=Path("results/bench"), help="folder of bench.md, bench.csv")
     arguments = parser.parse_args(argv)
     start = time.perf_counter()

@@ -17,7 +17,7 @@ from pipeline.files import atomic_path
 
 COLUMNS = ("stage", "case", "seconds", "peak_mib", "rate", "unit", "note")
 HEADINGS = ("stage", "case", "time (s)", "peak memory (MiB)", "rate", "note")
-WIDTHS = (9, 34, 8, 17, 24)  # every column but the note
+WIDTHS = (9, 34, 8, 17, 25)  # every column but the note
 
 
 def row(stage: str, case: str, seconds: float | None = None, peak_mib: float | None = None,
