@@ -47,13 +47,15 @@ FREQUENCY_FLOOR = 1e-4  # relative floor of the frequency uncertainty
 DAMPING_FLOOR = 2e-2  # relative floor of the damping uncertainty
 UNDEFINED_MISFIT = 1e8  # residual given to a point where the model is undefined (the optimiser moves away)
 
-# Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "linear".
+MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
+# Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "shift"
+# (-MAX_SHIFT, MAX_SHIFT).
 EFFECTS = {
     "microslip": (("chi", "chi", -0.5), ("beta", "log", 0.1)),
     "stiction": (("theta", "unit", 0.7),),
     "linear_damping": (("zeta_0", "log", None),),
     "amplitude_damping": (("air_damping", "log", 1e-4),),
-    "stiffness_change": (("frequency_shift", "linear", 0.0),),
+    "stiffness_change": (("frequency_shift", "shift", 0.0),),
     "cubic_stiffening": (("cubic", "log", 1e-4),),
 }
 BASE = (("kappa", "unit", 0.3), ("slip_force", "log", None))
@@ -110,11 +112,18 @@ def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nom
     frequency, damping = modal_joint_backbone(q, stuck_frequency, parameters["kappa"], parameters["slip_force"],
                                               parameters.get("chi"), parameters.get("beta", 0.0),
                                               parameters.get("theta", 1.0))
-    scaled = q / q[-1]
+    return outside_joint(frequency, damping + parameters.get("zeta_0", nominal_damping), q, parameters,
+                         stuck_frequency)
+
+
+def outside_joint(frequency, damping, amplitude, parameters: dict, linear_frequency_hz: float):
+    """The amplitude-dependent effects outside the joint on a backbone (frequency (n,) Hz, damping (n,) at the
+    amplitudes (n,)): cubic stiffening omega^2 + gamma omega_0^2 (q / q_max)^2 and damping c q / q_max (module
+    docstring); absent parameters leave the backbone as it is."""
+    scaled = np.asarray(amplitude, dtype=float) / amplitude[-1]
     if "cubic" in parameters:
-        frequency = np.sqrt(frequency ** 2 + parameters["cubic"] * stuck_frequency ** 2 * scaled ** 2)
-    damping = damping + parameters.get("zeta_0", nominal_damping) + parameters.get("air_damping", 0.0) * scaled
-    return frequency, damping
+        frequency = np.sqrt(frequency ** 2 + parameters["cubic"] * linear_frequency_hz ** 2 * scaled ** 2)
+    return frequency, damping + parameters.get("air_damping", 0.0) * scaled
 
 
 def _logit(p):
@@ -128,7 +137,7 @@ TRANSFORMS = {
     "log": (lambda v: np.exp(np.clip(v, -300.0, 300.0)), lambda p: np.log(np.clip(p, 1e-300, 1e300))),
     "unit": (lambda v: 1e-6 + (1 - 2e-6) * expit(v), lambda p: _logit((p - 1e-6) / (1 - 2e-6))),
     "chi": (lambda v: -0.005 - 0.99 * expit(v), lambda p: _logit((-p - 0.005) / 0.99)),
-    "linear": (float, float),
+    "shift": (lambda v: MAX_SHIFT * (2 * expit(v) - 1), lambda p: _logit((p / MAX_SHIFT + 1) / 2)),
 }
 
 
@@ -149,6 +158,7 @@ class Fit(NamedTuple):
     bic: float
     frequency_hz: np.ndarray
     damping: np.ndarray
+    n_parameters: int
 
 
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
@@ -177,7 +187,13 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
             best = (chi_squared, result.x)
     parameters = _to_parameters(best[1], specification)
     frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping)
-    return Fit(tuple(effects), parameters, best[0], best[0] + len(specification) * np.log(n), frequency, damping)
+    return Fit(tuple(effects), parameters, best[0], bic(best[0], len(specification), n), frequency, damping,
+               len(specification))
+
+
+def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:
+    """Bayesian information criterion of a weighted least-squares fit: chi^2 + k ln n."""
+    return chi_squared + n_parameters * np.log(n_residuals)
 
 
 def base_starts(measurement: Measurement, nominal_frequency_hz: float) -> list[dict]:
@@ -244,22 +260,31 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
     """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
     then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
     forward steps can take a look-alike first when two effects are in the data)."""
-    n = 2 * len(measurement.amplitude)
     starts = base_starts(measurement, nominal_frequency_hz)
 
     def fitted(effects, previous=None):
         return fit(measurement, tuple(effects), nominal_frequency_hz, nominal_damping,
                    ([dict(previous.parameters)] if previous is not None else []) + [dict(s) for s in starts])
 
+    return select_effects(measurement, fitted, library)
+
+
+def select_effects(measurement: Measurement, fitted, library) -> Verdict:
+    """The loop's decisions, for any model family: ``fitted(effects, previous)`` gives the best Fit of the
+    reference model with ``effects`` added (None where the family cannot hold that combination), starting from
+    ``previous``. Forward selection by BIC from the reference model, then ``stepwise_refinement``."""
+    n = 2 * len(measurement.amplitude)
+
     def step(effect, model, candidates):
-        dof = max(n - len(BASE) - sum(len(EFFECTS[e]) for e in model.effects), 1)
-        return Step(effect, model, errors(measurement, model), model.chi_squared / dof, candidates)
+        return Step(effect, model, errors(measurement, model), model.chi_squared / max(n - model.n_parameters, 1),
+                    candidates)
 
     current = fitted(())
     verdict = Verdict(steps=[step(None, current, {})])
     while verdict.steps[-1].reduced_chi_squared > AT_NOISE:
         trials = {effect: fitted((*current.effects, effect), current) for effect in library
                   if effect not in current.effects}
+        trials = {effect: trial for effect, trial in trials.items() if trial is not None}
         if not trials:
             break
         best = min(trials, key=lambda e: trials[e].bic)
@@ -287,11 +312,11 @@ def stepwise_refinement(current: Fit, library, fitted) -> Fit:
         for effect in current.effects:
             others = tuple(e for e in current.effects if e != effect)
             dropped = fitted(others, current)
-            if dropped.bic < current.bic + EVIDENCE:
+            if dropped is not None and dropped.bic < current.bic + EVIDENCE:
                 current, improved = dropped, True
                 break
             swaps = [fitted((*others, candidate), current) for candidate in library if candidate not in current.effects]
-            better = [trial for trial in swaps if trial.bic < current.bic - 1e-9]
+            better = [trial for trial in swaps if trial is not None and trial.bic < current.bic - 1e-9]
             if better:
                 current, improved = min(better, key=lambda trial: trial.bic), True
                 break

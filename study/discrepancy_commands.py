@@ -1,12 +1,22 @@
-"""``surrogacy discrepancy FILE``: what the model of a measured mode lacks (``study.discrepancy``), on a backbone
-CSV, an ASB measured backbone (.mat with Q, W, Z) or a ring-down (.csv, .mat, .uff with ``--mode-hz``).
+"""``surrogacy discrepancy``: what the model of a measured mode lacks, with the effects found, the evidence and the
+errors before and after.
 
-The reference model is the one-mode joint model with the nominal low-amplitude frequency and linear damping of
-the structure's model (``--nominal-frequency-hz``, ``--nominal-damping``; default: the measurement's own values at
-its lowest amplitude, so that only the amplitude dependence is questioned). Writes to ``--out``:
-``discrepancy.md`` (the effect found at each step, the evidence: chi^2 per degree of freedom, BIC of every
-candidate, L-infinity and RMS errors of frequency and damping before and after), ``discrepancy.png`` (measurement
-and the model before and after) and ``discrepancy.json`` (the same numbers and the fitted parameters).
+Two models (issue 15):
+
+``surrogacy discrepancy FILE``: a backbone CSV, an ASB measured backbone (.mat with Q, W, Z) or a ring-down (.csv,
+.mat, .uff with ``--mode-hz``), with the one-mode joint model (``study.discrepancy``) for measurements with no
+finite-element model behind them, at the nominal low-amplitude frequency and linear damping of the structure's
+model (``--nominal-frequency-hz``, ``--nominal-damping``; default: the measurement's own values at its lowest
+amplitude, so that only the amplitude dependence is questioned).
+
+``surrogacy discrepancy --study FOLDER --structure NAME``: a structure of a surrogacy study (``surrogacy study``
+output, analysed), with its superelement and the study's Pareto designs of each friction model as the reference
+(``study.discrepancy_study``): what the study's best fit misses, and which effect explains it.
+
+Writes to ``--out``: ``discrepancy.md`` (the effect found at each step, the evidence: chi^2 per degree of
+freedom, BIC of every candidate, L-infinity and RMS errors of frequency and damping before and after),
+``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same numbers and
+the fitted parameters).
 """
 
 from __future__ import annotations
@@ -19,6 +29,7 @@ from experiment.backbone_files import read_asb_backbone, read_backbone
 from experiment.ringdown_files import read_ringdown
 from pipeline.files import atomic_path, stage_folder, write_json
 from study.discrepancy import Verdict, discrepancy_loop, measurement_from_backbone, residual_features
+from study.discrepancy_study import from_study, structure_discrepancy_loop
 from study.figures import plt, save
 
 
@@ -45,7 +56,9 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:
              "|---|---|---|---|---|---|---|---|"]
     for number, step in enumerate(verdict.steps):
         e = step.errors
-        lines.append(f"| {number} | {step.effect or 'reference (Jenkins, nominal f_0 and zeta_0)'} | "
+        reference = (f"reference: the study's best {step.fit.parameters['design']}" if "design" in step.fit.parameters
+                     else "reference (Jenkins, nominal f_0 and zeta_0)")
+        lines.append(f"| {number} | {step.effect or reference} | "
                      f"{step.reduced_chi_squared:.3g} | {step.fit.bic:.4g} | {e['frequency_linf_hz']:.4g} | "
                      f"{e['frequency_rms_hz']:.4g} | {e['damping_linf']:.3g} | {e['damping_rms']:.3g} |")
     last = verdict.steps[-1]
@@ -76,26 +89,52 @@ def plot_verdict(verdict: Verdict, measurement, destination: Path) -> None:
 
 
 def run(arguments: argparse.Namespace) -> None:
-    """Run the loop on one measured backbone and write its report."""
-    measured = read_measured_backbone(arguments.file, arguments.mode_hz)
-    measurement = measurement_from_backbone(measured, arguments.levels, str(arguments.file))
-    frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
-    damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
+    """Run the loop on one measured backbone (FILE, one-mode model) or on a study's structure (its superelement
+    and the study's fits) and write its report."""
+    if (arguments.file is None) == (arguments.study is None):
+        raise ValueError("give either FILE (a measured backbone or ring-down) or --study FOLDER --structure NAME")
+    if arguments.study is not None:
+        if arguments.structure is None:
+            raise ValueError("--study needs --structure NAME (e.g. 'ASB C1' or 'LBRB')")
+        loaded = from_study(arguments.study, arguments.structure)
+        measurement, source = loaded.measurement, f"{arguments.structure} of {arguments.study} ({loaded.provenance})"
+        record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": loaded.provenance,
+                  "borrowed_damping": loaded.borrowed_damping,
+                  "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
+
+        def loop():
+            return structure_discrepancy_loop(measurement, loaded.candidates, loaded.borrowed_damping)
+    else:
+        measured = read_measured_backbone(arguments.file, arguments.mode_hz)
+        measurement = measurement_from_backbone(measured, arguments.levels, str(arguments.file))
+        frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
+        damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
+        source = f"{arguments.file} ({measured.provenance})"
+        record = {"source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
+                  "nominal_damping": damping}
+
+        def loop():
+            return discrepancy_loop(measurement, frequency, damping)
     with stage_folder(arguments.out) as out:
-        verdict = discrepancy_loop(measurement, frequency, damping)
-        features = residual_features(measurement, verdict.steps[0].fit)
-        with atomic_path(out / "discrepancy.md") as temporary:
-            temporary.write_text(verdict_markdown(verdict, f"{arguments.file} ({measured.provenance})", features))
-        plot_verdict(verdict, measurement, out / "discrepancy.png")
-        write_json(out / "discrepancy.json", {
-            "source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
-            "nominal_damping": damping, "effects": verdict.effects, "unexplained": verdict.unexplained,
-            "reference_residual_features": features,
-            "steps": [{"effect": step.effect, "parameters": {k: float(v) for k, v in step.fit.parameters.items()},
-                       "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
-                       "candidates": step.candidates} for step in verdict.steps]})
-    print(f"{arguments.file}: effects {verdict.effects or 'none'}"
+        verdict = loop()
+        write_verdict(out, verdict, measurement, source, record)
+    print(f"{source}: effects {verdict.effects or 'none'}"
           f"{' (residual unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
+
+
+def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record: dict) -> None:
+    """discrepancy.md, .png and .json (``record`` and the steps with their evidence) into ``out``."""
+    features = residual_features(measurement, verdict.steps[0].fit)
+    with atomic_path(out / "discrepancy.md") as temporary:
+        temporary.write_text(verdict_markdown(verdict, source, features))
+    plot_verdict(verdict, measurement, out / "discrepancy.png")
+    write_json(out / "discrepancy.json", {
+        **record, "effects": verdict.effects, "unexplained": verdict.unexplained,
+        "reference_residual_features": features,
+        "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
+                                                         for k, v in step.fit.parameters.items()},
+                   "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
+                   "candidates": step.candidates} for step in verdict.steps]})
 
 
 def register(subparsers) -> None:
@@ -103,7 +142,11 @@ def register(subparsers) -> None:
     command = subparsers.add_parser(
         "discrepancy", help="what the model of a measured mode lacks: effects found, errors before and after",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    command.add_argument("file", type=Path, help="backbone CSV, ASB backbone .mat, or ring-down (with --mode-hz)")
+    command.add_argument("file", type=Path, nargs="?",
+                         help="backbone CSV, ASB backbone .mat, or ring-down (with --mode-hz)")
+    command.add_argument("--study", type=Path, help="a surrogacy study's folder: the loop on a structure's "
+                                                    "superelement from the study's Pareto designs (with --structure)")
+    command.add_argument("--structure", help="the study's structure, e.g. 'ASB C1' or 'LBRB'")
     command.add_argument("--mode-hz", type=float, help="the mode's frequency guess: FILE is a ring-down")
     command.add_argument("--nominal-frequency-hz", type=float, help="the model's low-amplitude frequency, Hz")
     command.add_argument("--nominal-damping", type=float, help="the model's linear damping ratio")

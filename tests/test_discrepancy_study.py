@@ -1,0 +1,181 @@
+"""The discrepancy loop on a structure's own superelement and friction models (``study.discrepancy_study``), on
+the BRB with data of known content: the QSMA backbone of a true design with undeclared effects and noise at the
+measurement's uncertainty. The candidates are the truth's design (in the friction model that holds it) among
+random Table 3 designs, as a study's Pareto set would hold it.
+
+- no effect beyond the Jenkins reference: nothing added;
+- each effect (a structure-specific linear damping put in through QSMA's own linear damping; microslip and
+  stiction as the true Iwan element; a stiffness change, damping growing with amplitude, cubic stiffening put
+  on the backbone): the loop names it and the error of what it acts on falls to at most half;
+- a ripple outside the library: "unexplained".
+"""
+
+import numpy as np
+import pytest
+
+from nonlinear.condensation import joint_space
+from nonlinear.joint import from_unit, parameter_limits
+from study.discrepancy import measurement_from_backbone
+from study.discrepancy_study import evaluate_candidates, structure_discrepancy_loop
+from study.structures import beam_superelement, qsma_measurement
+
+LEVELS = np.geomspace(1e-7, 3e-5, 16)
+ZETA0 = 1.6659e-3  # the borrowed (BRB Table 1) linear damping
+# Per group (BRB layout: 3 groups) F_S (N), K_T (N/m), [chi, beta, [theta]], K_z (N/m), inside Table 3. The
+# Jenkins joint sticks below q = 2e-6 m kg^0.5 and is deep in macroslip at the top level (-13 % in frequency).
+JENKINS = np.array([12.0, 2e8, 5e9, 18.0, 3e8, 5e9, 24.0, 4e8, 5e9])
+IWAN4 = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
+IWAN5 = np.array([4e3, 2e8, -0.4, 0.5, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 0.5, 5e9, 8e3, 4e8, -0.5, 0.3, 0.5, 5e9])
+TRUTH = {"jenkins": JENKINS, "iwan4": IWAN4, "iwan5": IWAN5}
+
+
+@pytest.fixture(scope="module")
+def brb(beam_roms):
+    return joint_space(beam_superelement(beam_roms / "BRB.npz"))
+
+
+def candidates_with(space, true_model: str, models):
+    """Each model's candidates: 12 random Table 3 designs (seeded), with the truth among the true model's; the
+    Jenkins counterpart of an Iwan truth (same F_S, K_T, K_z) among the Jenkins designs, a near miss."""
+    rng = np.random.default_rng(11)
+    found = {}
+    for model in models:
+        limits = parameter_limits(model, 3)
+        designs = from_unit(rng.random((12, len(limits[0]))), *limits)
+        if model == true_model:
+            designs = np.vstack([TRUTH[model], designs])
+        elif model == "jenkins":
+            counterpart = TRUTH[true_model].reshape(3, -1)[:, [0, 1, -1]].ravel()
+            designs = np.vstack([counterpart, designs])
+        labels = [f"design {i}" for i in range(len(designs))]
+        found[model] = evaluate_candidates(space, model, designs, labels, LEVELS, ZETA0)
+    return found
+
+
+def measured(space, true_model: str, linear_damping=ZETA0, on_backbone=None, seed=0):
+    """The true design's backbone, an effect put on it, and noise at the measurement's uncertainty floors."""
+    backbone = qsma_measurement(space, "BRB", true_model, TRUTH[true_model], LEVELS, linear_damping)
+    measurement = measurement_from_backbone(backbone, len(LEVELS), source="virtual BRB, undeclared effects")
+    frequency, damping = measurement.frequency_hz, measurement.damping
+    if on_backbone is not None:
+        frequency, damping = on_backbone(measurement.amplitude / measurement.amplitude[-1], frequency, damping)
+    rng = np.random.default_rng(seed)
+    return measurement.__class__(measurement.amplitude,
+                                 frequency + rng.normal(0, 1, frequency.size) * measurement.sigma_frequency,
+                                 damping + rng.normal(0, 1, damping.size) * measurement.sigma_damping,
+                                 measurement.frequency_uncertainty_hz, measurement.damping_uncertainty,
+                                 measurement.source)
+
+
+CASES = {
+    "linear_damping": ("jenkins", {"linear_damping": 2.5 * ZETA0}, ["damping_linf"]),
+    "microslip": ("iwan4", {}, ["frequency_linf_hz", "damping_linf"]),
+    "stiffness_change": ("jenkins", {"on_backbone": lambda s, f, z: (f * 1.004, z)}, ["frequency_linf_hz"]),
+    "amplitude_damping": ("jenkins", {"on_backbone": lambda s, f, z: (f, z + 3e-3 * s)}, ["damping_linf"]),
+    "cubic_stiffening": ("jenkins", {"on_backbone": lambda s, f, z: (np.sqrt(f ** 2 + 0.01 * f[0] ** 2 * s ** 2), z)},
+                         ["frequency_linf_hz"]),
+}
+
+
+def test_reference_design_alone_adds_nothing(brb):
+    verdict = structure_discrepancy_loop(measured(brb, "jenkins", seed=5), candidates_with(brb, "jenkins",
+                                                                                          ("jenkins", "iwan4")), ZETA0)
+    assert verdict.effects == [] and not verdict.unexplained
+    assert verdict.steps[0].fit.parameters["design"] == "jenkins design 0"  # the truth, found among the candidates
+
+
+@pytest.mark.parametrize("effect", sorted(CASES))
+def test_each_effect_is_named_and_halves_the_error(brb, effect):
+    true_model, options, quantities = CASES[effect]
+    candidates = candidates_with(brb, true_model, ("jenkins", "iwan4"))
+    verdict = structure_discrepancy_loop(measured(brb, true_model, **options), candidates, ZETA0)
+    assert verdict.effects == [effect] and not verdict.unexplained
+    before, after = verdict.steps[0].errors, verdict.steps[-1].errors
+    assert all(after[name] <= 0.5 * before[name] for name in quantities)
+
+
+def test_stiction_is_named_with_the_microslip_it_comes_with(brb):
+    candidates = candidates_with(brb, "iwan5", ("jenkins", "iwan4", "iwan5"))
+    verdict = structure_discrepancy_loop(measured(brb, "iwan5"), candidates, ZETA0)
+    assert sorted(verdict.effects) == ["microslip", "stiction"] and not verdict.unexplained
+    assert verdict.steps[-1].fit.parameters["design"] == "iwan5 design 0"
+
+
+def test_two_effects_are_both_named(brb):
+    candidates = candidates_with(brb, "iwan4", ("jenkins", "iwan4"))
+    verdict = structure_discrepancy_loop(measured(brb, "iwan4", linear_damping=2.5 * ZETA0, seed=3), candidates,
+                                         ZETA0)
+    assert sorted(verdict.effects) == ["linear_damping", "microslip"] and not verdict.unexplained
+
+
+def test_ripple_outside_the_library_is_unexplained(brb):
+    ripple = lambda s, f, z: (f * (1 + 1e-3 * np.sin(3 * np.log(s / s[0]))), z)  # noqa: E731
+    verdict = structure_discrepancy_loop(measured(brb, "jenkins", on_backbone=ripple),
+                                         candidates_with(brb, "jenkins", ("jenkins", "iwan4")), ZETA0)
+    assert verdict.unexplained
+
+
+def test_reference_model_is_required(brb):
+    candidates = candidates_with(brb, "iwan4", ("iwan4",))
+    with pytest.raises(ValueError, match="reference friction model 'jenkins'"):
+        structure_discrepancy_loop(measured(brb, "iwan4"), candidates, ZETA0)
+
+
+@pytest.fixture(scope="module")
+def small_asb_study(tmp_path_factory):
+    """A small study of the ASB on its measured backbones (Jenkins and Iwan), through the study's command."""
+    from pipeline.cli import main as surrogacy
+    from tests.conftest import asb_data_folder
+
+    data = asb_data_folder().parent
+    if not (data / "asb-backbones").is_dir():
+        pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
+    out = tmp_path_factory.mktemp("study") / "study-asb"
+    assert surrogacy(["study", "--out", str(out), "--data", str(data), "--set", "study.dataset=asb",
+                      "--set", "sample.n_designs=2000", "--set", "sample.chunk_size=1000",
+                      "--set", 'study.models=["jenkins", "iwan4"]', "--set", "pareto.generations=3",
+                      "--set", "pareto.population=16", "--steps", "measurements", "explore", "analyse"]) == 0
+    return out
+
+
+def test_command_on_a_study_structure(small_asb_study, tmp_path, capsys):
+    """``surrogacy discrepancy --study --structure``: the reference is the study's best Jenkins design on the
+    structure's superelement, evaluated again here (its chi^2 equals the one recomputed from the report's curves),
+    and every step's errors are in the report."""
+    import json
+
+    from pipeline.cli import main as surrogacy
+    from study.discrepancy_study import from_study
+
+    out = tmp_path / "C1"
+    assert surrogacy(["discrepancy", "--study", str(small_asb_study), "--structure", "ASB C1", "--out", str(out)]) == 0
+    record = json.loads((out / "discrepancy.json").read_text())
+    assert record["structure"] == "ASB C1" and record["provenance"] == "measured"
+    assert record["candidates"]["jenkins"] > 0 and record["candidates"]["iwan4"] > 0
+    reference = record["steps"][0]
+    assert reference["effect"] is None and reference["parameters"]["design"].startswith("jenkins ")
+    loaded = from_study(small_asb_study, "ASB C1")
+    jenkins = loaded.candidates["jenkins"]
+    chi = [np.sum(((jenkins.frequency_hz[i] - loaded.measurement.frequency_hz) / loaded.measurement.sigma_frequency) ** 2
+                  + ((jenkins.damping[i] - loaded.measurement.damping) / loaded.measurement.sigma_damping) ** 2)
+           for i in range(len(jenkins.labels))]
+    assert reference["parameters"]["design"] == f"jenkins {jenkins.labels[int(np.argmin(chi))]}"
+    text = (out / "discrepancy.md").read_text()
+    assert "reference: the study's best jenkins" in text
+    assert len([line for line in text.splitlines() if line.startswith("| ") and line[2].isdigit()]) == \
+        len(record["steps"])
+    assert "effects" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--structure", "ASB C9"], "structure 'ASB C9' not in the study"),
+    ([], "--study needs --structure"),
+    (["--structure", "ASB C1", "extra.csv"], "give either FILE"),
+])
+def test_command_refuses_bad_study_requests(small_asb_study, tmp_path, capsys, arguments, message):
+    from pipeline.cli import main as surrogacy
+
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", "--study", str(small_asb_study), *arguments, "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists() or not any(path.name != ".lock" for path in out.iterdir())
