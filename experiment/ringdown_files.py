@@ -33,7 +33,7 @@ import numpy as np
 import scipy.io
 
 from experiment.ringdown import RingDown, RingDownError
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, write_mat
 
 STANDARD_GRAVITY = 9.80665
 """m/s^2, for accelerations recorded in g."""
@@ -288,11 +288,14 @@ def common_layout(ring_downs: list[RingDown]) -> RingDown:
     return first
 
 
-def write_ringdown_csv(ring_downs: list[RingDown], destination: Path) -> None:
+def write_ringdown_csv(ring_downs: list[RingDown], destination: Path, comment: str | None = None) -> None:
     """Write hits as one CSV (layout in the module docstring): a ``hit`` column numbering them from 1, time in s,
-    signals in SI units, every number in Python's shortest round-tripping form."""
+    signals in SI units, every number in Python's shortest round-tripping form; ``comment`` as a ``#`` line
+    before the header (e.g. that the data are virtual)."""
     first = common_layout(ring_downs)
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
+        if comment is not None:
+            stream.write(f"# {comment}\n")
         writer = csv.writer(stream)
         writer.writerow(["hit", "time [s]", *(f"{name} [{SI_UNITS[first.quantity]}]" for name in first.channels)])
         for number, hit in enumerate(ring_downs, start=1):
@@ -308,7 +311,7 @@ def write_ringdown_mat(ring_downs: list[RingDown], destination: Path, struct: st
     for row, name in enumerate(first.channels):
         fields[re.sub(r"\W", "_", name)] = np.column_stack([hit.signals[row] for hit in ring_downs])
     with atomic_path(destination) as temporary:
-        scipy.io.savemat(temporary, {struct: fields})
+        write_mat(temporary, {struct: fields})  # no time stamp: the same hits give the same bytes
 
 
 def write_ringdown_uff58(ring_downs: list[RingDown], destination: Path) -> None:

@@ -72,7 +72,11 @@ def main(argv: list[str] | None = None) -> int:
     """Parse the command line, run the stage, and log the run where ``--run-log`` asks."""
     start = time.perf_counter()  # the stages' imports count
     argv = sys.argv[1:] if argv is None else list(argv)
-    arguments = parser().parse_args(argv)
+    try:
+        arguments = parser().parse_args(argv)  # imports every stage: seconds, in which Ctrl-C may come
+    except KeyboardInterrupt:
+        print("surrogacy: interrupted; finished results are kept, rerun to go on", file=sys.stderr)
+        return 130
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, terminate)
     status = 1  # an exception that escapes run() is a bug: traceback and exit 1

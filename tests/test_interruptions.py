@@ -140,8 +140,6 @@ def test_ctrl_c_after_gmsh_started_is_a_clean_exit(tmp_path, point):
     assert {path.name for path in out.iterdir()} == finished
 
 
-@pytest.mark.xfail(strict=True, reason="pipeline/cli.main builds its parser, which imports every stage (seconds), "
-                                       "before its try/except KeyboardInterrupt: Ctrl-C then prints a traceback")
 def test_ctrl_c_while_the_stages_load_is_a_clean_exit(tmp_path):
     """Ctrl-C half a second after ``surrogacy`` starts, while it imports the stages: exit 130 and no traceback."""
     process = start(["beams", "--beam", "BRB", "--no-render", "--out", str(tmp_path / "beams"), *COARSE],
