@@ -48,7 +48,7 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     stem = f"{source.stem}_mode_{arguments.mode_hz:g}Hz"
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
-    settings = {key: value for key, value in vars(arguments).items() if key != "run"}
+    settings = {key: value for key, value in vars(arguments).items() if key not in ("run", "run_log")}
     write_json(out / f"{stem}.json", {
         "source": str(source), "source_sha256": sha256_file(source), "settings": settings,
         "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],

@@ -11,18 +11,25 @@ from pathlib import Path
 import pytest
 
 from pipeline.cli import main as surrogacy
+from study.discrepancy_data import write_undeclared_ringdown
 from tests.conftest import asb_data_folder
 
 ASB_C1 = asb_data_folder().parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
 
 
 def test_run_log_records_each_run_with_its_status(tmp_path):
-    log = tmp_path / "runs.jsonl"
+    """Every stage runs with the log option (freevib once wrote all its options, the log's path among them, into
+    its JSON and failed on it)."""
+    log, ring_down = tmp_path / "runs.jsonl", tmp_path / "ring.csv"
+    write_undeclared_ringdown(ring_down)
     assert surrogacy(["--run-log", str(log), "freevib", str(tmp_path / "missing.mat"), "--mode-hz", "80"]) == 2
+    assert surrogacy(["--run-log", str(log), "freevib", str(ring_down), "--mode-hz", "169", "--out",
+                      str(tmp_path / "freevib")]) == 0
+    assert '"run_log"' not in (tmp_path / "freevib" / "ring_mode_169Hz.json").read_text()
     assert surrogacy(["--run-log", str(log), "report", "--build", str(tmp_path), "--results", str(tmp_path),
                       "--out", str(tmp_path / "report.md")]) == 0
     records = [json.loads(line) for line in log.read_text().splitlines()]
-    assert [record["status"] for record in records] == [2, 0]
+    assert [record["status"] for record in records] == [2, 0, 0]
     assert records[0]["command"][:2] == ["surrogacy", "freevib"]  # the stage's command line, not the log option
     assert all(record["wall_s"] >= 0 and record["peak_memory_mb"] > 10 for record in records)
 
