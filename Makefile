@@ -30,8 +30,9 @@ demo: beams fe rom freevib study discrepancy report
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+# The long checks, one test file per core (pytest-xdist): a file's fixtures are built once, by its worker.
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m slow -n 2 --dist loadfile
 
 beams: $(STAMP)
 	$(SURROGACY) beams --out build/beams
