@@ -2,8 +2,9 @@
 were checked, so that a change that moves them fails loudly. Each tolerance says why it is what it is.
 
 Stored on 2026-11-23 from the default meshes (build/, made by the pipeline's own stages): the superelements'
-tied first bending, the reference joint tuned on the BRB and its QSMA backbone, and a discrepancy verdict (the
-surrogacy of a known case is asserted exactly in tests/test_study.py). These numbers were themselves checked elsewhere: the tied
+tied first bending, the BRB's contact under the preload, the reference joint tuned on the BRB and its QSMA
+backbone, the surrogacy counts of a small ASB study and a discrepancy verdict (the surrogacy of a known case is
+asserted exactly in tests/test_study.py). These numbers were themselves checked elsewhere: the tied
 frequencies against the full FE model (test_superelement, < 0.5 %), QSMA against the oracle and 40-digit
 references (test_qsma_deep_macroslip), the virtual experiments against QSMA (test_virtual_experiment).
 """
@@ -51,3 +52,52 @@ def test_discrepancy_verdict_on_a_fixed_seed():
     measurement = measurement_from_backbone(undeclared_backbone(("microslip", "linear_damping"), seed=3))
     verdict = discrepancy_loop(measurement, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
     assert sorted(verdict.effects) == ["linear_damping", "microslip"]
+
+
+# BRB preload on the default mesh: interface nodes in contact out of 1843, and the peak contact pressure (Pa).
+# Tolerances: the count exactly (the active set of a deterministic solve); the pressure 1e-6 (as the frequencies).
+CONTACT_NODES = 1203
+PEAK_PRESSURE_PA = 3.849967534e7
+
+
+def test_contact_of_the_default_brb(beam_roms):
+    """The interface carries the three bolts' preload (equilibrium, to round-off of the sum), on the stored set
+    of nodes with the stored peak pressure."""
+    import json
+
+    from fem.bolts import Bolt
+
+    fe = beam_roms.parent / "fe"
+    model = np.load(fe / "BRB.npz")
+    assert model["contact_force"].sum() == pytest.approx(3 * Bolt().preload, rel=1e-12)
+    assert int(model["contact_active"].sum()) == CONTACT_NODES
+    peak = json.loads((fe / "BRB.json").read_text())["contact_pressure_range_pa"][1]
+    assert peak == pytest.approx(PEAK_PRESSURE_PA, rel=1e-6)
+
+
+# Joint counts n_IJ of the ASB's six configurations (C1, C2, C3, C4, C4a, CD1) for 4,000 iwan4 designs, seed 2024,
+# the study's default bounds and damping. Exactly: a count moves only when a design's error crosses a bound, which
+# round-off (1e-9 relative) does with a probability of about 1e-5 over these 24,000 errors; a change of the
+# sample, the QSMA, the levels or the errors moves many.
+ASB_JOINT_COUNTS = [[91, 70, 86, 11, 47, 0], [70, 203, 74, 81, 72, 1], [86, 74, 98, 8, 55, 0],
+                    [11, 81, 8, 101, 16, 1], [47, 72, 55, 16, 1037, 21], [0, 1, 0, 1, 21, 28]]
+
+
+def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
+    from pipeline.cli import main as surrogacy
+    from study.analysis import model_errors
+    from study.datasets import structure_names
+    from study.errors import accepted
+    from study.surrogacy import surrogacy_matrix
+    from tests.conftest import asb_data_folder
+
+    data = asb_data_folder().parent
+    if not (data / "asb-backbones").is_dir():
+        pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
+    out = tmp_path / "study"
+    assert surrogacy(["study", "--out", str(out), "--data", str(data), "--set", "study.dataset=asb",
+                      "--set", "sample.n_designs=4000", "--set", "sample.chunk_size=1000",
+                      "--set", 'study.models=["iwan4"]', "--steps", "measurements", "explore"]) == 0
+    errors = model_errors(out / "designs", "iwan4", structure_names("asb"), "measured")
+    matrix = surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, 2.0, 0.005))
+    np.testing.assert_array_equal(matrix.joint_counts, ASB_JOINT_COUNTS)
