@@ -54,36 +54,41 @@ def _image(target: Path, caption: str, report_folder: Path) -> str:
     return f"![{caption}]({_relative(target, report_folder)})"
 
 
-def geometry_section(build: Path, out: Path) -> list[str]:
-    """Table of the meshes (nodes, masses measured on the mesh and from the drawing) and their renders."""
-    lines = ["## 1. Geometry: the three Brake-Reuss beams", "", "| beam | nodes | mass on the mesh (kg) | "
-             "mass from the drawing (kg) | interface area, mesh / drawing (mm^2) |", "|---|---|---|---|---|"]
+def stage_table(folder: Path, columns: list[str], cells) -> list[str]:
+    """A Markdown table with a row per beam from its sidecar ``<folder>/<beam>.json``: ``cells(sidecar)`` gives the
+    row's cells after the beam's name; a beam without a sidecar is said not run."""
+    lines = ["| beam | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for beam in BEAMS:
-        sidecar = _read_json(build / "beams" / f"{beam}.json")
-        if sidecar is None:
-            lines.append(f"| {beam} | not built | | | |")
-            continue
-        measured, analytic = sidecar["measured"], sidecar["analytic"]
-        area = sum(value for name, value in measured["patch_area_m2"].items() if name.startswith("lower_"))
-        lines.append(f"| {beam} | {sidecar['nodes']} | {measured['mass_kg']:.4f} | {analytic['mass_kg']:.4f} | "
-                     f"{1e6 * area:.1f} / {1e6 * sum(analytic['patch_area_m2']):.1f} |")
-    lines += [""] + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAMS]
+        sidecar = _read_json(folder / f"{beam}.json")
+        row = cells(sidecar) if sidecar is not None else ["not run"] + [""] * (len(columns) - 1)
+        lines.append(f"| {beam} | " + " | ".join(row) + " |")
     return lines
 
 
+def mesh_cells(sidecar: dict) -> list[str]:
+    """Nodes, masses on the mesh and from the drawing (kg), interface area on the mesh and from the drawing
+    (mm^2, the lower half's patches)."""
+    measured, analytic = sidecar["measured"], sidecar["analytic"]
+    area = sum(value for name, value in measured["patch_area_m2"].items() if name.startswith("lower_"))
+    return [str(sidecar["nodes"]), f"{measured['mass_kg']:.4f}", f"{analytic['mass_kg']:.4f}",
+            f"{1e6 * area:.1f} / {1e6 * sum(analytic['patch_area_m2']):.1f}"]
+
+
+def geometry_section(build: Path, out: Path) -> list[str]:
+    """Table of the meshes and their renders."""
+    table = stage_table(build / "beams", ["nodes", "mass on the mesh (kg)", "mass from the drawing (kg)",
+                                          "interface area, mesh / drawing (mm^2)"], mesh_cells)
+    return (["## 1. Geometry: the three Brake-Reuss beams", "", *table, ""]
+            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAMS])
+
+
 def fe_section(build: Path, out: Path) -> list[str]:
-    """Tied first bending (unstressed and prestressed), contact pressure range, and the renders."""
-    lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "",
-             "| beam | tied first bending (Hz) | prestressed (Hz) | peak contact pressure (MPa) |", "|---|---|---|---|"]
-    for beam in BEAMS:
-        sidecar = _read_json(build / "fe" / f"{beam}.json")
-        if sidecar is None:
-            lines.append(f"| {beam} | not run | | |")
-            continue
-        bending = sidecar["first_bending_hz"]
-        lines.append(f"| {beam} | {bending['tied']:.2f} | {bending['tied_prestressed']:.2f} | "
-                     f"{1e-6 * sidecar['contact_pressure_range_pa'][1]:.1f} |")
-    lines.append("")
+    """Tied first bending (unstressed and prestressed), peak contact pressure, and the renders."""
+    table = stage_table(build / "fe", ["tied first bending (Hz)", "prestressed (Hz)", "peak contact pressure (MPa)"],
+                        lambda sidecar: [f"{sidecar['first_bending_hz']['tied']:.2f}",
+                                         f"{sidecar['first_bending_hz']['tied_prestressed']:.2f}",
+                                         f"{1e-6 * sidecar['contact_pressure_range_pa'][1]:.1f}"])
+    lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "", *table, ""]
     for beam in BEAMS:
         lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out),
                   _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out)]
@@ -92,18 +97,12 @@ def fe_section(build: Path, out: Path) -> list[str]:
 
 def reduction_section(build: Path, out: Path) -> list[str]:
     """Superelements: mass and the stuck-joint frequencies (the joint's stiffest state)."""
-    lines = ["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "",
-             "| beam | mass (kg) | stuck-joint frequencies (Hz) |", "|---|---|---|"]
-    for beam in BEAMS:
-        sidecar = _read_json(build / "rom" / f"{beam}.json")
-        if sidecar is None:
-            lines.append(f"| {beam} | not run | |")
-            continue
-        stuck = ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])
-        lines.append(f"| {beam} | {sidecar['mass_kg']:.4f} | {stuck} |")
-    lines += [""] + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out)
-                     for beam in BEAMS]
-    return lines
+    table = stage_table(build / "rom", ["mass (kg)", "stuck-joint frequencies (Hz)"],
+                        lambda sidecar: [f"{sidecar['mass_kg']:.4f}",
+                                         ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])])
+    return (["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "", *table, ""]
+            + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out)
+               for beam in BEAMS])
 
 
 def plot_backbones(destination: Path, groups: dict) -> None:
