@@ -19,9 +19,12 @@ before: there a missing or malformed sidecar, or a file whose hash differs, is a
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
+
+from tqdm import tqdm
 
 from .files import sha256_file, sha256_json
 
@@ -64,9 +67,13 @@ def is_current(sidecar: Path, inputs: dict, versions: dict, kinds: Iterable[str]
 
     Current: the sidecar is a JSON object with ``input_hash == sha256_json(inputs)``, ``versions`` equal to
     ``versions``, and ``files`` listing every kind in ``kinds`` (others may be listed too), each file present with
-    its recorded SHA-256. Anything else, a corrupt or truncated sidecar included, is stale.
+    its recorded SHA-256. Anything else, a corrupt or truncated sidecar included, is stale; a sidecar that exists
+    but cannot be read is said so on one line of stderr (the rerun recomputes instead of failing on it).
     """
     record = read_sidecar(sidecar)
+    if record is None and Path(sidecar).exists():
+        tqdm.write(f"{sidecar}: unreadable sidecar (truncated or not a JSON object): stale, recomputing",
+                   file=sys.stderr)
     if record is None or record.get("input_hash") != sha256_json(inputs) or record.get("versions") != versions:
         return False
     files = record.get("files")
