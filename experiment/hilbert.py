@@ -34,6 +34,10 @@ class RingDownSignalError(ValueError):
     """A signal from which no backbone can be extracted (too short, under-sampled, no decay)."""
 
 
+OPTION_MINIMA = {"smoothing_periods": 0.5, "trim_periods": 0.0, "block_periods": 1.0, "noise_floor_factor": 1.0}
+"""Smallest value of each time-scale option of :func:`freevib` (a derivative window of half a period at least)."""
+
+
 @dataclass(frozen=True)
 class InstantaneousBackbone:
     """Instantaneous modal properties along one decay.
@@ -157,8 +161,10 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
         raise RingDownSignalError(f"time {time.shape} and signal {signal.shape} must be vectors of one length")
     if quantity not in DISPLACEMENT_ORDER:
         raise RingDownSignalError(f"quantity '{quantity}' is not one of {sorted(DISPLACEMENT_ORDER)}")
-    for option, value, minimum in (("smoothing_periods", smoothing_periods, 0.5), ("trim_periods", trim_periods, 0.0),
-                                   ("block_periods", block_periods, 1.0), ("noise_floor_factor", noise_floor_factor, 1.0)):
+    values = {"smoothing_periods": smoothing_periods, "trim_periods": trim_periods, "block_periods": block_periods,
+              "noise_floor_factor": noise_floor_factor}
+    for option, value in values.items():
+        minimum = OPTION_MINIMA[option]
         if not np.isfinite(value) or value < minimum:
             raise RingDownSignalError(f"option {option} = {value!r}: expected a finite number >= {minimum:g}")
     step = (time[-1] - time[0]) / (time.size - 1)
