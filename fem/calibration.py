@@ -35,8 +35,8 @@ from tqdm import tqdm
 
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
-from geometry.parameters import BEAMS, BeamParameters, MeshParameters
-from pipeline.files import write_json
+from geometry.parameters import BEAMS, BeamParameters, GeometryError, MeshParameters, check_mesh_size
+from pipeline.files import check_output_folder, write_json
 
 from .bolts import Bolt
 from .convergence import N_MODES, dynamic_matrices, first_bending, scaled_sizes
@@ -74,7 +74,7 @@ class SpringBeam:
 def spring_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, material: Material = Material(),
                 bolt: Bolt = Bolt()) -> SpringBeam:
     """Mesh ``beam`` into ``folder`` (geometry stage, no render) and assemble its ``SpringBeam``."""
-    beam_mesh = read_beam_mesh(make_beam(beam, sizes, folder, render=False).with_suffix(".msh"))
+    beam_mesh = read_beam_mesh(make_beam(beam, sizes, folder, render=False).with_suffix(".msh"), beam)
     mesh, stiffness, mass = dynamic_matrices(beam_mesh, beam, material, bolt)
     _, lower, upper = patch_couplings(mesh, beam_mesh)
     return SpringBeam(stiffness, mass, lower, upper)
@@ -170,8 +170,32 @@ def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt
     return record
 
 
+def check_options(arguments: argparse.Namespace) -> MeshParameters:
+    """The calibration meshes' sizes, after refusing, before any mesh is made, options that cannot give a
+    calibration: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
+    memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
+    step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
+    of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
+    factor = arguments.mesh_factor
+    if not (np.isfinite(factor) and factor > 0):
+        raise ValueError(f"option --mesh-factor = {factor!r}: expected a positive scale factor on the default "
+                         "element sizes")
+    try:
+        sizes = scaled_sizes(MeshParameters(), factor)
+        for beam in BEAMS.values():
+            check_mesh_size(beam, sizes)
+    except GeometryError as error:
+        raise ValueError(f"option --mesh-factor = {factor!r}: {error}") from None
+    low, high = (10 ** bound for bound in LOG_STIFFNESS_BRACKET)
+    if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
+        raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "
+                         f"to {high:g} N/m")
+    check_output_folder(arguments.out)
+    return sizes
+
+
 def run(arguments: argparse.Namespace) -> None:
-    sizes = scaled_sizes(MeshParameters(), arguments.mesh_factor)
+    sizes = check_options(arguments)
     record = calibrate(sizes, stiffness=arguments.stiffness, progress=True)
     path = Path(arguments.out) / "calibration.json"
     write_json(path, record)

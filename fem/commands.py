@@ -36,7 +36,7 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BEAMS, BeamParameters
 from pipeline.cache import StageInputError, is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, sha256_json, stage_folder, write_json
+from pipeline.files import atomic_path, check_output_folder, sha256_json, stage_folder, write_json
 
 from . import calibration, convergence
 from .bolts import Bolt
@@ -122,7 +122,7 @@ def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Ma
     files = {"npz": folder / f"{name}.npz", **{kind: folder / f"{name}_{kind}.png" for kind in RENDERS}}
     if is_current(sidecar, inputs, versions(), files):
         return sidecar
-    beam_mesh = read_beam_mesh(mesh_path)
+    beam_mesh = read_beam_mesh(mesh_path, beam)
     model = prestressed_beam(beam_mesh, beam, material, bolt, n_modes)
     with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
         temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
@@ -140,6 +140,12 @@ def run(arguments: argparse.Namespace) -> None:
     options = [("material", field, getattr(arguments, field)) for field in MATERIAL_OPTIONS
                if getattr(arguments, field) is not None]
     resolved = configuration(arguments, {"material": Material(), "bolt": Bolt()}, options)
+    if arguments.modes < 7:
+        raise FeInputError(f"option --modes = {arguments.modes}: expected at least 7 (six rigid-body modes and "
+                           "first bending)")
+    check_output_folder(arguments.out)
+    for name in arguments.beam:  # every beam's geometry checked before the output folder is touched
+        beam_inputs(arguments.beams, name)
     with stage_folder(arguments.out):
         for name in tqdm(arguments.beam, desc="FE models", unit="beam"):
             sidecar = make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],

@@ -28,7 +28,7 @@ from tqdm import tqdm
 from geometry.beam_mesh import BeamMesh, interface_partners, read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, BeamParameters, MeshParameters
-from pipeline.files import atomic_path, write_json
+from pipeline.files import atomic_path, check_output_folder, write_json
 
 from .bolts import Bolt, bolts_mass, washer_couplings
 from .elasticity import Material, mass_matrix, solid_mesh, stiffness_matrix
@@ -110,7 +110,7 @@ def convergence_study(beam: BeamParameters, sizes: MeshParameters, factors, mate
             start = time.perf_counter()
             scaled = scaled_sizes(sizes, factor)
             sidecar = make_beam(beam, scaled, Path(folder) / f"{factor:g}", render=False)
-            dof, frequency = tied_first_bending(read_beam_mesh(sidecar.with_suffix(".msh")), beam, material, bolt)
+            dof, frequency = tied_first_bending(read_beam_mesh(sidecar.with_suffix(".msh"), beam), beam, material, bolt)
             rows.append({"factor": factor, "size_m": scaled.size, "lap_size_m": scaled.lap_size,
                          "hole_size_m": scaled.hole_size, "dof": dof, "first_bending_hz": frequency,
                          "seconds": time.perf_counter() - start})
@@ -147,6 +147,7 @@ def run(arguments: argparse.Namespace) -> None:
         raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
     if not all(0.0 < factor < 100.0 for factor in arguments.factors):
         raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
+    check_output_folder(arguments.out)  # the table is written after every mesh is solved
     beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
     material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
     rows = convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .brake_reuss import gmsh_session
+from .brake_reuss import gmsh_session, physical_group_names
+from .parameters import BeamParameters
 
 # gmsh element types: 4-node and 10-node tetrahedra, 3-node and 6-node triangles.
 _TETRAHEDRA = {4: 4, 11: 10}
@@ -58,8 +59,14 @@ def _group_elements(dim: int, tag: int, kinds: dict[int, int], index_of_tag: np.
     return np.vstack(blocks) if blocks else np.empty((0, 3), dtype=np.int64)
 
 
-def read_beam_mesh(path: Path) -> BeamMesh:
-    """Read a beam mesh written by the geometry stage. Raises MeshFileError naming the file and what is wrong."""
+def read_beam_mesh(path: Path, beam: BeamParameters | None = None) -> BeamMesh:
+    """Read a beam mesh written by the geometry stage. Raises MeshFileError naming the file and what is wrong.
+
+    beam: the parameters the mesh was made from; given, every physical group of ``physical_group_names(beam)``
+    (patches, washers, hole walls) must be present and non-empty, so that a renamed or missing group is named
+    here instead of surfacing as a KeyError deep in the FE or reduction stage. Without it only the two halves
+    and the two interfaces are required.
+    """
     path = Path(path)
     if not path.is_file():
         raise MeshFileError(f"{path}: mesh file not found (run `make beams` first)")
@@ -82,10 +89,13 @@ def read_beam_mesh(path: Path) -> BeamMesh:
                 volumes[name] = _group_elements(dim, tag, _TETRAHEDRA, index_of_tag)
             elif dim == 2:
                 faces[name] = _group_elements(dim, tag, _TRIANGLES, index_of_tag)
-    for name in ("lower_half", "upper_half", "lower_interface", "upper_interface"):
+    required = ("lower_half", "upper_half", "lower_interface", "upper_interface") if beam is None else \
+        physical_group_names(beam)
+    for name in required:
         group = volumes.get(name) if name.endswith("half") else faces.get(name)
         if group is None or len(group) == 0:
-            raise MeshFileError(f"{path}: physical group '{name}' missing or empty")
+            raise MeshFileError(f"{path}: physical group '{name}' missing or empty (a mesh of the geometry stage "
+                                "names every group it needs; rerun make beams)")
     return BeamMesh(points=points, volumes=volumes, faces=faces)
 
 

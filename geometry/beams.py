@@ -78,7 +78,7 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
             groups = build_beam_mesh(beam, sizes)
             cad = cad_measures(groups)
             write_msh(str(temporary["msh"]))
-        mesh = read_beam_mesh(temporary["msh"])
+        mesh = read_beam_mesh(temporary["msh"], beam)
         _write_vtu(mesh, temporary["vtu"])
         if render:
             render_patches(mesh, temporary["png"], f"{beam.name}: interface patches 1-5 (upper half lifted)")

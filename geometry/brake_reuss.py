@@ -26,6 +26,14 @@ _TOLERANCE = 1e-6  # m, for locating faces by their bounding boxes (OCC pads box
 _IDENTITY = [1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0]
 
 
+def physical_group_names(beam: BeamParameters) -> list[str]:
+    """Every physical group the model of ``beam`` carries (module docstring), lower side first: the names the
+    later stages look up, so a mesh file can be checked for all of them before it is used."""
+    per_side = ["half", "interface", *(f"patch_{p}" for p in range(1, len(beam.patch_bounds) + 1)),
+                *(f"{kind}_{b}" for b in range(1, len(beam.bolt_x) + 1) for kind in ("washer", "hole_wall"))]
+    return [f"{side}_{name}" for side in SIDES for name in per_side]
+
+
 @contextmanager
 def gmsh_session():
     """An initialised, quiet, single-threaded (hence deterministic) gmsh session, finalised on exit.

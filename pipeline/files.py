@@ -30,6 +30,10 @@ class FolderBusyError(ValueError):
     """Another run holds the lock of the folder this run would write."""
 
 
+class OutputFolderError(ValueError):
+    """An output folder that cannot be one: a file, a path below a file, or a folder this user may not write."""
+
+
 def sha256_file(path: Path) -> str:
     """Hex SHA-256 of a file's bytes."""
     digest = hashlib.sha256()
@@ -116,10 +120,26 @@ def folder_lock(folder: Path):
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def check_output_folder(folder: Path) -> None:
+    """Refuse an output folder that cannot be one, before any work: ``folder`` or the nearest of its parents that
+    exists (a folder still to be made) must be a folder this user may write into. A stage that writes only at the
+    end of a long solve checks this at its door, so that ``--out`` naming a file or a read-only folder is said in
+    one line at once instead of as a traceback after the solve. Raises OutputFolderError naming the path."""
+    folder = Path(folder)
+    existing = next(path for path in (folder, *folder.parents) if path.exists())
+    if not existing.is_dir():
+        where = "a file" if existing == folder else f"below the file {existing}"
+        raise OutputFolderError(f"{folder}: {where}; expected an output folder (existing or new)")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputFolderError(f"{folder}: {existing} is not writable by this user; expected a writable output "
+                                "folder")
+
+
 @contextlib.contextmanager
 def stage_folder(folder: Path):
-    """A stage's output folder while it writes there: locked (``folder_lock``) and swept of the temporaries an
-    interrupted run left (``sweep_partial_files``)."""
+    """A stage's output folder while it writes there: checked (``check_output_folder``), locked
+    (``folder_lock``) and swept of the temporaries an interrupted run left (``sweep_partial_files``)."""
+    check_output_folder(folder)
     with folder_lock(folder):
         sweep_partial_files(folder)
         yield Path(folder)

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,7 +47,7 @@ from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.parameters import BEAMS
 from pipeline.cache import is_current, package_versions, sidecar_record, upstream_file
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, stage_folder, write_json, write_mat
+from pipeline.files import atomic_path, check_output_folder, stage_folder, write_json, write_mat
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
                             virtual_dof_labels)
@@ -57,6 +58,8 @@ from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, who
 
 FORMAT_VERSION = 3  # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
+FE_ARRAYS = ("coordinates", *(f"{matrix}_{part}" for matrix in ("stiffness", "mass", "stress_stiffness")
+                              for part in ("data", "indices", "indptr", "shape")))  # of the FE .npz, read here
 
 
 @dataclass(frozen=True)
@@ -86,11 +89,20 @@ def versions() -> dict:
 
 
 def fe_inputs(fe_folder: Path, name: str, mesh_sha: str) -> tuple[Path, dict]:
-    """The FE result of one beam and its sidecar record; FeInputError when missing, stale or for another mesh."""
+    """The FE result of one beam and its sidecar record; FeInputError when missing, stale, for another mesh, or
+    not an .npz holding every array in FE_ARRAYS (a damaged or foreign file whose hash the sidecar records
+    anyway: a BadZipFile, a pickle refused, or a KeyError deep in the reduction otherwise)."""
     sidecar = Path(fe_folder) / f"{name}.json"
     result, record = upstream_file(sidecar, "npz", "fe")
     if record.get("inputs", {}).get("mesh_sha256") != mesh_sha:
         raise FeInputError(f"{sidecar}: FE result of another mesh than the current one; rerun make fe")
+    try:
+        with np.load(result, allow_pickle=False) as arrays:
+            missing = sorted(set(FE_ARRAYS) - set(getattr(arrays, "files", ())))
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+        raise FeInputError(f"{result}: not a readable .npz of the FE stage ({error}); rerun make fe") from None
+    if missing:
+        raise FeInputError(f"{result}: array(s) {missing} missing from the FE stage's .npz; rerun make fe")
     return result, record
 
 
@@ -153,7 +165,7 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
         files["png"] = folder / f"{name}_first_bending.png"
     if is_current(sidecar, inputs, versions(), files):
         return sidecar
-    beam_mesh = read_beam_mesh(mesh_path)
+    beam_mesh = read_beam_mesh(mesh_path, beam)
     with np.load(fe_path, allow_pickle=False) as fe:
         superelement, arrays = rom_arrays(beam_mesh, beam, fe, Bolt(**fe_record["inputs"]["bolt"]), parameters)
     frequencies, shapes = stuck_joint_modes(superelement, 4)
@@ -176,8 +188,13 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
 
 
 def run(arguments: argparse.Namespace) -> None:
+    if arguments.modes is not None and arguments.modes < 1:
+        raise FeInputError(f"option --modes = {arguments.modes}: expected at least 1 fixed-interface mode")
     options = [("reduction", "fixed_interface_modes", arguments.modes)] if arguments.modes is not None else []
     parameters = configuration(arguments, {"reduction": ReductionParameters()}, options)["reduction"]
+    check_output_folder(arguments.out)
+    for name in arguments.beam:  # every beam's inputs checked before the output folder is touched
+        fe_inputs(arguments.fe, name, beam_inputs(arguments.beams, name)[2])
     with stage_folder(arguments.out):
         for name in tqdm(arguments.beam, desc="superelements", unit="beam"):
             tqdm.write(f"{name}: {make_rom(name, arguments.beams, arguments.fe, arguments.out, parameters)}")
