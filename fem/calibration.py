@@ -35,11 +35,11 @@ from tqdm import tqdm
 
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
-from geometry.parameters import BEAMS, BeamParameters, GeometryError, MeshParameters, check_mesh_size
+from geometry.parameters import BEAMS, BeamParameters, MeshParameters
 from pipeline.files import check_output_folder, write_json
 
 from .bolts import Bolt
-from .convergence import N_MODES, dynamic_matrices, first_bending, scaled_sizes
+from .convergence import N_MODES, check_mesh_factor, dynamic_matrices, first_bending
 from .elasticity import Material
 from .solver import natural_modes
 from .springs import joint_stiffness, patch_couplings
@@ -176,16 +176,7 @@ def check_options(arguments: argparse.Namespace) -> MeshParameters:
     memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
     step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
     of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
-    factor = arguments.mesh_factor
-    if not (np.isfinite(factor) and factor > 0):
-        raise ValueError(f"option --mesh-factor = {factor!r}: expected a positive scale factor on the default "
-                         "element sizes")
-    try:
-        sizes = scaled_sizes(MeshParameters(), factor)
-        for beam in BEAMS.values():
-            check_mesh_size(beam, sizes)
-    except GeometryError as error:
-        raise ValueError(f"option --mesh-factor = {factor!r}: {error}") from None
+    check_mesh_factor("--mesh-factor", arguments.mesh_factor, BEAMS.values(), MeshParameters())
     low, high = (10 ** bound for bound in LOG_STIFFNESS_BRACKET)
     if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
         raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "

@@ -27,7 +27,7 @@ from tqdm import tqdm
 
 from geometry.beam_mesh import BeamMesh, interface_partners, read_beam_mesh
 from geometry.beams import make_beam
-from geometry.parameters import BEAMS, BeamParameters, MeshParameters
+from geometry.parameters import BEAMS, BeamParameters, GeometryError, MeshParameters, check_mesh_size
 from pipeline.files import atomic_path, check_output_folder, write_json
 
 from .bolts import Bolt, bolts_mass, washer_couplings
@@ -45,6 +45,21 @@ def scaled_sizes(sizes: MeshParameters, factor: float) -> MeshParameters:
     """``sizes`` with the far-field, lap and hole element sizes all multiplied by ``factor`` (same order)."""
     return dataclasses.replace(sizes, size=sizes.size * factor, lap_size=sizes.lap_size * factor,
                                hole_size=sizes.hole_size * factor)
+
+
+def check_mesh_factor(option: str, factor: float, beams, sizes: MeshParameters) -> MeshParameters:
+    """``sizes`` scaled by ``factor`` (a command-line ``option``), refused naming the option where the factor is
+    not a positive finite scale or the scaled sizes would not fit in memory on one of ``beams``
+    (``geometry.parameters.check_mesh_size``)."""
+    if not (np.isfinite(factor) and factor > 0):
+        raise ValueError(f"option {option} = {factor!r}: expected a positive scale factor on the element sizes")
+    scaled = scaled_sizes(sizes, factor)
+    try:
+        for beam in beams:
+            check_mesh_size(beam, scaled)
+    except GeometryError as error:
+        raise ValueError(f"option {option} = {factor!r}: {error}") from None
+    return scaled
 
 
 def dynamic_matrices(beam_mesh: BeamMesh, beam: BeamParameters, material: Material = Material(),
@@ -147,8 +162,10 @@ def run(arguments: argparse.Namespace) -> None:
         raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
     if not all(0.0 < factor < 100.0 for factor in arguments.factors):
         raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
-    check_output_folder(arguments.out)  # the table is written after every mesh is solved
     beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
+    for factor in arguments.factors:
+        check_mesh_factor("--factors", factor, [beam], sizes)
+    check_output_folder(arguments.out)  # the table is written after every mesh is solved
     material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
     rows = convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)
     table = Path(arguments.out) / f"{beam.name}.csv"

@@ -43,7 +43,9 @@ def test_material_outside_structural_solids_is_refused(tmp_path, capsys, option,
 
 
 @pytest.mark.parametrize("arguments, message", [(["--tolerance", "-1"], "option --tolerance = -1.0"),
-                                                (["--factors", "0"], "option --factors = [0.0]")])
+                                                (["--factors", "0"], "option --factors = [0.0]"),
+                                                (["--factors", "1", "0.01"], "option --factors = 0.01: parameter "
+                                                 "'size' = 6.35e-05: expected an element size giving at most")])
 def test_convergence_options_are_checked_before_meshing(tmp_path, capsys, arguments, message):
     out = tmp_path / "convergence"
     assert surrogacy(["fe-convergence", "--out", str(out), *arguments]) == 2
