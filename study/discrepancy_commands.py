@@ -24,6 +24,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from matplotlib.ticker import NullFormatter
+
 from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.backbone_files import read_asb_backbone, read_backbone
 from experiment.ringdown_files import read_ringdown
@@ -83,6 +85,7 @@ def plot_verdict(verdict: Verdict, measurement, destination: Path) -> None:
         axis.semilogx(measurement.amplitude, getattr(verdict.steps[-1].fit, attribute), "C3-",
                       label="with " + (", ".join(verdict.effects) or "nothing added"))
         axis.set(xlabel="modal amplitude", ylabel=label)
+        axis.xaxis.set_minor_formatter(NullFormatter())  # decade labels only: the minor ones overlap
     axes[0].legend(fontsize=7)
     figure.tight_layout()
     save(figure, destination)
