@@ -150,7 +150,7 @@ def test_residual_features_carry_each_signature(tmp_path):
 @pytest.mark.parametrize("effects", [(), ("linear_damping",), ("microslip",)])
 def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
     """The whole measurement path: a virtual ring-down file of the reference joint with an undeclared effect,
-    FreeVib inside ``surrogacy discrepancy``, the loop. FreeVib's stated uncertainties are about ten times the
+    FreeVib inside ``surrogacy discrepancy``, the loop. FreeVib's stated uncertainties are 3.5 to 5 times the
     actual errors of its bin means on this clean decay (checked against the known backbone), so only effects well
     above them are named: linear damping and microslip are; nothing is added to the reference joint alone."""
     import json
