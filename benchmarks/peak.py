@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import multiprocessing
+import queue as queues
 import resource
 import time
 
@@ -18,6 +19,19 @@ def _child(function, arguments, queue) -> None:
     queue.put((seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, result))
 
 
+def _outcome(queue, process):
+    """What the child reported, or None if it died without reporting (killed outright, e.g. out of memory)."""
+    while True:
+        try:
+            return queue.get(timeout=1.0)
+        except queues.Empty:
+            if not process.is_alive():
+                try:  # a report flushed while the child exited
+                    return queue.get_nowait()
+                except queues.Empty:
+                    return None
+
+
 def measure(function, *arguments):
     """Run ``function(*arguments)`` in a new (spawned) process.
 
@@ -29,7 +43,7 @@ def measure(function, *arguments):
     queue = context.Queue()
     process = context.Process(target=_child, args=(function, arguments, queue))
     process.start()
-    outcome = queue.get()
+    outcome = _outcome(queue, process)
     process.join()
     if process.exitcode != 0:
         raise RuntimeError(f"benchmark step {function.__name__} failed (exit code {process.exitcode}): "

@@ -1,7 +1,13 @@
-"""The benchmark table (``benchmarks.table``): one Markdown line per row, columns aligned, CSV beside it."""
+"""The benchmark table (``benchmarks.table``): one Markdown line per row, columns aligned, CSV beside it; and the
+measurement of a step (``benchmarks.peak``) that dies without reporting."""
 
 import csv
+import os
+import signal
 
+import pytest
+
+from benchmarks.peak import measure
 from benchmarks.table import header, markdown_line, row, write
 
 
@@ -25,3 +31,14 @@ def test_rows_line_up_under_the_heading_and_keep_their_values(tmp_path):
     with open(table) as stream:
         read = list(csv.DictReader(stream))
     assert float(read[0]["rate"]) == 15591.2 and read[2]["seconds"] == "" and read[1]["note"] == "> 1: ours faster"
+
+
+def killed_outright():
+    """A benchmark step that dies as an out-of-memory kill would: SIGKILL, nothing reported."""
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_measure_reports_a_step_killed_outright():
+    """The parent used to wait forever for the result of a child killed outright."""
+    with pytest.raises(RuntimeError, match="exit code -9"):
+        measure(killed_outright)
