@@ -161,6 +161,14 @@ class Fit(NamedTuple):
     n_parameters: int
 
 
+def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
+    """Residuals (2n,) of a model's frequency (Hz) and damping (n,) against the measurement, each in units of the
+    measurement's uncertainty; UNDEFINED_MISFIT where the model is undefined (e.g. a start past a law's range)."""
+    misfit = np.concatenate([(frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency,
+                             (damping - measurement.damping) / measurement.sigma_damping])
+    return np.where(np.isfinite(misfit), misfit, UNDEFINED_MISFIT)
+
+
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
         starts: list[dict]) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
@@ -170,11 +178,9 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     n = 2 * len(measurement.amplitude)
 
     def residual(vector):
-        frequency, damping = model_backbone(_to_parameters(vector, specification), measurement.amplitude,
-                                            nominal_frequency_hz, nominal_damping)
-        misfit = np.concatenate([(frequency - measurement.frequency_hz) / measurement.sigma_frequency,
-                                 (damping - measurement.damping) / measurement.sigma_damping])
-        return np.where(np.isfinite(misfit), misfit, UNDEFINED_MISFIT)  # e.g. a start past the law's range
+        return weighted_misfit(measurement, *model_backbone(_to_parameters(vector, specification),
+                                                            measurement.amplitude, nominal_frequency_hz,
+                                                            nominal_damping))
 
     best = None
     for start in starts:

@@ -22,6 +22,7 @@ the fitted parameters).
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 from matplotlib.ticker import NullFormatter
@@ -104,9 +105,7 @@ def run(arguments: argparse.Namespace) -> None:
         record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": loaded.provenance,
                   "borrowed_damping": loaded.borrowed_damping,
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
-
-        def loop():
-            return structure_discrepancy_loop(measurement, loaded.candidates, loaded.borrowed_damping)
+        loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping)
     else:
         measured = read_measured_backbone(arguments.file, arguments.mode_hz)
         measurement = measurement_from_backbone(measured, arguments.levels, str(arguments.file))
@@ -115,9 +114,7 @@ def run(arguments: argparse.Namespace) -> None:
         source = f"{arguments.file} ({measured.provenance})"
         record = {"source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
                   "nominal_damping": damping}
-
-        def loop():
-            return discrepancy_loop(measurement, frequency, damping)
+        loop = partial(discrepancy_loop, measurement, frequency, damping)
     with stage_folder(arguments.out) as out:
         verdict = loop()
         write_verdict(out, verdict, measurement, source, record)

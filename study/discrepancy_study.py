@@ -39,8 +39,8 @@ from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.config import resolve
 from study.commands import defaults
 from study.datasets import DEFAULT_DAMPING_CASE
-from study.discrepancy import (EFFECTS, UNDEFINED_MISFIT, Fit, Measurement, Verdict, _to_parameters, _to_vector, bic,
-                               outside_joint, select_effects)
+from study.discrepancy import (EFFECTS, Fit, Measurement, Verdict, _to_parameters, _to_vector, bic, outside_joint,
+                               select_effects, weighted_misfit)
 from study.exploration import read_exploration
 from study.workflow import Paths, exploration
 
@@ -108,15 +108,13 @@ def fit_candidates(measurement: Measurement, candidates: Candidates, effects: tu
     if not candidates.labels:
         return None
     specification = [p for effect in effects if effect in OUTSIDE_JOINT for p in EFFECTS[effect]]
-    defaults = {"zeta_0": borrowed_damping}
-    start = {name: (previous or {}).get(name, defaults.get(name, initial)) for name, _, initial in specification}
-    sigma = np.concatenate([measurement.sigma_frequency, measurement.sigma_damping])
-    measured = np.concatenate([measurement.frequency_hz, measurement.damping])
+    initial_values = {"zeta_0": borrowed_damping}
+    start = {name: (previous or {}).get(name, initial_values.get(name, initial))
+             for name, _, initial in specification}
 
     def misfit(index, parameters):
-        model = np.concatenate(augmented(candidates, index, parameters, measurement.amplitude, borrowed_damping))
-        residual = (model - measured) / sigma
-        return np.where(np.isfinite(residual), residual, UNDEFINED_MISFIT)
+        return weighted_misfit(measurement, *augmented(candidates, index, parameters, measurement.amplitude,
+                                                       borrowed_damping))
 
     best = None
     for index in shortlist(measurement, candidates, SHORTLIST if specification else len(candidates.labels)):
