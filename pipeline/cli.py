@@ -7,6 +7,7 @@ function; this file only collects them. ``surrogacy <stage> --help`` documents e
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import resource
@@ -30,6 +31,23 @@ def parser() -> argparse.ArgumentParser:
     for module_name in STAGE_COMMANDS:
         importlib.import_module(module_name).register(subparsers)
     return root
+
+
+INTERRUPTED = threading.Event()  # set by the first Ctrl-C, even where Python swallows its KeyboardInterrupt
+
+
+def interrupt(signal_number, frame) -> None:
+    """Ctrl-C: remember it, then raise KeyboardInterrupt as Python's own handler does. Python prints and ignores
+    an exception raised while it runs a weakref callback or ``__del__`` (an import's module-lock callback, for
+    one); the remembered Ctrl-C still ends the command with 130 once control is back in it."""
+    INTERRUPTED.set()
+    raise KeyboardInterrupt
+
+
+def raise_if_interrupted() -> None:
+    """Raise KeyboardInterrupt where a Ctrl-C came but its exception was swallowed (see ``interrupt``)."""
+    if INTERRUPTED.is_set():
+        raise KeyboardInterrupt
 
 
 def terminate(signal_number, frame) -> None:
@@ -58,6 +76,7 @@ def run(arguments) -> int:
     and Ctrl-C end it cleanly (no temporary file left) with 143 and 130."""
     try:
         arguments.run(arguments)
+        raise_if_interrupted()
     except (ValueError, OSError) as error:  # bad input, or a file or folder that cannot be read or written
         print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
         return 2
@@ -68,27 +87,61 @@ def run(arguments) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def stage_signals():
+    """Ctrl-C (``interrupt``) and SIGTERM (``terminate``) handled as clean exits while a command runs, the previous
+    handlers back after it (``main`` also runs in-process, in the tests). Signals reach only the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    INTERRUPTED.clear()
+    previous = {number: signal.signal(number, handler)
+                for number, handler in ((signal.SIGINT, interrupt), (signal.SIGTERM, terminate))}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+@contextlib.contextmanager
+def ctrl_c_held():
+    """Ctrl-C held back (the signal blocked) in the block and delivered right after it, in this code. Python
+    swallows a KeyboardInterrupt raised inside its import machinery's callbacks, printing a traceback; the
+    stages' imports are therefore run with SIGINT blocked, and a Ctrl-C in them ends the command when they
+    finish (a few seconds)."""
+    held = threading.current_thread() is threading.main_thread()
+    if held:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        if held:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse the command line, run the stage, and log the run where ``--run-log`` asks."""
     start = time.perf_counter()  # the stages' imports count
     argv = sys.argv[1:] if argv is None else list(argv)
-    try:
-        arguments = parser().parse_args(argv)  # imports every stage: seconds, in which Ctrl-C may come
-    except KeyboardInterrupt:
-        print("surrogacy: interrupted; finished results are kept, rerun to go on", file=sys.stderr)
-        return 130
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, terminate)
-    status = 1  # an exception that escapes run() is a bug: traceback and exit 1
-    try:
-        status = run(arguments)
-    except SystemExit as exit_:  # SIGTERM
-        status = exit_.code
-        raise
-    finally:
-        if arguments.run_log is not None:
-            stage_argv = argv[argv.index(arguments.command):]  # without the root options (--run-log FILE)
-            log_run(arguments.run_log, stage_argv, time.perf_counter() - start, status)
+    with stage_signals():
+        try:
+            with ctrl_c_held():  # importing every stage takes seconds, in which Ctrl-C may come
+                arguments = parser().parse_args(argv)
+            raise_if_interrupted()
+        except KeyboardInterrupt:
+            print("surrogacy: interrupted; finished results are kept, rerun to go on", file=sys.stderr)
+            return 130
+        status = 1  # an exception that escapes run() is a bug: traceback and exit 1
+        try:
+            status = run(arguments)
+        except SystemExit as exit_:  # SIGTERM
+            status = exit_.code
+            raise
+        finally:
+            if arguments.run_log is not None:
+                stage_argv = argv[argv.index(arguments.command):]  # without the root options (--run-log FILE)
+                log_run(arguments.run_log, stage_argv, time.perf_counter() - start, status)
     return status
 
 
