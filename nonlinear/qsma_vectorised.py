@@ -26,6 +26,12 @@ UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma
 REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED], dtype=object)
 
 
+def kernel_array(values: np.ndarray) -> np.ndarray:
+    """``values`` as the kernel's one compiled signature takes them: C-contiguous and writeable (copied only when
+    not). A strided or read-only view is another numba signature, compiled again (about a minute)."""
+    return np.require(values, requirements=["C", "W"])
+
+
 def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces=None,
                  linear_damping: float = 0.0, stuck_group: int | None = None,
                  split: ModalSplit | None = None) -> QSMAResult:
@@ -49,10 +55,10 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     law = scaled_law(tangential)
     mechanisms = joint_mechanisms(space)
     joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
-        levels, np.ascontiguousarray(linear_per_level), modes.compliance,
-        *(np.ascontiguousarray(np.broadcast_to(a, b.shape)) for a in law), tangential.stuck, modes.eigenvalue, b,
-        amplitude_control, float(linear_damping), np.ascontiguousarray(tangential.stiffness),
-        mechanisms.tangential, np.ascontiguousarray(modes.shape @ mechanisms.rigid.T))
+        *map(kernel_array, (levels, linear_per_level, modes.compliance, *(np.broadcast_to(a, b.shape) for a in law),
+                            tangential.stuck, modes.eigenvalue, b)),
+        amplitude_control, float(linear_damping),
+        *map(kernel_array, (tangential.stiffness, mechanisms.tangential, modes.shape @ mechanisms.rigid.T)))
 
     converged = status == qsma_kernel.CONVERGED
     code = np.where(converged, 0, 1).astype(np.int8)
