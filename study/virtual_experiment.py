@@ -36,15 +36,22 @@ ring-down once range setting, cables and mounting are counted), independent per 
 Time step. The transient (:func:`nonlinear.transient.ring_down`) integrates with Newmark's average acceleration
 rule, whose period error (omega dt)^2 / 12 is the virtual experiment's only systematic frequency error: 50 samples
 per period give 0.13 % (0.22 Hz on the BRB), measured so against QSMA. Its Newton loop updates 2,508 sliders per
-joint element every iteration, 1.7-3 ms per step: 6-11 s per hit, about a minute per beam.
+joint element every iteration, 1.7-3 ms per step: 6-11 s per hit, about a minute per beam in one process. The
+hits run side by side on one worker process per core (:func:`hit_pool`), with the same bits as in one process.
 """
 
 from __future__ import annotations
 
 import csv
+import multiprocessing
+import os
 import platform
+import signal
 import time as clock
+from concurrent.futures import Executor, ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import NamedTuple
 
@@ -251,30 +258,57 @@ class HammerHits(NamedTuple):
     unconverged_steps: np.ndarray
 
 
+def simulated_hit(space: JointSpace, model: str, design, linear_damping: float, frequency_hz: float,
+                  test: HammerTest, impulse: float):
+    """One noise-free hit of ``test`` with ``impulse`` (N s): the transient ring-down
+    (:func:`nonlinear.transient.ring_down`) and its runtime (s)."""
+    start = clock.perf_counter()
+    decay = ring_down(space, model, design, test.duration(frequency_hz), test.time_step(frequency_hz),
+                      hammer=Hammer(space.superelement.sensors[test.sensor], float(impulse), test.contact_time),
+                      linear_damping=linear_damping)
+    return decay, clock.perf_counter() - start
+
+
+def ignore_ctrl_c() -> None:
+    """Initialiser of the hits' worker processes: Ctrl-C is the parent's to handle (exit 130, no traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def hit_pool(workers: int | None = None):
+    """Worker processes for :func:`hammer_hits` (default: one per core). Spawned, not forked: the parent may hold
+    threads (dask, pytest-xdist) whose locks a fork would copy. On leaving, early too (Ctrl-C, an error), the
+    hits not yet started are dropped and the running ones finish (seconds)."""
+    pool = ProcessPoolExecutor(workers or os.cpu_count(), mp_context=multiprocessing.get_context("spawn"),
+                               initializer=ignore_ctrl_c)
+    try:
+        yield pool
+    finally:
+        pool.shutdown(cancel_futures=True)
+
+
 def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
-                test: HammerTest = HammerTest(), model: str = MODEL) -> HammerHits:
+                test: HammerTest = HammerTest(), model: str = MODEL, pool: Executor | None = None) -> HammerHits:
     """Simulate the hits of ``test`` on the joint ``design`` in the beam of ``space``.
 
-    Each hit is a transient ring-down (:func:`nonlinear.transient.ring_down`) from rest under a half-sine hammer
-    pulse at the test's sensor, linear damping zeta_0 = ``linear_damping`` on every stuck mode, time step and
-    length from the beam's measured ``frequency_hz`` (``test``); the sensors' displacements get independent
-    Gaussian noise of ``test.noise`` times the largest displacement of the tracked mode at any sensor.
-    The seeded Generator draws the impulses first, then the noise hit by hit.
+    Each hit is a transient ring-down (:func:`simulated_hit`) from rest under a half-sine hammer pulse at the
+    test's sensor, linear damping zeta_0 = ``linear_damping`` on every stuck mode, time step and length from the
+    beam's measured ``frequency_hz`` (``test``); the sensors' displacements get independent Gaussian noise of
+    ``test.noise`` times the largest displacement of the tracked mode at any sensor. The seeded Generator draws
+    the impulses first, then the noise hit by hit. ``pool`` (:func:`hit_pool`) simulates the hits side by side;
+    the records are the same bits as in one process.
     """
     design = np.asarray(design, dtype=float)
-    superelement = space.superelement
     rng = np.random.default_rng(test.seed)
     frequencies, shapes, target = sensor_modes(space, model, design)
     hardest = test.peak_modal_amplitude * frequencies[target] / abs(shapes[test.sensor, target])
     impulses = hit_impulses(test, hardest, rng)
     largest_sensor_shape = np.max(np.abs(shapes[:, target]))
+    simulate = partial(simulated_hit, space, model, design, linear_damping, frequency_hz, test)
     hits, levels, runtime, unconverged = [], [], [], []
-    for number, impulse in enumerate(impulses, start=1):
-        start = clock.perf_counter()
-        decay = ring_down(space, model, design, test.duration(frequency_hz), test.time_step(frequency_hz),
-                          hammer=Hammer(superelement.sensors[test.sensor], float(impulse), test.contact_time),
-                          linear_damping=linear_damping)
-        runtime.append(clock.perf_counter() - start)
+    simulated = map(simulate, impulses) if pool is None else pool.map(simulate, impulses)
+    for number, (decay, seconds) in enumerate(simulated, start=1):
+        runtime.append(seconds)
         unconverged.append(decay.unconverged_steps)
         levels.append(test.noise * np.max(np.abs(decay.modal_amplitude)) * largest_sensor_shape)
         record = replace(decay.sensors, source=f"virtual experiment {beam}", hit=f"hit {number}")
@@ -308,17 +342,18 @@ def measured_backbone(space: JointSpace, design, records: HammerHits, model: str
 
 
 def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
-                       test: HammerTest = HammerTest(), model: str = MODEL) -> VirtualExperiment:
+                       test: HammerTest = HammerTest(), model: str = MODEL,
+                       pool: Executor | None = None) -> VirtualExperiment:
     """Hammer test of the joint ``design`` in the beam of ``space`` (:func:`hammer_hits`), processed as a
     measurement (:func:`measured_backbone`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
     since the filter's shapes are mass-normalised.
 
     linear_damping: zeta_0 of the beam's other mechanisms (paper Table 1). frequency_hz: the beam's measured
-    (Table 1) frequency, which sets the time step and the record length.
+    (Table 1) frequency, which sets the time step and the record length. pool: see :func:`hammer_hits`.
     """
     design = np.asarray(design, dtype=float)
     superelement = space.superelement
-    records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model)
+    records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model, pool)
     measured = measured_backbone(space, design, records, model)
     stuck = stuck_frequency_hz(space, design, model)
     names = parameter_names(model, int(np.max(superelement.patch_groups)) + 1)
@@ -408,7 +443,8 @@ def virtual_experiments(rom_folder: Path, out_folder: Path, table1_path: Path | 
     rom_folder: holds ``<beam>.npz`` (the reduction stage's output). The reference joint is tuned on the BRB to
     its Table 1 frequency and checked against Table 3's limits (ValueError naming the parameters otherwise); each
     beam is tested with ``test`` and its Table 1 linear damping, then written by :func:`write_virtual_experiment`;
-    ``low_amplitude.csv`` compares the virtual low-amplitude frequencies with Table 1. Returns its rows.
+    ``low_amplitude.csv`` compares the virtual low-amplitude frequencies with Table 1. Returns its rows. The hits
+    run on one worker process per core (:func:`hit_pool`).
     """
     rom_folder, out_folder = Path(rom_folder), Path(out_folder)
     measurements = read_low_amplitude_measurements(table1_path or reference_folder() / TABLE1)
@@ -420,11 +456,12 @@ def virtual_experiments(rom_folder: Path, out_folder: Path, table1_path: Path | 
     if outside:
         raise ValueError(f"reference joint outside paper Table 3's limits: {'; '.join(outside)}")
     experiments = {}
-    for beam in beams:
-        measurement = measurements[beam]
-        experiments[beam] = virtual_experiment(spaces[beam], beam, design, measurement.damping,
-                                               measurement.frequency_hz, test)
-        write_virtual_experiment(out_folder, experiments[beam], rom_folder / f"{beam}.npz", ring_downs)
+    with hit_pool() as pool:
+        for beam in beams:
+            measurement = measurements[beam]
+            experiments[beam] = virtual_experiment(spaces[beam], beam, design, measurement.damping,
+                                                   measurement.frequency_hz, test, pool=pool)
+            write_virtual_experiment(out_folder, experiments[beam], rom_folder / f"{beam}.npz", ring_downs)
     rows = low_amplitude_table(experiments, measurements)
     write_low_amplitude_table(rows, out_folder / "low_amplitude.csv")
     return rows

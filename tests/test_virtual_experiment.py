@@ -24,8 +24,8 @@ from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.files import sha256_file
 from reduction.superelement import stuck_joint_modes
-from study.virtual_experiment import (BEAMS, TABLE1, TABLE3, HammerTest, beam_space, low_amplitude_table,
-                                      outside_limits, read_low_amplitude_measurements,
+from study.virtual_experiment import (BEAMS, TABLE1, TABLE3, HammerTest, beam_space, hammer_hits, hit_pool,
+                                      low_amplitude_table, outside_limits, read_low_amplitude_measurements,
                                       read_parameter_limits, reference_folder, reference_joint, stuck_frequency_hz,
                                       virtual_experiment, virtual_experiments, write_virtual_experiment)
 
@@ -155,6 +155,22 @@ def test_same_seed_gives_the_same_backbone_and_another_seed_other_noise(brb, tab
     other = virtual_experiment(space, "BRB", design, table1["BRB"].damping, table1["BRB"].frequency_hz,
                                HammerTest(n_hits=1, periods=50, samples_per_period=20, seed=TINY_TEST.seed + 1))
     assert not np.array_equal(other.records.hits[0].signals, tiny_brb_experiment.records.hits[0].signals)
+
+
+def test_hits_on_worker_processes_are_the_same_bits_as_in_one_process(brb, table1):
+    """Two coarse hits (about 15 s): on two spawned worker processes (as the study runs them) the noisy records
+    equal those simulated in this process bit for bit, in order (the noise is drawn here, hit by hit)."""
+    space, design = brb
+    test = HammerTest(n_hits=2, impulse_range=3.0, periods=50, samples_per_period=20)
+    arguments = (space, "BRB", design, table1["BRB"].damping, table1["BRB"].frequency_hz, test)
+    serial = hammer_hits(*arguments)
+    with hit_pool(2) as pool:
+        parallel = hammer_hits(*arguments, pool=pool)
+    for one, other in zip(serial.hits, parallel.hits, strict=True):
+        assert one.hit == other.hit
+        np.testing.assert_array_equal(one.signals, other.signals)
+    np.testing.assert_array_equal(serial.noise_levels, parallel.noise_levels)
+    np.testing.assert_array_equal(serial.unconverged_steps, parallel.unconverged_steps)
 
 
 def test_low_amplitude_table_compares_with_table1(tiny_brb_experiment, table1):
