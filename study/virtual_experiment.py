@@ -48,10 +48,10 @@ import os
 import platform
 import signal
 import time as clock
-from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import partial
+from multiprocessing.pool import Pool
 from pathlib import Path
 from typing import NamedTuple
 
@@ -277,18 +277,22 @@ def ignore_ctrl_c() -> None:
 @contextmanager
 def hit_pool(workers: int | None = None):
     """Worker processes for :func:`hammer_hits` (default: one per core). Spawned, not forked: the parent may hold
-    threads (dask, pytest-xdist) whose locks a fork would copy. On leaving, early too (Ctrl-C, an error), the
-    hits not yet started are dropped and the running ones finish (seconds)."""
-    pool = ProcessPoolExecutor(workers or os.cpu_count(), mp_context=multiprocessing.get_context("spawn"),
-                               initializer=ignore_ctrl_c)
+    threads (dask, pytest-xdist) whose locks a fork would copy. Left early (Ctrl-C, an error), the workers are
+    terminated at once, their hits unfinished."""
+    pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count(), initializer=ignore_ctrl_c)
     try:
         yield pool
+    except BaseException:
+        pool.terminate()
+        raise
+    else:
+        pool.close()
     finally:
-        pool.shutdown(cancel_futures=True)
+        pool.join()
 
 
 def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
-                test: HammerTest = HammerTest(), model: str = MODEL, pool: Executor | None = None) -> HammerHits:
+                test: HammerTest = HammerTest(), model: str = MODEL, pool: Pool | None = None) -> HammerHits:
     """Simulate the hits of ``test`` on the joint ``design`` in the beam of ``space``.
 
     Each hit is a transient ring-down (:func:`simulated_hit`) from rest under a half-sine hammer pulse at the
@@ -306,7 +310,7 @@ def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, fre
     largest_sensor_shape = np.max(np.abs(shapes[:, target]))
     simulate = partial(simulated_hit, space, model, design, linear_damping, frequency_hz, test)
     hits, levels, runtime, unconverged = [], [], [], []
-    simulated = map(simulate, impulses) if pool is None else pool.map(simulate, impulses)
+    simulated = map(simulate, impulses) if pool is None else pool.imap(simulate, impulses)
     for number, (decay, seconds) in enumerate(simulated, start=1):
         runtime.append(seconds)
         unconverged.append(decay.unconverged_steps)
@@ -343,7 +347,7 @@ def measured_backbone(space: JointSpace, design, records: HammerHits, model: str
 
 def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
                        test: HammerTest = HammerTest(), model: str = MODEL,
-                       pool: Executor | None = None) -> VirtualExperiment:
+                       pool: Pool | None = None) -> VirtualExperiment:
     """Hammer test of the joint ``design`` in the beam of ``space`` (:func:`hammer_hits`), processed as a
     measurement (:func:`measured_backbone`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
     since the filter's shapes are mass-normalised.

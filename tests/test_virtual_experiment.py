@@ -158,10 +158,10 @@ def test_same_seed_gives_the_same_backbone_and_another_seed_other_noise(brb, tab
 
 
 def test_hits_on_worker_processes_are_the_same_bits_as_in_one_process(brb, table1):
-    """Two coarse hits (about 15 s): on two spawned worker processes (as the study runs them) the noisy records
+    """Two short coarse hits (about 12 s): on two spawned worker processes (as the study runs them) the noisy records
     equal those simulated in this process bit for bit, in order (the noise is drawn here, hit by hit)."""
     space, design = brb
-    test = HammerTest(n_hits=2, impulse_range=3.0, periods=50, samples_per_period=20)
+    test = HammerTest(n_hits=2, impulse_range=3.0, periods=20, samples_per_period=20)
     arguments = (space, "BRB", design, table1["BRB"].damping, table1["BRB"].frequency_hz, test)
     serial = hammer_hits(*arguments)
     with hit_pool(2) as pool:
