@@ -14,7 +14,7 @@ import fcntl
 import hashlib
 import json
 import os
-import tempfile
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -50,20 +50,19 @@ def sha256_json(value) -> str:
 
 @contextlib.contextmanager
 def atomic_path(destination: Path):
-    """Yield a temporary path beside ``destination``; rename it onto ``destination`` only on success.
+    """Yield a temporary path beside ``destination`` (``.partial-<stem>-<random><suffix>``, not yet created: the
+    caller's writing creates it); rename it onto ``destination`` only on success.
 
-    On any exception the temporary file is removed and ``destination`` is left as it was.
+    On any exception (Ctrl-C and SIGTERM included) the temporary file is removed and ``destination`` is left as
+    it was. Nothing is created before the caller's ``with`` block (or ExitStack) has registered the exit: an
+    interruption between the two leaves no file. (The temporary used to be made by ``mkstemp`` on entering: a
+    Ctrl-C in that gap left one behind.)
     """
     destination = Path(destination)
     destination.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f"{PARTIAL}{destination.stem}-", suffix=destination.suffix,
-                                         dir=destination.parent)
-    os.close(handle)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)
+    temporary = destination.with_name(f"{PARTIAL}{destination.stem}-{secrets.token_hex(6)}{destination.suffix}")
     try:
-        yield Path(temporary)
+        yield temporary
         os.replace(temporary, destination)
     finally:
         with contextlib.suppress(FileNotFoundError):

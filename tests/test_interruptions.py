@@ -19,7 +19,7 @@ import pytest
 
 from pipeline.cli import main as surrogacy
 from pipeline.cli import run, stage_signals
-from pipeline.files import LOCK
+from pipeline.files import LOCK, atomic_path
 from stage_runs import COARSE, digests, partial_files, run_to_end, start, wait_for
 
 BEAMS = ["BRB", "LBRB"]
@@ -221,3 +221,13 @@ def test_output_folder_that_is_a_file_is_one_line(tmp_path, capsys):
     out.write_text("not a folder")
     assert surrogacy(["beams", "--beam", "BRB", "--no-render", "--out", str(out), *COARSE]) == 2
     assert str(out) in capsys.readouterr().err
+
+
+def test_a_temporary_exists_only_once_written(tmp_path):
+    """``atomic_path`` names its temporary without making it: entered and never left (Ctrl-C between entering it
+    and an ExitStack registering its exit, as the fe and rom stages enter theirs) it leaves no file. It used to
+    make the file on entering (``mkstemp``): CI found a ``.partial-BRB-*.npz`` left by rom after Ctrl-C."""
+    entered = atomic_path(tmp_path / "BRB.npz")
+    temporary = entered.__enter__()  # its exit never registered
+    assert temporary.parent == tmp_path and temporary.name.startswith(".partial-BRB-") and temporary.suffix == ".npz"
+    assert list(tmp_path.iterdir()) == []
