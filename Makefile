@@ -23,9 +23,24 @@ SURROGACY := $(BIN)/surrogacy --run-log $(RUN_LOG)
 ASB_DATA ?= ../shared/data
 REFERENCE ?= ../shared/reference
 
-.PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib study study-full discrepancy discrepancy-modal-asb report bench clean system-packages
+.PHONY: demo test test-slow beams fe fe-convergence calibrate rom freevib study study-beams study-asb study-full discrepancy discrepancy-modal-asb report bench clean system-packages
 
-demo: beams fe rom freevib study discrepancy report
+# The demo. The ASB study needs nothing of ours but the installed tool (its superelements are ABAQUS's), and fe and
+# rom compute on one core: it runs beside them, its progress in $(ASB_LOG), and compiles the QSMA kernel into
+# numba's cache for the beams' study as well. Ctrl-C stops both (exit 130 each); a failure of either stops the demo.
+# (make -n runs a recipe line that calls $(MAKE), this one: DRY_RUN makes it print the ASB study, not start it.)
+ASB_LOG := results/study-asb.log
+DRY_RUN := $(findstring n,$(firstword -$(MAKEFLAGS)))
+demo: $(STAMP)
+	@mkdir -p results; asb=; \
+	if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
+	  echo "study-asb: running beside beams, fe and rom; its progress: $(ASB_LOG)"; \
+	  $(if $(DRY_RUN),echo "$(ASB_STUDY) > $(ASB_LOG) 2>&1 &",$(ASB_STUDY) > $(ASB_LOG) 2>&1) & asb=$$!; \
+	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi; \
+	$(MAKE) --no-print-directory beams fe rom freevib || { status=$$?; [ -z "$$asb" ] || kill $$asb; wait; exit $$status; }; \
+	[ -z "$$asb" ] || wait $$asb || { status=$$?; tail -n 5 $(ASB_LOG); echo "study-asb failed (exit $$status): $(ASB_LOG)"; exit $$status; }; \
+	[ -z "$$asb" ] || echo "study-asb: $$(tail -n 1 $(ASB_LOG))"
+	@$(MAKE) --no-print-directory study-beams discrepancy report
 
 # The tests run one file per worker process (pytest-xdist; a file's fixtures are built once, by its worker), one
 # worker per core of the CI machine: from a fresh clone the default run takes 10 min here instead of 17 in one
@@ -68,14 +83,19 @@ freevib: $(STAMP)
 # ASB assembly on its measured backbones where ../shared/data is present: results/study-<dataset>/report.md.
 # STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped, and chunks computed for
 # other inputs (a rebuilt superelement, new measurements) are recomputed.
-study: rom
+ASB_STUDY = $(SURROGACY) study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) --restart-stale \
+  --set study.dataset=asb --set sample.n_designs=$(STUDY_DESIGNS) --set sample.chunk_size=$(STUDY_CHUNK) \
+  $(if $(SCHEDULER),--scheduler $(SCHEDULER))
+study: study-beams study-asb
+
+study-beams: rom
 	@if [ -f "$(REFERENCE)/paper_table1_low_amplitude.csv" ]; then \
 	  $(SURROGACY) study --out results/study-beams --rom build/rom --reference $(REFERENCE) --restart-stale \
 	    --set sample.n_designs=$(STUDY_DESIGNS) --set sample.chunk_size=$(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER)); \
 	else echo "study: $(REFERENCE) lacks the paper's Table 1, beams' study skipped (set REFERENCE=folder)"; fi
-	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then \
-	  $(SURROGACY) study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) --restart-stale \
-	    --set study.dataset=asb --set sample.n_designs=$(STUDY_DESIGNS) --set sample.chunk_size=$(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER)); \
+
+study-asb: $(STAMP)
+	@if [ -d "$(ASB_DATA)/asb-backbones" ]; then $(ASB_STUDY); \
 	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi
 
 # The paper's scale: 5,000,000 designs per friction model in chunks of 5,000 on a LocalCluster (or SCHEDULER=address),
