@@ -37,7 +37,7 @@ demo: $(STAMP)
 	  echo "study-asb: running beside beams, fe and rom; its progress: $(ASB_LOG)"; \
 	  $(if $(DRY_RUN),echo "$(ASB_STUDY) > $(ASB_LOG) 2>&1 &",$(ASB_STUDY) > $(ASB_LOG) 2>&1) & asb=$$!; \
 	else echo "study: $(ASB_DATA) not found, ASB study skipped (set ASB_DATA=folder)"; fi; \
-	$(MAKE) --no-print-directory beams fe rom freevib || { status=$$?; [ -z "$$asb" ] || kill $$asb; wait; exit $$status; }; \
+	$(MAKE) --no-print-directory beams fe rom freevib || { status=$$?; [ -z "$$asb" ] || kill $$asb 2>/dev/null; wait; exit $$status; }; \
 	[ -z "$$asb" ] || wait $$asb || { status=$$?; tail -n 5 $(ASB_LOG); echo "study-asb failed (exit $$status): $(ASB_LOG)"; exit $$status; }; \
 	[ -z "$$asb" ] || echo "study-asb: $$(tail -n 1 $(ASB_LOG))"
 	@$(MAKE) --no-print-directory study-beams discrepancy report

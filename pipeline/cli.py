@@ -50,8 +50,12 @@ def raise_if_interrupted() -> None:
         raise KeyboardInterrupt
 
 
+TERMINATED = threading.Event()  # set by SIGTERM
+
+
 def terminate(signal_number, frame) -> None:
     """SIGTERM as a clean exit: the stage's ``finally`` blocks run (temporary files removed) before it ends."""
+    TERMINATED.set()
     raise SystemExit(128 + signal_number)
 
 
@@ -77,14 +81,27 @@ def run(arguments) -> int:
     try:
         arguments.run(arguments)
         raise_if_interrupted()
-    except (ValueError, OSError) as error:  # bad input, or a file or folder that cannot be read or written
-        print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
-        print(f"surrogacy {arguments.command}: interrupted; finished results are kept, rerun to go on",
-              file=sys.stderr)
-        return 130
+        return interrupted(arguments.command)
+    except Exception as error:
+        # After Ctrl-C or SIGTERM any exception is the interruption's: a C extension that receives the signal's
+        # exception while it runs may return another in its place (numba's dispatcher, interrupted as it
+        # compiles, raises SystemError "returned a result with an exception set").
+        if TERMINATED.is_set():
+            raise SystemExit(128 + signal.SIGTERM) from None
+        if INTERRUPTED.is_set():
+            return interrupted(arguments.command)
+        if isinstance(error, (ValueError, OSError)):  # bad input, or a file or folder that cannot be read or written
+            print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
+            return 2
+        raise  # a bug: traceback and exit 1
     return 0
+
+
+def interrupted(command: str) -> int:
+    """The one line of an interrupted stage; its exit status, 130."""
+    print(f"surrogacy {command}: interrupted; finished results are kept, rerun to go on", file=sys.stderr)
+    return 130
 
 
 @contextlib.contextmanager
@@ -95,6 +112,7 @@ def stage_signals():
         yield
         return
     INTERRUPTED.clear()
+    TERMINATED.clear()
     previous = {number: signal.signal(number, handler)
                 for number, handler in ((signal.SIGINT, interrupt), (signal.SIGTERM, terminate))}
     try:

@@ -178,6 +178,40 @@ def test_ctrl_c_that_python_swallows_still_ends_the_stage_with_130(capsys):
     assert signal.getsignal(signal.SIGINT) is before
 
 
+def stage_whose_extension_mangles(signal_number):
+    """A stage that receives ``signal_number`` inside a C extension which returns another exception in its place, as
+    numba's dispatcher does when Ctrl-C comes while it compiles (SystemError "returned a result with an exception
+    set"; seen in ``make demo``'s ASB study); without a signal, the same SystemError is a bug."""
+    def stage(arguments):
+        try:
+            if signal_number is not None:
+                os.kill(os.getpid(), signal_number)
+                time.sleep(0.1)  # the handler runs here
+        except BaseException as error:
+            raise SystemError("CPUDispatcher returned a result with an exception set") from error
+        raise SystemError("returned a result with an exception set")
+    return stage
+
+
+@pytest.mark.parametrize("signal_number, outcome", [(signal.SIGINT, 130), (signal.SIGTERM, 143), (None, SystemError)],
+                         ids=["ctrl-c", "sigterm", "no-signal"])
+def test_an_exception_that_stands_for_the_interruption_ends_the_stage_cleanly(signal_number, outcome, capsys):
+    """After Ctrl-C any exception ends the stage with 130 and the interrupted line, after SIGTERM with 143 and no
+    traceback; the same exception with no signal is a bug and escapes (traceback, exit 1)."""
+    arguments = argparse.Namespace(command="study", run=stage_whose_extension_mangles(signal_number))
+    with stage_signals():
+        if outcome is SystemError:
+            with pytest.raises(SystemError):
+                run(arguments)
+            return
+        if outcome == 143:
+            with pytest.raises(SystemExit) as stopped:
+                run(arguments)
+            assert stopped.value.code == 143
+        else:
+            assert run(arguments) == 130 and INTERRUPTED in capsys.readouterr().err
+
+
 def test_two_identical_fe_runs_at_once_compute_once(coarse_beams, fe_brb, tmp_path):
     """Two identical ``surrogacy fe`` started together into one folder: one computes, the other is refused with
     exit 2 and one line naming the folder; the folder then holds the files of a single run, byte for byte
