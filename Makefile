@@ -83,15 +83,14 @@ freevib: $(STAMP)
 # ASB assembly on its measured backbones where ../shared/data is present: results/study-<dataset>/report.md.
 # STUDY_DESIGNS designs per friction model; a killed run resumes where it stopped, and chunks computed for
 # other inputs (a rebuilt superelement, new measurements) are recomputed.
-ASB_STUDY = $(SURROGACY) study --out results/study-asb --data $(ASB_DATA) --reference $(REFERENCE) --restart-stale \
-  --set study.dataset=asb --set sample.n_designs=$(STUDY_DESIGNS) --set sample.chunk_size=$(STUDY_CHUNK) \
-  $(if $(SCHEDULER),--scheduler $(SCHEDULER))
+STUDY_OPTIONS = --reference $(REFERENCE) --restart-stale --set sample.n_designs=$(STUDY_DESIGNS) \
+  --set sample.chunk_size=$(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
+ASB_STUDY = $(SURROGACY) study --out results/study-asb --data $(ASB_DATA) --set study.dataset=asb $(STUDY_OPTIONS)
 study: study-beams study-asb
 
 study-beams: rom
 	@if [ -f "$(REFERENCE)/paper_table1_low_amplitude.csv" ]; then \
-	  $(SURROGACY) study --out results/study-beams --rom build/rom --reference $(REFERENCE) --restart-stale \
-	    --set sample.n_designs=$(STUDY_DESIGNS) --set sample.chunk_size=$(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER)); \
+	  $(SURROGACY) study --out results/study-beams --rom build/rom $(STUDY_OPTIONS); \
 	else echo "study: $(REFERENCE) lacks the paper's Table 1, beams' study skipped (set REFERENCE=folder)"; fi
 
 study-asb: $(STAMP)

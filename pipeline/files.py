@@ -55,8 +55,7 @@ def atomic_path(destination: Path):
 
     On any exception (Ctrl-C and SIGTERM included) the temporary file is removed and ``destination`` is left as
     it was. Nothing is created before the caller's ``with`` block (or ExitStack) has registered the exit: an
-    interruption between the two leaves no file. (The temporary used to be made by ``mkstemp`` on entering: a
-    Ctrl-C in that gap left one behind.)
+    interruption between the two leaves no file.
     """
     destination = Path(destination)
     destination.parent.mkdir(parents=True, exist_ok=True)
