@@ -1,7 +1,7 @@
 """Benchmark of the reduction stage: time and peak memory of each beam's superelement, from the pipeline's own
 geometry and FE results (``build/beams``, ``build/fe``: ``make fe``, default meshes).
 
-Each beam is reduced in a fresh process into a scratch folder (``reduction.commands.make_rom`` without the
+Each beam is reduced in a fresh process into a scratch folder (``reduction.rom_files.make_rom`` without the
 render: whole-joint patches, Hurty/Craig-Bampton basis, prestress and sensor rows, the .npz and .mat written).
 Run: ``python -m benchmarks.reduction`` (part of ``make bench``).
 """
@@ -24,7 +24,7 @@ BEAMS_FOLDER, FE_FOLDER = Path("build/beams"), Path("build/fe")
 
 def reduce_beam(name: str) -> str:
     """Reduce one beam into a scratch folder; returns its stuck-joint first flexible frequency and size."""
-    from reduction.commands import make_rom
+    from reduction.rom_files import make_rom
 
     with tempfile.TemporaryDirectory() as folder:
         record = json.loads(make_rom(name, BEAMS_FOLDER, FE_FOLDER, Path(folder), render=False).read_text())
@@ -35,8 +35,8 @@ def reduce_beam(name: str) -> str:
 def rows(beams=("BRB", "LBRB", "SBRB")) -> Iterator[dict]:
     """A row per beam: wall time (s) and peak memory (MiB) of its reduction, or why it was skipped (no current
     FE result of the beam's mesh)."""
-    from fem.commands import FeInputError, beam_inputs
-    from reduction.commands import fe_inputs
+    from fem.fe_files import FeInputError, beam_inputs
+    from reduction.rom_files import fe_inputs
 
     for name in beams:
         try:

@@ -32,7 +32,8 @@ from benchmarks.table import row, show  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.joint import FRICTION_MODELS  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
-from study.structures import beam_superelement, qsma_measurement, structure  # noqa: E402
+from reduction.superelement import beam_superelement  # noqa: E402
+from study.structures import qsma_measurement, structure  # noqa: E402
 
 ROM = Path("build/rom")
 BEAMS = ("BRB", "LBRB", "SBRB")

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.ringdown_files import read_ringdown
-from study.discrepancy import discrepancy_loop, measurement_from_backbone
+from discrepancy.loop import discrepancy_loop, measurement_from_backbone
 
 
 def main(argv=None):

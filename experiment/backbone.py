@@ -20,7 +20,7 @@ from dataclasses import astuple, dataclass, field
 import numpy as np
 
 from experiment.decay_cycles import decay_cycles
-from experiment.hilbert import InstantaneousBackbone, RingDownSignalError, freevib
+from experiment.hilbert import OPTION_MINIMA, InstantaneousBackbone, RingDownSignalError, freevib
 from experiment.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
 from experiment.ringdown import RingDown, RingDownError, selected_channels
 
@@ -213,6 +213,50 @@ def check_identified(record: ModeRecord, band_hz: tuple[float, float], source: s
                             "decay): not a free decay of this mode")
 
 
+class BackboneSettingError(ValueError):
+    """A backbone setting out of range: ``parameter`` (the keyword of :func:`ringdown_backbone` or of
+    :func:`~experiment.hilbert.freevib`), its ``value`` and what was ``expected``."""
+
+    def __init__(self, parameter: str, value, expected: str):
+        self.parameter, self.value, self.expected = parameter, value, expected
+        super().__init__(f"{parameter} = {value!r}: expected {expected}")
+
+
+def checked_settings(mode_frequency_hz: float, band_hz=None, grid_points: int = 25, cycles: int = 4,
+                     mode_index: int = 0, smoothing_periods: float = 2.0, trim_periods: float = 12.0
+                     ) -> tuple[float, float]:
+    """The band-pass edges (Hz; default 0.7 and 1.3 times the mode frequency), after refusing settings that can
+    give no backbone, before any signal is read: a mode frequency that is not a positive finite number, a band
+    that is not finite or does not enclose it, fewer than 2 grid points, fewer than 1 cycle per window, a negative
+    mode index, or FreeVib time scales below their minima (``experiment.hilbert.OPTION_MINIMA``). Raises
+    BackboneSettingError naming the first setting refused."""
+    if not (np.isfinite(mode_frequency_hz) and mode_frequency_hz > 0):
+        raise BackboneSettingError("mode_frequency_hz", mode_frequency_hz, "a positive natural frequency in Hz")
+    band = tuple(band_hz) if band_hz is not None else (0.7 * mode_frequency_hz, 1.3 * mode_frequency_hz)
+    if band_hz is not None and not (np.all(np.isfinite(band)) and 0 < band[0] < mode_frequency_hz < band[1]):
+        raise BackboneSettingError("band_hz", list(band),
+                                   f"finite edges LOW < HIGH in Hz around the mode frequency {mode_frequency_hz:g}")
+    for parameter, value, minimum in (("grid_points", grid_points, 2), ("cycles", cycles, 1),
+                                      ("mode_index", mode_index, 0)):
+        if value < minimum:
+            raise BackboneSettingError(parameter, value, f"an integer >= {minimum}")
+    for parameter, value in (("smoothing_periods", smoothing_periods), ("trim_periods", trim_periods)):
+        if not (np.isfinite(value) and value >= OPTION_MINIMA[parameter]):
+            raise BackboneSettingError(parameter, value, f"a finite number of periods >= {OPTION_MINIMA[parameter]:g}")
+    return band
+
+
+def check_nyquist(hits: list[RingDown], band_hz: tuple[float, float],
+                  set_by: str = "the mode frequency or the band") -> None:
+    """Refuse a band-pass that reaches a hit's Nyquist frequency, naming the hit's file and what ``set_by`` the
+    band (RingDownError)."""
+    for hit in hits:
+        if band_hz[1] >= hit.sample_rate / 2:
+            raise RingDownError(hit.source, "time", f"sampled at {hit.sample_rate:g} Hz: the band {band_hz[0]:g}-"
+                                f"{band_hz[1]:g} Hz set by {set_by} must lie below its Nyquist frequency "
+                                f"{hit.sample_rate / 2:g} Hz")
+
+
 def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                       band_hz: tuple[float, float] | None = None, mode_shapes: np.ndarray | None = None,
                       mode_index: int = 0, per_channel: bool = False, channels: list[str] | None = None,
@@ -226,10 +270,14 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
     its shape entry) is a record of its own instead of one modal coordinate per hit. channels: names to use
     (default all). grid_points: size of the log-spaced amplitude grid. cycles: window of the cycle estimator.
     freevib_options: passed to :func:`~experiment.hilbert.freevib` (smoothing_periods, trim_periods, feldman,
-    ...). Returns both estimators averaged over the records on one grid (:func:`average_backbones`).
+    ...). Returns both estimators averaged over the records on one grid (:func:`average_backbones`). Settings
+    are checked first (:func:`checked_settings`, :func:`check_nyquist`).
     """
-    band_hz = band_hz or (0.7 * mode_frequency_hz, 1.3 * mode_frequency_hz)
+    band_hz = checked_settings(mode_frequency_hz, band_hz, grid_points, cycles, mode_index,
+                               **{key: freevib_options[key] for key in ("smoothing_periods", "trim_periods")
+                                  if key in freevib_options})
     hits = [selected_channels(hit, channels) for hit in hits] if channels else hits
+    check_nyquist(hits, band_hz)
     records, shapes = [], []
     for hit in hits:
         try:

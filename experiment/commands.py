@@ -11,13 +11,10 @@ import argparse
 import inspect
 from pathlib import Path
 
-import numpy as np
-
-from experiment.backbone import ringdown_backbone
+from experiment.backbone import BackboneSettingError, check_nyquist, checked_settings, ringdown_backbone
 from experiment.backbone_files import plot_backbone, write_freevib_table
-from experiment.hilbert import OPTION_MINIMA, freevib
-from experiment.ringdown import RingDown, RingDownError
-from experiment.ringdown_files import read_ringdown
+from experiment.hilbert import freevib
+from experiment.ringdown_files import read_mode_shapes, read_ringdown
 from pipeline.files import check_output_folder, sha256_file, write_json
 
 
@@ -27,47 +24,25 @@ def keyword_defaults(function) -> dict:
             if parameter.default is not inspect.Parameter.empty}
 
 
-def read_mode_shapes(path: Path) -> np.ndarray:
-    """Mode shapes at the sensors from a CSV of n_channels rows and n_modes columns (``#`` comments allowed)."""
-    try:
-        return np.loadtxt(path, delimiter=",", ndmin=2, comments="#")
-    except (OSError, ValueError) as error:
-        raise RingDownError(path, "mode shapes", f"not a readable table of numbers: {error}") from error
+OPTIONS = {"mode_frequency_hz": "mode_hz", "band_hz": "band", "grid_points": "grid_points", "cycles": "cycles",
+           "smoothing_periods": "smoothing_periods", "trim_periods": "trim_periods"}
+"""Setting of ``experiment.backbone.checked_settings`` -> the option (argparse dest) that sets it."""
 
 
 def check_options(arguments: argparse.Namespace) -> tuple[float, float]:
-    """The band-pass edges (Hz), after refusing options out of range before the file is read, each named as
-    typed: a mode frequency that is not a positive finite number was reported as a band beyond the Nyquist
-    frequency, an inverted band likewise, and --grid-points or --cycles of 0 ended in a traceback. Raises
-    ValueError."""
-    def refuse(option: str, value, expected: str) -> None:
-        raise ValueError(f"option {option} = {value!r}: expected {expected}")
-
-    if not (np.isfinite(arguments.mode_hz) and arguments.mode_hz > 0):
-        refuse("--mode-hz", arguments.mode_hz, "a positive natural frequency in Hz")
-    band = tuple(arguments.band) if arguments.band else (0.7 * arguments.mode_hz, 1.3 * arguments.mode_hz)
-    if arguments.band and not (np.all(np.isfinite(band)) and 0 < band[0] < arguments.mode_hz < band[1]):
-        refuse("--band", list(band), f"finite edges LOW < HIGH in Hz around --mode-hz {arguments.mode_hz:g}")
-    for option, value, minimum in (("--grid-points", arguments.grid_points, 2), ("--cycles", arguments.cycles, 1),
-                                   ("--mode-index", arguments.mode_index, 1)):
-        if value < minimum:
-            refuse(option, value, f"an integer >= {minimum}")
-    for option, value, minimum in (("--smoothing-periods", arguments.smoothing_periods,
-                                    OPTION_MINIMA["smoothing_periods"]),
-                                   ("--trim-periods", arguments.trim_periods, OPTION_MINIMA["trim_periods"])):
-        if not (np.isfinite(value) and value >= minimum):
-            refuse(option, value, f"a finite number of periods >= {minimum:g}")
+    """The band-pass edges (Hz), after refusing options out of range before the file is read
+    (``experiment.backbone.checked_settings``), each named as typed. Raises ValueError."""
+    if arguments.mode_index < 1:
+        raise ValueError(f"option --mode-index = {arguments.mode_index!r}: expected an integer >= 1")
+    try:
+        band = checked_settings(arguments.mode_hz, arguments.band, arguments.grid_points, arguments.cycles,
+                                arguments.mode_index - 1, arguments.smoothing_periods, arguments.trim_periods)
+    except BackboneSettingError as error:
+        option = OPTIONS[error.parameter]
+        raise ValueError(f"option --{option.replace('_', '-')} = {error.value!r}: expected "
+                         f"{error.expected.replace('the mode frequency', '--mode-hz')}") from None
     check_output_folder(arguments.out)
     return band
-
-
-def check_nyquist(hits: list[RingDown], band: tuple[float, float]) -> None:
-    """Refuse a band-pass that reaches a hit's Nyquist frequency, naming the file and the options that set it."""
-    for hit in hits:
-        if band[1] >= hit.sample_rate / 2:
-            raise RingDownError(hit.source, "time", f"sampled at {hit.sample_rate:g} Hz: the band {band[0]:g}-"
-                                f"{band[1]:g} Hz set by --mode-hz / --band must lie below its Nyquist frequency "
-                                f"{hit.sample_rate / 2:g} Hz")
 
 
 def run_freevib(arguments: argparse.Namespace) -> None:
@@ -75,7 +50,7 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     band = check_options(arguments)
     source = Path(arguments.file)
     hits = read_ringdown(source)
-    check_nyquist(hits, band)
+    check_nyquist(hits, band, "--mode-hz / --band")
     backbone = ringdown_backbone(
         hits, arguments.mode_hz, band_hz=band,
         mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,

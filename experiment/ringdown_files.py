@@ -337,3 +337,12 @@ def write_ringdown_uff58(ring_downs: list[RingDown], destination: Path) -> None:
                 for node, (name, signal) in enumerate(zip(hit.channels, hit.signals), start=1)]
     with atomic_path(destination) as temporary:
         pyuff.UFF(str(temporary)).write_sets(datasets, mode="overwrite")
+
+
+def read_mode_shapes(path: Path) -> np.ndarray:
+    """Mode shapes at the sensors from a CSV of n_channels rows and n_modes columns (``#`` comments allowed)."""
+    try:
+        return np.loadtxt(path, delimiter=",", ndmin=2, comments="#")
+    except (OSError, ValueError) as error:
+        raise RingDownError(path, "mode shapes", f"not a readable table of numbers: {error}") from error
+

@@ -21,7 +21,6 @@ values move by 0.3 % (LBRB) and 1 % (SBRB) from a mesh twice as coarse to the de
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import tempfile
 import time
@@ -36,10 +35,9 @@ from tqdm import tqdm
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, BeamParameters, MeshParameters
-from pipeline.files import check_output_folder, write_json
 
 from .bolts import Bolt
-from .convergence import N_MODES, check_mesh_factor, dynamic_matrices, first_bending
+from .convergence import N_MODES, dynamic_matrices, first_bending
 from .elasticity import Material
 from .solver import natural_modes
 from .springs import joint_stiffness, patch_couplings
@@ -168,40 +166,3 @@ def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt
                         "measured_ratio": measured_ratio, "measured_hz": MEASURED_HZ[name], "trials": trials}
     record["seconds"] = time.perf_counter() - start
     return record
-
-
-def check_options(arguments: argparse.Namespace) -> MeshParameters:
-    """The calibration meshes' sizes, after refusing, before any mesh is made, options that cannot give a
-    calibration: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
-    memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
-    step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
-    of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
-    check_mesh_factor("--mesh-factor", arguments.mesh_factor, BEAMS.values(), MeshParameters())
-    low, high = (10 ** bound for bound in LOG_STIFFNESS_BRACKET)
-    if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
-        raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "
-                         f"to {high:g} N/m")
-    check_output_folder(arguments.out)
-    return sizes
-
-
-def run(arguments: argparse.Namespace) -> None:
-    sizes = check_options(arguments)
-    record = calibrate(sizes, stiffness=arguments.stiffness, progress=True)
-    path = Path(arguments.out) / "calibration.json"
-    write_json(path, record)
-    tqdm.write(f"{path}: LBRB.body_length = {record['LBRB']['body_length']:.6g} m, "
-               f"SBRB.spring_height = {record['SBRB']['spring_height']:.6g} m")
-
-
-def register(subparsers) -> None:
-    """Add the ``calibrate`` subcommand."""
-    command = subparsers.add_parser(
-        "calibrate", help="joint springs of the BRB and LBRB/SBRB geometry from the measured frequency ratios",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    command.add_argument("--mesh-factor", type=float, default=MESH_FACTOR,
-                         help="scale factor on the default element sizes (geometry.parameters.MeshParameters)")
-    command.add_argument("--stiffness", type=float, default=None,
-                         help="BRB patch stiffness k, N/m, found before on the same mesh: skip step 1")
-    command.add_argument("--out", type=Path, default=Path("results/calibration"), help="output folder")
-    command.set_defaults(run=run)

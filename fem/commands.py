@@ -1,173 +1,140 @@
-"""``surrogacy fe``: the finite-element stage: preload with contact, stress stiffness and tied modes per beam.
-
-Reads ``<beams>/<beam>.msh`` and its sidecar ``<beam>.json`` (geometry stage) and writes ``<out>/<beam>.npz``
-(arrays only; ``np.load(..., allow_pickle=False)``) and ``<out>/<beam>.json``, the sidecar (layout
-``pipeline.cache``), last. Its inputs, hashed into the cache key, are the mesh's SHA-256, the beam parameters, the
-material, the bolt and the number of modes: a rerun with unchanged inputs finds a current sidecar and does nothing.
-Parameters: ``[material]`` (``fem.elasticity.Material``) and ``[bolt]`` (``fem.bolts.Bolt``) tables of a
-``--config`` TOML file, ``--set material.density=7850``, and the options below.
-
-Arrays in the .npz (n_nodes quadratic nodes, n_dof = 3 n_nodes, DOF 3 p + k of component k at node p):
-coordinates (n_nodes, 3) m; stiffness_* and mass_*: K (solid, N/m) and M (solid and bolt masses, kg) as CSR
-components data, indices, indptr, shape; bolts_* (shanks with axial stiffness, N/m) and stress_stiffness_*
-(K_sigma of solid and shanks, N/m) likewise; lower_nodes, upper_nodes (n_pairs,) interface partners;
-preload_displacement (n_dof,) m; contact_force (n_pairs,) N on the upper nodes (+z); contact_active (n_pairs,)
-bool; frequencies, prestressed_frequencies (n_modes,) Hz and shapes, prestressed_shapes (n_dof, n_modes),
-mass-normalised tied modes of (K + K_bolts, M) and (K + K_bolts + K_sigma, M) (``fem.prestress``).
-
-Renders (``fem.render``, paper Figs. 7a and 8): ``<out>/<beam>_contact_pressure.png``, the lower interface
-coloured by the preload's contact pressure (Pa, colour range recorded in the sidecar as
-contact_pressure_range_pa), and ``<out>/<beam>_first_bending.png``, the prestressed first bending mode coloured by
-displacement magnitude. They are files ``contact_pressure`` and ``first_bending`` of the sidecar.
-"""
+"""``surrogacy fe``, ``fe-convergence`` and ``calibrate``: the finite-element stage and its two studies. Each
+parses its options, calls the library (:mod:`fem.fe_files`, :mod:`fem.convergence`, :mod:`fem.calibration`)
+and prints what it wrote."""
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import dataclasses
 from pathlib import Path
 
-import numpy as np
-import scipy.sparse as sp
 from tqdm import tqdm
 
-from geometry.beam_mesh import read_beam_mesh
-from geometry.parameters import BEAMS, BeamParameters
-from pipeline.cache import StageInputError, is_current, package_versions, sidecar_record, upstream_file
+from geometry.parameters import BEAMS, MeshParameters
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import atomic_path, check_output_folder, sha256_json, stage_folder, write_json
+from pipeline.files import check_output_folder, stage_folder, write_json
 
-from . import calibration, convergence
+from . import calibration, convergence, fe_files
 from .bolts import Bolt
 from .elasticity import Material
-from .prestress import PrestressedBeam, prestressed_beam
-from .render import render_fe
 
-FORMAT_VERSION = 2  # 2: sidecar layout of pipeline.cache
-N_MODES = 10
-RENDERS = ("contact_pressure", "first_bending")  # <beam>_<kind>.png
+
 MATERIAL_OPTIONS = ("youngs_modulus", "poissons_ratio", "density")  # --youngs-modulus ...: material.<field>
-FeInputError = StageInputError  # what the FE and reduction stages raise for a missing or bad input
 
 
-def beam_inputs(beams_folder: Path, name: str) -> tuple[Path, BeamParameters, str]:
-    """The mesh file, beam parameters and mesh SHA-256 of one beam, from the geometry stage's sidecar.
 
-    Raises FeInputError when the sidecar or mesh is missing, a field is absent, the mesh's hash differs from
-    the one recorded (a mesh changed since the geometry stage wrote it), the sidecar describes another beam or
-    its inputs no longer hash to its recorded input_hash (edited by hand): never trusted, always checked.
-    """
-    sidecar = Path(beams_folder) / f"{name}.json"
-    mesh_path, record = upstream_file(sidecar, "msh", "beams")
-    try:
-        beam = BeamParameters(**{k: tuple(v) if isinstance(v, list) else v
-                                 for k, v in record["inputs"]["beam"].items()})
-    except (KeyError, AttributeError, TypeError, ValueError) as error:
-        raise FeInputError(f"{sidecar}: field inputs.beam is not a valid BeamParameters ({error!r}); "
-                           f"rerun make beams") from None
-    if beam.name != name or mesh_path.stem != name:
-        raise FeInputError(f"{sidecar}: describes beam {beam.name!r} meshed in {mesh_path.name}, not the {name} "
-                           "asked for; rerun make beams")
-    if record.get("input_hash") != sha256_json(record["inputs"]):
-        raise FeInputError(f"{sidecar}: field inputs no longer matches its input_hash (edited after meshing); "
-                           "rerun make beams")
-    return mesh_path, beam, record["files"]["msh"]["sha256"]
-
-
-def input_record(mesh_sha: str, beam: BeamParameters, material: Material, bolt: Bolt, n_modes: int) -> dict:
-    """Everything the FE result depends on, as recorded in the sidecar and hashed into the cache key."""
-    return {"mesh_sha256": mesh_sha, "beam": dataclasses.asdict(beam), "material": dataclasses.asdict(material),
-            "bolt": dataclasses.asdict(bolt), "n_modes": n_modes}
-
-
-def versions() -> dict:
-    """The sidecar's versions: the format and the packages that assemble and solve the model."""
-    return {"format": FORMAT_VERSION, **package_versions("numpy", "scipy", "scikit-fem", "scikit-sparse")}
-
-
-def _csr_arrays(name: str, matrix: sp.csr_matrix) -> dict[str, np.ndarray]:
-    return {f"{name}_data": matrix.data, f"{name}_indices": matrix.indices, f"{name}_indptr": matrix.indptr,
-            f"{name}_shape": np.array(matrix.shape)}
-
-
-def fe_arrays(model: PrestressedBeam) -> dict[str, np.ndarray]:
-    """The .npz content of a ``PrestressedBeam`` (names in the module docstring)."""
-    return {"coordinates": model.coordinates,
-            **_csr_arrays("stiffness", model.stiffness), **_csr_arrays("mass", model.mass),
-            **_csr_arrays("bolts", model.bolts), **_csr_arrays("stress_stiffness", model.stress_stiffness),
-            "lower_nodes": model.lower_nodes, "upper_nodes": model.upper_nodes,
-            "preload_displacement": model.contact.displacement, "contact_force": model.contact.normal_force,
-            "contact_active": model.contact.active,
-            "frequencies": model.frequencies, "shapes": model.shapes,
-            "prestressed_frequencies": model.prestressed_frequencies,
-            "prestressed_shapes": model.prestressed_shapes}
-
-
-def read_csr(arrays, name: str) -> sp.csr_matrix:
-    """A CSR matrix stored by ``fe_arrays`` under ``name`` in a loaded .npz."""
-    return sp.csr_matrix((arrays[f"{name}_data"], arrays[f"{name}_indices"], arrays[f"{name}_indptr"]),
-                         shape=tuple(arrays[f"{name}_shape"]))
-
-
-def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Material(), bolt: Bolt = Bolt(),
-            n_modes: int = N_MODES) -> Path:
-    """Run the FE stage for one beam unless its sidecar is current; returns the sidecar path."""
-    if n_modes < 7:
-        raise FeInputError(f"n_modes = {n_modes}: expected at least 7 (six rigid-body modes and first bending)")
-    mesh_path, beam, mesh_sha = beam_inputs(beams_folder, name)
-    inputs = input_record(mesh_sha, beam, material, bolt, n_modes)
-    folder = Path(folder)
-    sidecar = folder / f"{name}.json"
-    files = {"npz": folder / f"{name}.npz", **{kind: folder / f"{name}_{kind}.png" for kind in RENDERS}}
-    if is_current(sidecar, inputs, versions(), files):
-        return sidecar
-    beam_mesh = read_beam_mesh(mesh_path, beam)
-    model = prestressed_beam(beam_mesh, beam, material, bolt, n_modes)
-    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
-        temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
-        with open(temporary["npz"], "wb") as stream:
-            np.savez(stream, **fe_arrays(model))
-        pressure_range = render_fe(beam_mesh, model, name, temporary["contact_pressure"], temporary["first_bending"])
-    write_json(sidecar, sidecar_record(
-        inputs, versions(), files, contact_pressure_range_pa=list(pressure_range),
-        first_bending_hz={"tied": float(model.frequencies[6]),
-                          "tied_prestressed": float(model.prestressed_frequencies[6])}))
-    return sidecar
-
-
-def run(arguments: argparse.Namespace) -> None:
+def run_fe(arguments: argparse.Namespace) -> None:
     options = [("material", field, getattr(arguments, field)) for field in MATERIAL_OPTIONS
                if getattr(arguments, field) is not None]
     resolved = configuration(arguments, {"material": Material(), "bolt": Bolt()}, options)
     if arguments.modes < 7:
-        raise FeInputError(f"option --modes = {arguments.modes}: expected at least 7 (six rigid-body modes and "
+        raise fe_files.FeInputError(f"option --modes = {arguments.modes}: expected at least 7 (six rigid-body modes and "
                            "first bending)")
     check_output_folder(arguments.out)
     for name in arguments.beam:  # every beam's geometry checked before the output folder is touched
-        beam_inputs(arguments.beams, name)
+        fe_files.beam_inputs(arguments.beams, name)
     with stage_folder(arguments.out):
         for name in tqdm(arguments.beam, desc="FE models", unit="beam"):
-            sidecar = make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],
+            sidecar = fe_files.make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],
                               arguments.modes)
             tqdm.write(f"{name}: {sidecar}")
+
 
 
 def register(subparsers) -> None:
     """Add the ``fe`` subcommand and the FE studies (``fe-convergence``, ``calibrate``)."""
     command = subparsers.add_parser(
         "fe", help="preload with contact, stress stiffness and tied modes of each beam: build/fe/<beam>.npz",
-        description=__doc__)
+        description=fe_files.__doc__)
     command.add_argument("--beam", nargs="+", choices=sorted(BEAMS), default=list(BEAMS), help="beams to solve")
     command.add_argument("--beams", type=Path, default=Path("build/beams"), help="geometry stage output folder")
     command.add_argument("--out", type=Path, default=Path("build/fe"), help="output folder")
-    command.add_argument("--modes", type=int, default=N_MODES, help="tied modes per solve, six rigid included")
+    command.add_argument("--modes", type=int, default=fe_files.N_MODES, help="tied modes per solve, six rigid included")
     command.add_argument("--youngs-modulus", type=float, help=f"Pa (material.youngs_modulus, default "
                                                                 f"{Material().youngs_modulus:g})")
     command.add_argument("--poissons-ratio", type=float,
                          help=f"material.poissons_ratio, default {Material().poissons_ratio:g}")
     command.add_argument("--density", type=float, help=f"kg/m^3 (material.density, default {Material().density:g})")
     add_config_arguments(command, "[material] and [bolt]", "material.density=7850 or bolt.preload=12000")
-    command.set_defaults(run=run)
-    convergence.register(subparsers)
-    calibration.register(subparsers)
+    command.set_defaults(run=run_fe)
+    register_convergence(subparsers)
+    register_calibration(subparsers)
+
+
+def run_convergence(arguments: argparse.Namespace) -> None:
+    if not 0.0 < arguments.tolerance < 1.0:
+        raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
+    if not all(0.0 < factor < 100.0 for factor in arguments.factors):
+        raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
+    beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
+    for factor in arguments.factors:
+        convergence.check_mesh_factor("--factors", factor, [beam], sizes)
+    check_output_folder(arguments.out)  # the table is written after every mesh is solved
+    material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
+    rows = convergence.convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)
+    table = Path(arguments.out) / f"{beam.name}.csv"
+    convergence.write_table(rows, table)
+    record = convergence.study_record(beam, sizes, material, rows, arguments.tolerance)
+    write_json(table.with_suffix(".json"), record)
+    tqdm.write(f"{table}: coarsest mesh within {arguments.tolerance:g} of every finer one: "
+               f"s = {record['converged_factor']}, {record['converged_dof']} DOF")
+
+
+
+def register_convergence(subparsers) -> None:
+    """Add the ``fe-convergence`` subcommand."""
+    sizes, material = MeshParameters(), Material()
+    command = subparsers.add_parser(
+        "fe-convergence", help="mesh-convergence study of the tied first bending: results/fe-convergence/<beam>.csv",
+        description=convergence.__doc__)
+    command.add_argument("--beam", choices=sorted(BEAMS), default="BRB")
+    command.add_argument("--factors", type=float, nargs="+", default=list(convergence.FACTORS),
+                         help="scale factors on the three element sizes (< 1 refines)")
+    command.add_argument("--size", type=float, default=sizes.size, help="base far-field element size, m")
+    command.add_argument("--lap-size", type=float, default=sizes.lap_size, help="base lap element size, m")
+    command.add_argument("--hole-size", type=float, default=sizes.hole_size, help="base hole element size, m")
+    command.add_argument("--tolerance", type=float, default=convergence.TOLERANCE, help="relative change to the next finer mesh")
+    command.add_argument("--youngs-modulus", type=float, default=material.youngs_modulus, help="Pa")
+    command.add_argument("--poissons-ratio", type=float, default=material.poissons_ratio)
+    command.add_argument("--density", type=float, default=material.density, help="kg/m^3")
+    command.add_argument("--out", type=Path, default=Path("results/fe-convergence"), help="output folder")
+    command.set_defaults(run=run_convergence)
+
+
+def calibration_sizes(arguments: argparse.Namespace) -> MeshParameters:
+    """The calibration meshes' sizes, after refusing, before any mesh is made, options that cannot give a
+    calibration: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
+    memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
+    step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
+    of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
+    sizes = convergence.check_mesh_factor("--mesh-factor", arguments.mesh_factor, BEAMS.values(), MeshParameters())
+    low, high = (10 ** bound for bound in calibration.LOG_STIFFNESS_BRACKET)
+    if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
+        raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "
+                         f"to {high:g} N/m")
+    check_output_folder(arguments.out)
+    return sizes
+
+
+
+def run_calibration(arguments: argparse.Namespace) -> None:
+    sizes = calibration_sizes(arguments)
+    record = calibration.calibrate(sizes, stiffness=arguments.stiffness, progress=True)
+    path = Path(arguments.out) / "calibration.json"
+    write_json(path, record)
+    tqdm.write(f"{path}: LBRB.body_length = {record['LBRB']['body_length']:.6g} m, "
+               f"SBRB.spring_height = {record['SBRB']['spring_height']:.6g} m")
+
+
+
+def register_calibration(subparsers) -> None:
+    """Add the ``calibrate`` subcommand."""
+    command = subparsers.add_parser(
+        "calibrate", help="joint springs of the BRB and LBRB/SBRB geometry from the measured frequency ratios",
+        description=calibration.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("--mesh-factor", type=float, default=calibration.MESH_FACTOR,
+                         help="scale factor on the default element sizes (geometry.parameters.MeshParameters)")
+    command.add_argument("--stiffness", type=float, default=None,
+                         help="BRB patch stiffness k, N/m, found before on the same mesh: skip step 1")
+    command.add_argument("--out", type=Path, default=Path("results/calibration"), help="output folder")
+    command.set_defaults(run=run_calibration)
+

@@ -13,7 +13,6 @@ mesh of the sequence and to every finer one (``converged_index``).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import dataclasses
 import tempfile
@@ -27,8 +26,8 @@ from tqdm import tqdm
 
 from geometry.beam_mesh import BeamMesh, interface_partners, read_beam_mesh
 from geometry.beams import make_beam
-from geometry.parameters import BEAMS, BeamParameters, GeometryError, MeshParameters, check_mesh_size
-from pipeline.files import atomic_path, check_output_folder, write_json
+from geometry.parameters import BeamParameters, GeometryError, MeshParameters, check_mesh_size
+from pipeline.files import atomic_path
 
 from .bolts import Bolt, bolts_mass, washer_couplings
 from .elasticity import Material, mass_matrix, solid_mesh, stiffness_matrix
@@ -155,42 +154,3 @@ def study_record(beam: BeamParameters, sizes: MeshParameters, material: Material
             "bolt_mass_included": True, "tolerance": tolerance, "table": f"{beam.name}.csv",
             "converged_factor": factor, "converged_dof": None if chosen is None else rows[chosen]["dof"],
             "converged_mesh": None if chosen is None else dataclasses.asdict(scaled_sizes(sizes, factor))}
-
-
-def run(arguments: argparse.Namespace) -> None:
-    if not 0.0 < arguments.tolerance < 1.0:
-        raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
-    if not all(0.0 < factor < 100.0 for factor in arguments.factors):
-        raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
-    beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
-    for factor in arguments.factors:
-        check_mesh_factor("--factors", factor, [beam], sizes)
-    check_output_folder(arguments.out)  # the table is written after every mesh is solved
-    material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
-    rows = convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)
-    table = Path(arguments.out) / f"{beam.name}.csv"
-    write_table(rows, table)
-    record = study_record(beam, sizes, material, rows, arguments.tolerance)
-    write_json(table.with_suffix(".json"), record)
-    tqdm.write(f"{table}: coarsest mesh within {arguments.tolerance:g} of every finer one: "
-               f"s = {record['converged_factor']}, {record['converged_dof']} DOF")
-
-
-def register(subparsers) -> None:
-    """Add the ``fe-convergence`` subcommand."""
-    sizes, material = MeshParameters(), Material()
-    command = subparsers.add_parser(
-        "fe-convergence", help="mesh-convergence study of the tied first bending: results/fe-convergence/<beam>.csv",
-        description=__doc__)
-    command.add_argument("--beam", choices=sorted(BEAMS), default="BRB")
-    command.add_argument("--factors", type=float, nargs="+", default=list(FACTORS),
-                         help="scale factors on the three element sizes (< 1 refines)")
-    command.add_argument("--size", type=float, default=sizes.size, help="base far-field element size, m")
-    command.add_argument("--lap-size", type=float, default=sizes.lap_size, help="base lap element size, m")
-    command.add_argument("--hole-size", type=float, default=sizes.hole_size, help="base hole element size, m")
-    command.add_argument("--tolerance", type=float, default=TOLERANCE, help="relative change to the next finer mesh")
-    command.add_argument("--youngs-modulus", type=float, default=material.youngs_modulus, help="Pa")
-    command.add_argument("--poissons-ratio", type=float, default=material.poissons_ratio)
-    command.add_argument("--density", type=float, default=material.density, help="kg/m^3")
-    command.add_argument("--out", type=Path, default=Path("results/fe-convergence"), help="output folder")
-    command.set_defaults(run=run)

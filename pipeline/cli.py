@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands",
-                  "study.discrepancy_commands", "study.report_commands")
+                  "discrepancy.commands", "report.commands")
 
 
 def parser() -> argparse.ArgumentParser:

@@ -18,6 +18,7 @@ import scipy.linalg
 
 DOFS_PER_PATCH = 6  # x, y, normal translations, then rotations about x, y, normal
 ASB_PRELOAD = 11580.0  # N per bolt, the studies' value (paper section 4.1)
+TIED_MODES = 6  # tied modes searched for a measured one
 
 
 @dataclass(frozen=True)
@@ -174,3 +175,51 @@ def stuck_joint_modes(superelement: Superelement, n_modes: int = 1,
     tied_eigenvalues, shapes = tied_modes(eigenvalues, superelement.relative_translation @ modes, n_modes,
                                           rigid_frequency)
     return np.sqrt(tied_eigenvalues) / (2 * np.pi), modes @ shapes
+
+
+class StructureError(ValueError):
+    """A structure's measurement or model is unusable; the message names the file and the field."""
+
+
+def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, np.ndarray, str]:
+    """The mode a measurement at ``frequency_hz`` saw: its 0-based index among the flexible tied modes, its tied
+    shape (n,) in the superelement's coordinates, and a sentence stating the choice.
+
+    Never silently mode 1: the measured low-amplitude frequency f_m is compared with the modes with every relative
+    patch translation tied (``stuck_joint_modes``): a finite joint only softens the structure, so the k-th mode of
+    any joint design lies at or below the k-th tied mode (eigenvalue interlacing). The measured mode is therefore
+    at least the lowest mode whose tied frequency is not below f_m, and that mode is taken; the choice and the tied
+    frequencies are stated in the study's output (``Structure.mode_choice``). The ASB's C2, C4 and C4a measure
+    250-298 Hz, above their first tied mode (174-201 Hz): their target is the second mode.
+    """
+    frequencies, shapes = stuck_joint_modes(superelement, TIED_MODES)
+    above = np.flatnonzero(frequencies >= frequency_hz)
+    if above.size == 0:
+        raise StructureError(f"{superelement.name}: measured {frequency_hz:.2f} Hz lies above the {TIED_MODES} "
+                             f"lowest tied modes ({frequencies.round(1).tolist()} Hz)")
+    index = int(above[0])
+    choice = (f"{superelement.name}: measured {frequency_hz:.2f} Hz -> mode {index + 1} (tied {frequencies[index]:.2f}"
+              f" Hz; tied modes {', '.join(f'{f:.1f}' for f in frequencies[:index + 2])} Hz)")
+    return index, shapes[:, index], choice
+
+
+def beam_superelement(path: Path, prestress: bool = False) -> Superelement:
+    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): the unstressed K of the two
+    halves, or with ``prestress`` K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks'
+    string term, DESIGN 3-4).
+
+    The prestressed stiffness of the free halves is indefinite (BRB: modes at -245, -230, -22 Hz in the
+    superelement's coordinates: the preload's geometric stiffness without the joint that balances it), which
+    the joint-space condensation (``nonlinear.condensation.joint_space``) takes for rigid-body motion and sets
+    to zero. The study therefore uses K, and ``study.prestress`` compares the two on the assembled model."""
+    path = Path(path)
+    if not path.exists():
+        raise StructureError(f"{path}: missing (run `make rom` to build the beams' superelements)")
+    superelement = load_superelement(path)
+    if not prestress:
+        return superelement
+    with np.load(path, allow_pickle=False) as data:
+        stiffness = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
+    return Superelement(superelement.mass, 0.5 * (stiffness + stiffness.T), superelement.patch_motion,
+                        superelement.patch_areas, superelement.patch_groups, superelement.sensors,
+                        superelement.preload, superelement.name)

@@ -2,7 +2,7 @@
 surrogate) be trusted in another (the real one)? ``surrogacy study`` runs it step by step (:mod:`study.commands`,
 :mod:`study.workflow`).
 
-Measurements to fit (:mod:`study.datasets`, :mod:`study.virtual_experiment`, :mod:`study.structures`)
+Measurements to fit (:mod:`study.datasets`, :mod:`virtual_experiment.hammer_test`, :mod:`study.structures`)
     virtual_experiments         the beams' virtual hammer tests of one reference joint (labelled virtual)
     write_asb_measurements      the ASB's measured backbones in the backbone CSV format
     structure, Structure        superelement, target mode chosen from the measured frequency, levels to fit

@@ -23,122 +23,22 @@ and the versions are written to <out>/study.json.
 from __future__ import annotations
 
 import argparse
-from contextlib import contextmanager
-from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from pipeline.cache import package_versions
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import stage_folder, write_json
+from pipeline.files import stage_folder
 from study import workflow
-from study.datasets import DATASET_MODELS, DATASETS
-from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
-from study.exploration import Sample
-from study.structures import N_LEVELS
-
-STEPS = ("measurements", "explore", "analyse", "report")
-
-
-@dataclass(frozen=True)
-class StudyParameters:
-    """[study]: dataset ("beams" or "asb"), friction models (default: all the dataset allows), levels per
-    structure. The beams' superelements are the unstressed halves (``study.structures.beam_superelement``)."""
-
-    dataset: str = "beams"
-    models: tuple[str, ...] = ()
-    n_levels: int = N_LEVELS
-
-    def __post_init__(self):
-        if self.dataset not in DATASETS:
-            raise ValueError(f"field 'dataset' = {self.dataset!r}: expected one of {DATASETS}")
-        unknown = [m for m in self.models if m not in DATASET_MODELS[self.dataset]]
-        if unknown:
-            raise ValueError(f"field 'models': {unknown} not available for dataset {self.dataset!r}; expected some "
-                             f"of {DATASET_MODELS[self.dataset]}")
-        if self.n_levels < 3:
-            raise ValueError(f"field 'n_levels' = {self.n_levels}: expected at least 3")
-
-    @property
-    def friction_models(self) -> tuple[str, ...]:
-        return self.models or DATASET_MODELS[self.dataset]
-
-
-@dataclass(frozen=True)
-class AcceptanceParameters:
-    """[acceptance]: L-infinity bounds of paper section 4.4."""
-
-    frequency_tolerance_hz: float = FREQUENCY_TOLERANCE_HZ
-    damping_tolerance: float = DAMPING_TOLERANCE
-
-    def __post_init__(self):
-        for name, value in asdict(self).items():
-            if not value > 0.0:
-                raise ValueError(f"field '{name}' = {value}: expected a positive bound")
-
-
-@dataclass(frozen=True)
-class ParetoParameters:
-    """[pareto]: NSGA-II generations and population, seeded from the sample's front; representative
-    designs per structure."""
-
-    generations: int = 20
-    population: int = 48
-    representatives: int = 3
-
-    def __post_init__(self):
-        for name, value in asdict(self).items():
-            if value < 1:
-                raise ValueError(f"field '{name}' = {value}: expected at least 1")
-
-
-def defaults() -> dict:
-    return {"study": StudyParameters(), "sample": Sample(), "acceptance": AcceptanceParameters(),
-            "pareto": ParetoParameters()}
-
-
-@contextmanager
-def cluster_client(scheduler: str | None):
-    """A dask.distributed client: None (serial), ``local`` (a LocalCluster, one single-threaded worker process
-    per core) or a scheduler address."""
-    if not scheduler:
-        yield None
-        return
-    from distributed import Client, LocalCluster
-
-    if scheduler == "local":
-        with LocalCluster(threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
-            yield client
-    else:
-        with Client(scheduler) as client:
-            yield client
-
+from study.parameters import defaults
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
     parameters = configuration(arguments, defaults())
+    paths = workflow.Paths(Path(arguments.out), Path(arguments.rom), Path(arguments.data), Path(arguments.reference))
     with stage_folder(arguments.out):
-        run_steps(arguments, parameters)
-
-
-def run_steps(arguments: argparse.Namespace, parameters: dict) -> None:
-    """The chosen steps, in order, into ``arguments.out`` (held by the caller)."""
-    out = Path(arguments.out)
-    write_json(out / "study.json", {
-        "configuration": {section: asdict(values) for section, values in parameters.items()},
-        "seed": parameters["sample"].seed, "inputs": {"rom": str(arguments.rom), "data": str(arguments.data),
-                                                     "reference": str(arguments.reference)},
-        "versions": package_versions("numpy", "scipy", "numba", "pyarrow", "statsmodels", "pymoo", "dask")})
-    paths = workflow.Paths(out, Path(arguments.rom), Path(arguments.data), Path(arguments.reference))
-    for step in arguments.steps:
-        if step == "measurements":
-            workflow.measurements(paths, parameters)
-        elif step == "explore":
-            with cluster_client(arguments.scheduler) as client:
-                workflow.explore_designs(paths, parameters, client, arguments.restart_stale)
-        elif step == "analyse":
-            workflow.analyse(paths, parameters)
-        else:
-            print(f"wrote {workflow.report(paths, parameters)}")
+        for step, result in workflow.run_steps(paths, parameters, arguments.steps, arguments.scheduler,
+                                               arguments.restart_stale):
+            if step == "report":
+                print(f"wrote {result}")
 
 
 def register(subparsers) -> None:
@@ -152,7 +52,7 @@ def register(subparsers) -> None:
                          help="folder with asb-backbones/ and asb-reduced-models/ (ASB dataset)")
     command.add_argument("--reference", type=Path, default=Path("../shared/reference"),
                          help="folder with the paper's tables (Table 1 damping, Tables 5-6 for comparison)")
-    command.add_argument("--steps", nargs="+", choices=STEPS, default=list(STEPS), help="steps to run, in order")
+    command.add_argument("--steps", nargs="+", choices=workflow.STEPS, default=list(workflow.STEPS), help="steps to run, in order")
     command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
                                              "(default: evaluate in this process)")
     command.add_argument("--restart-stale", action="store_true",

@@ -5,7 +5,7 @@ documented backbone format (``experiment.backbone_files``, ``<study>/measurement
 study reads only those files, whatever the source:
 
 - ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, the unstressed halves;
-  ``study.structures.beam_superelement`` says why), measured by the virtual experiments of ``study.virtual_experiment`` (labelled
+  ``reduction.superelement.beam_superelement`` says why), measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled
   virtual). Linear damping cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the
   SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's.
 - ``asb``: the six configurations C1, C2, C3, C4, C4a, CD1 of the real assembly (ABAQUS reduced models and
@@ -20,8 +20,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
-from study.structures import (N_LEVELS, Structure, StructureError, asb_superelement, beam_superelement,
-                              structure)
+from reduction.superelement import StructureError, beam_superelement
+from study.structures import N_LEVELS, Structure, asb_superelement, structure
 
 BEAMS = ("BRB", "LBRB", "SBRB")
 ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")
@@ -74,7 +74,7 @@ def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_
 
 def damping_cases(dataset: str, structures: list[Structure], table1: dict | None = None) -> dict[str, list[float]]:
     """Linear damping cases (module docstring): case name -> zeta_0 of each structure. table1: paper Table 1
-    (``study.virtual_experiment.read_low_amplitude_measurements``), for the beams."""
+    (``virtual_experiment.reference_joint.read_low_amplitude_measurements``), for the beams."""
     if dataset == "beams":
         return {beam: [table1[beam].damping] * len(structures) for beam in BEAMS}
     return {"measured": [float(s.target.damping[0]) for s in structures]}

@@ -2,7 +2,7 @@
 designs' low-amplitude frequency, with and without it, on the assembled reduced model.
 
 With prestress the halves' stiffness is K_A + K_bolt (the clamped halves' stress stiffness K_sigma and the
-preloaded shanks' string term), without it K. The free halves' K_A + K_bolt is indefinite (``study.structures.
+preloaded shanks' string term), without it K. The free halves' K_A + K_bolt is indefinite (``reduction.superelement.
 beam_superelement``), so the comparison is made where the prestress is balanced: on the assembled model
 K_total = K_halves + P^T diag(k) P (P the relative patch translations, k a design's stuck joint tangents), by a
 dense generalised eigen-solve with (M) for each design, the target mode by MAC with the tied first bending.
@@ -28,7 +28,7 @@ from nonlinear.joint import patch_elements, stuck_stiffness
 from pipeline.files import atomic_path
 from reduction.superelement import Superelement, stuck_joint_modes
 from study.figures import plt, save
-from study.structures import beam_superelement
+from reduction.superelement import beam_superelement
 
 MODEL = "iwan4"
 BEAM = "SBRB"

@@ -4,13 +4,7 @@ A structure is what paper section 4.4 compares a model with: one reduced model (
 ``build/rom/<beam>.npz``, or an external ASB model), the target mode chosen to be the measured one, and the
 measured (or virtual) backbone reduced to the levels at which the model is evaluated.
 
-Target mode (never silently mode 1). The measured low-amplitude frequency f_m is compared with the structure's
-modes with every relative patch translation tied (``reduction.superelement.stuck_joint_modes``): a finite joint
-only softens the structure, so the k-th mode of any joint design lies at or below the k-th tied mode
-(eigenvalue interlacing). The measured mode is therefore at least the lowest mode whose tied frequency is not
-below f_m, and that mode is taken; the choice and the tied frequencies are stated in the study's output
-(``Structure.mode_choice``). The ASB's C2, C4 and C4a measure 250-298 Hz, above their first tied mode
-(174-201 Hz): their target is the second mode.
+Target mode: ``reduction.superelement.target_mode``.
 
 Levels. A measured backbone holds hundreds to thousands of scattered estimates (ASB) or a few tens of averaged
 points (ring-downs). Its amplitude range is cut into ``n_levels`` bins of equal logarithmic width (edges at the
@@ -30,15 +24,10 @@ import numpy as np
 from experiment.backbone import Backbone, ModeBackbone
 from nonlinear.condensation import JointSpace, joint_space
 from nonlinear.qsma_vectorised import qsma_designs
-from reduction.superelement import Superelement, load_superelement, read_asb_superelement, stuck_joint_modes
+from reduction.superelement import StructureError, Superelement, read_asb_superelement, target_mode
 
 N_LEVELS = 20  # modal amplitudes per structure at which designs are evaluated
 MIN_POINTS = 3  # a measured backbone needs at least this many amplitudes
-TIED_MODES = 6  # tied modes searched for the measured one
-
-
-class StructureError(ValueError):
-    """A structure's measurement or model is unusable; the message names the file and the field."""
 
 
 @dataclass(frozen=True)
@@ -118,42 +107,6 @@ def median_uncertainty(values, stated, bins, filled) -> np.ndarray:
             given = np.asarray(stated, dtype=float)[bins == i]
             result.append(np.sqrt(np.mean(given ** 2)) if np.all(given > 0) else np.nan)
     return np.array(result)
-
-
-def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, np.ndarray, str]:
-    """The mode a measurement at ``frequency_hz`` saw (module docstring): its 0-based index among the flexible
-    tied modes, its tied shape (n,) in the superelement's coordinates, and a sentence stating the choice."""
-    frequencies, shapes = stuck_joint_modes(superelement, TIED_MODES)
-    above = np.flatnonzero(frequencies >= frequency_hz)
-    if above.size == 0:
-        raise StructureError(f"{superelement.name}: measured {frequency_hz:.2f} Hz lies above the {TIED_MODES} "
-                             f"lowest tied modes ({frequencies.round(1).tolist()} Hz)")
-    index = int(above[0])
-    choice = (f"{superelement.name}: measured {frequency_hz:.2f} Hz -> mode {index + 1} (tied {frequencies[index]:.2f}"
-              f" Hz; tied modes {', '.join(f'{f:.1f}' for f in frequencies[:index + 2])} Hz)")
-    return index, shapes[:, index], choice
-
-
-def beam_superelement(path: Path, prestress: bool = False) -> Superelement:
-    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): the unstressed K of the two
-    halves, or with ``prestress`` K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks'
-    string term, DESIGN 3-4).
-
-    The prestressed stiffness of the free halves is indefinite (BRB: modes at -245, -230, -22 Hz in the
-    superelement's coordinates: the preload's geometric stiffness without the joint that balances it), which
-    the joint-space condensation (``nonlinear.condensation.joint_space``) takes for rigid-body motion and sets
-    to zero. The study therefore uses K, and ``study.prestress`` compares the two on the assembled model."""
-    path = Path(path)
-    if not path.exists():
-        raise StructureError(f"{path}: missing (run `make rom` to build the beams' superelements)")
-    superelement = load_superelement(path)
-    if not prestress:
-        return superelement
-    with np.load(path, allow_pickle=False) as data:
-        stiffness = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
-    return Superelement(superelement.mass, 0.5 * (stiffness + stiffness.T), superelement.patch_motion,
-                        superelement.patch_areas, superelement.patch_groups, superelement.sensors,
-                        superelement.preload, superelement.name)
 
 
 def asb_superelement(path: Path) -> Superelement:

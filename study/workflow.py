@@ -14,6 +14,8 @@ Folder layout under the study's ``out``::
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from dataclasses import asdict
 from pathlib import Path
 from typing import NamedTuple
 
@@ -31,11 +33,13 @@ from study.datasets import (ASB_CONFIGURATIONS, BEAMS, DEFAULT_DAMPING_CASE, dat
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, explore, read_exploration
 from study.report import write_report
-from study.structures import StructureError
-from study.virtual_experiment import TABLE1, TABLE3, read_low_amplitude_measurements, virtual_experiments
+from reduction.superelement import StructureError
+from virtual_experiment.hammer_test import virtual_experiments
+from virtual_experiment.reference_joint import TABLE1, TABLE3, read_low_amplitude_measurements
 
 
 VERSIONS = package_versions("numpy", "scipy", "numba")
+STEPS = ("measurements", "explore", "analyse", "report")
 
 
 class Paths(NamedTuple):
@@ -206,3 +210,40 @@ def report(paths: Paths, parameters: dict) -> Path:
     """Assemble report.md from the analysis folder."""
     return write_report(paths, parameters)
 
+
+@contextmanager
+def cluster_client(scheduler: str | None):
+    """A dask.distributed client: None (serial), ``local`` (a LocalCluster, one single-threaded worker process
+    per core) or a scheduler address."""
+    if not scheduler:
+        yield None
+        return
+    from distributed import Client, LocalCluster
+
+    if scheduler == "local":
+        with LocalCluster(threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
+            yield client
+    else:
+        with Client(scheduler) as client:
+            yield client
+
+
+def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = None, restart_stale: bool = False):
+    """The chosen ``steps`` of ``STEPS``, in order, into ``paths.out`` (held by the caller), after writing
+    study.json (the resolved configuration, seed, inputs, versions). Yields (step, its result): the report's path
+    for ``report``, None otherwise."""
+    write_json(paths.out / "study.json", {
+        "configuration": {section: asdict(values) for section, values in parameters.items()},
+        "seed": parameters["sample"].seed, "inputs": {"rom": str(paths.rom), "data": str(paths.data),
+                                                     "reference": str(paths.reference)},
+        "versions": package_versions("numpy", "scipy", "numba", "pyarrow", "statsmodels", "pymoo", "dask")})
+    for step in steps:
+        if step == "measurements":
+            yield step, measurements(paths, parameters)
+        elif step == "explore":
+            with cluster_client(scheduler) as client:
+                yield step, explore_designs(paths, parameters, client, restart_stale)
+        elif step == "analyse":
+            yield step, analyse(paths, parameters)
+        else:
+            yield step, report(paths, parameters)

@@ -15,10 +15,10 @@ import pytest
 
 from experiment.backbone_files import read_backbone
 from nonlinear.modal_joint import modal_joint_backbone
-from study.discrepancy import Measurement, DiscrepancyError, discrepancy_loop, measurement_from_backbone
-from study.discrepancy_data import (EFFECT_INSTANCES, REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ,
+from discrepancy.loop import Measurement, DiscrepancyError, discrepancy_loop, measurement_from_backbone
+from discrepancy.virtual_data import (EFFECT_INSTANCES, REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ,
                                     write_undeclared_backbone)
-from study.structures import StructureError
+from reduction.superelement import StructureError
 
 DAMPING_EFFECTS = {"linear_damping", "amplitude_damping"}
 
@@ -131,7 +131,7 @@ def test_command_refuses_a_ring_down_without_its_mode(tmp_path, capsys):
 def test_residual_features_carry_each_signature(tmp_path):
     """The reference model's residual shows the signature of what was put in: a frequency offset for a stiffness
     change (same sign at every level), a damping offset for a structure-specific linear damping."""
-    from study.discrepancy import base_starts, fit, residual_features
+    from discrepancy.loop import base_starts, fit, residual_features
 
     def features(effect):
         path = tmp_path / f"{effect}.csv"
@@ -156,7 +156,7 @@ def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
     import json
 
     from pipeline.cli import main as surrogacy
-    from study.discrepancy_data import write_undeclared_ringdown
+    from discrepancy.virtual_data import write_undeclared_ringdown
 
     path = tmp_path / "ring.csv"
     write_undeclared_ringdown(path, effects)

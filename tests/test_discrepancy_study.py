@@ -1,4 +1,4 @@
-"""The discrepancy loop on a structure's own superelement and friction models (``study.discrepancy_study``), on
+"""The discrepancy loop on a structure's own superelement and friction models (``discrepancy.superelement_route``), on
 the BRB with data of known content: the QSMA backbone of a true design with undeclared effects and noise at the
 measurement's uncertainty. The candidates are the truth's design (in the friction model that holds it) among
 random Table 3 designs, as a study's Pareto set would hold it.
@@ -15,9 +15,10 @@ import pytest
 
 from nonlinear.condensation import joint_space
 from nonlinear.joint import from_unit, parameter_limits
-from study.discrepancy import measurement_from_backbone
-from study.discrepancy_study import evaluate_candidates, structure_discrepancy_loop
-from study.structures import beam_superelement, qsma_measurement
+from discrepancy.loop import measurement_from_backbone
+from discrepancy.superelement_route import evaluate_candidates, structure_discrepancy_loop
+from reduction.superelement import beam_superelement
+from study.structures import qsma_measurement
 
 LEVELS = np.geomspace(1e-7, 3e-5, 16)
 ZETA0 = 1.6659e-3  # the borrowed (BRB Table 1) linear damping
@@ -145,7 +146,7 @@ def test_command_on_a_study_structure(small_asb_study, tmp_path, capsys):
     import json
 
     from pipeline.cli import main as surrogacy
-    from study.discrepancy_study import from_study
+    from discrepancy.superelement_route import from_study
 
     out = tmp_path / "C1"
     assert surrogacy(["discrepancy", "--study", str(small_asb_study), "--structure", "ASB C1", "--out", str(out)]) == 0

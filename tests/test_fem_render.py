@@ -8,7 +8,7 @@ import pytest
 from matplotlib import colormaps
 from PIL import Image
 
-from fem.commands import make_fe
+from fem.fe_files import make_fe
 from fem.convergence import scaled_sizes
 from fem.render import PRESSURE_COLOURMAP, corner_means, nodal_pressure
 from geometry.beams import make_beam

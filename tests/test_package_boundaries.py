@@ -11,9 +11,13 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files",
-                "experiment.commands")
+FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files")
 """Modules that read or write files of measured data."""
+PACKAGES = ("pipeline", "geometry", "fem", "reduction", "experiment", "nonlinear", "virtual_experiment", "study",
+            "discrepancy", "report")
+"""The project's packages, in the order the data flows (a package imports only packages before it)."""
+
+
 
 
 def imported_modules(package: str) -> dict[str, set[str]]:
@@ -49,7 +53,45 @@ def test_nonlinear_reads_no_measured_data_files():
     assert not any(offending.values()), offending
 
 
-@pytest.mark.parametrize("package", ["experiment", "nonlinear"])
+@pytest.mark.parametrize("package", PACKAGES)
 def test_every_module_imports(package):
     for path in sorted((ROOT / package).glob("*.py")):
         importlib.import_module(f"{package}.{path.stem}" if path.stem != "__init__" else package)
+
+
+
+def command_imports(package: str) -> dict[str, list[str]]:
+    """Module file name -> the command modules (``<package>.commands``, the command line) it imports, for every
+    library module of a package (every module but ``commands`` and ``pipeline.cli``)."""
+    return {module: sorted(name for name in names if name.split(".")[-1] == "commands" or within(name, "pipeline.cli")
+                           or any(name == f"{other}.commands" or name.startswith(f"{other}.commands.")
+                                  for other in PACKAGES))
+            for module, names in imported_modules(package).items()
+            if module != "commands.py" and not (package == "pipeline" and module == "cli.py")}
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_the_library_imports_no_command_module(package):
+    offending = {module: names for module, names in command_imports(package).items() if names}
+    assert not offending, offending
+
+
+def test_a_planted_command_import_is_found(tmp_path, monkeypatch):
+    planted = tmp_path / "study"
+    planted.mkdir()
+    (planted / "exploration.py").write_text("from study.commands import defaults\nfrom study import workflow\n")
+    (planted / "commands.py").write_text("from study import workflow\n")
+    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+    assert command_imports("study") == {"exploration.py": ["study.commands", "study.commands.defaults"]}
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_packages_import_only_the_packages_before_them(package):
+    earlier = PACKAGES[:PACKAGES.index(package) + 1]
+    offending = {module: sorted(name for name in names if name.split(".")[0] in PACKAGES
+                                and name.split(".")[0] not in earlier)
+                 for module, names in imported_modules(package).items()}
+    offending = {module: names for module, names in offending.items() if names}
+    if package == "pipeline":  # the console script collects every stage's commands by name, at run time
+        offending.pop("cli.py", None)
+    assert not offending, offending

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import json
 import re
-from pathlib import Path
 
 import pytest
 
 from pipeline.cli import main as surrogacy
-from study.discrepancy_data import write_undeclared_ringdown
+from discrepancy.virtual_data import write_undeclared_ringdown
 from tests.conftest import asb_data_folder
 
 ASB_C1 = asb_data_folder().parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"

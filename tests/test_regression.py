@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from reduction.superelement import load_superelement, stuck_joint_modes
-from study.discrepancy import discrepancy_loop, measurement_from_backbone
-from study.discrepancy_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, undeclared_backbone
-from study.virtual_experiment import beam_space, reference_joint
+from discrepancy.loop import discrepancy_loop, measurement_from_backbone
+from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, undeclared_backbone
+from virtual_experiment.reference_joint import beam_space, reference_joint
 from nonlinear.qsma_vectorised import qsma_designs
 
 # Tied first and second flexible frequencies (Hz). Tolerance 1e-6 relative: the meshes and the reduction are

@@ -12,7 +12,7 @@ import scipy.linalg
 
 from conftest import COARSE
 from fem.bolts import Bolt
-from fem.commands import FeInputError, make_fe, read_csr
+from fem.fe_files import FeInputError, make_fe, read_csr
 from fem.elasticity import rigid_body_modes, solid_mesh
 from fem.solver import natural_modes
 from fem.springs import joint_stiffness, patch_couplings

@@ -23,8 +23,8 @@ from study.designs import design_chunk
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
 from study.analysis import model_errors
-from study.structures import (StructureError, beam_superelement, measured_levels, qsma_measurement, structure,
-                              target_mode)
+from reduction.superelement import StructureError, beam_superelement, target_mode
+from study.structures import measured_levels, qsma_measurement, structure
 from study.surrogacy import surrogacy_matrix
 
 MODEL = "iwan4"

@@ -24,10 +24,11 @@ from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.files import sha256_file
 from reduction.superelement import stuck_joint_modes
-from study.virtual_experiment import (BEAMS, TABLE1, TABLE3, HammerTest, beam_space, hammer_hits, hit_pool,
-                                      low_amplitude_table, outside_limits, read_low_amplitude_measurements,
-                                      read_parameter_limits, reference_folder, reference_joint, stuck_frequency_hz,
-                                      virtual_experiment, virtual_experiments, write_virtual_experiment)
+from virtual_experiment.hammer_test import (BEAMS, HammerTest, hammer_hits, hit_pool, low_amplitude_table,
+                                            virtual_experiment, virtual_experiments, write_virtual_experiment)
+from virtual_experiment.reference_joint import (TABLE1, TABLE3, beam_space, outside_limits,
+                                                read_low_amplitude_measurements, read_parameter_limits,
+                                                reference_folder, reference_joint, stuck_frequency_hz)
 
 ROM = Path(__file__).resolve().parents[1] / "build" / "rom"  # built by the beam_roms fixture (conftest)
 # Two hits of the default test's hardest ones: 0.64 and 1.6 N s nominal, 5e-5 to 2.5e-4 m kg^0.5 (about 20 s).

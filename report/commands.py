@@ -1,4 +1,4 @@
-"""``surrogacy report``: the pipeline's report (``study.pipeline_report``), one Markdown file with every stage's
+"""``surrogacy report``: the pipeline's report (``report.document``), one Markdown file with every stage's
 figures and tables, from the files the stages wrote into ``--build`` and ``--results``. Per-stage timings come from
 the run log given to ``surrogacy --run-log FILE`` (``make demo`` keeps one in results/runs.jsonl)."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from study.pipeline_report import Folders, write_pipeline_report
+from report.document import Folders, write_pipeline_report
 
 
 def run(arguments: argparse.Namespace) -> None:

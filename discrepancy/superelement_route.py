@@ -1,5 +1,5 @@
 """The discrepancy loop on a structure's own model: its superelement and friction model, with the study's fits as
-the reference (issue 15, items 1 and 5). ``study.discrepancy`` holds the loop, the effect library and the one-mode
+the reference (issue 15, items 1 and 5). ``discrepancy.loop`` holds the loop, the effect library and the one-mode
 model for measurements with no finite-element model behind them; this module puts the study's evaluation in the
 one-mode model's place.
 
@@ -7,7 +7,7 @@ Reference. The candidate designs of a friction model on a structure are the stud
 sample's front and NSGA-II's, ``fronts_<model>.csv``), evaluated by the study's QSMA (``qsma_designs``) at the
 measurement's levels with the study's linear damping zeta_0 (borrowed, as the paper did). The reference model is
 the candidate of the study's macroslip model (Jenkins) with the lowest chi^2 against the measurement (weighted by
-its uncertainty, as in ``study.discrepancy``); its residual is what the study's best fit misses.
+its uncertainty, as in ``discrepancy.loop``); its residual is what the study's best fit misses.
 
 Effects. The friction effects change the friction model and refit by choosing again among the study's designs:
 microslip = the Iwan element (iwan4), microslip with stiction = iwan5 (theta < 1); each counts its model's
@@ -37,9 +37,9 @@ from scipy.optimize import least_squares
 from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.config import resolve
-from study.commands import defaults
+from study.parameters import defaults
 from study.datasets import DEFAULT_DAMPING_CASE
-from study.discrepancy import (EFFECTS, Fit, Measurement, Verdict, _to_parameters, _to_vector, bic, outside_joint,
+from discrepancy.loop import (EFFECTS, Fit, Measurement, Verdict, _to_parameters, _to_vector, bic, outside_joint,
                                select_effects, weighted_misfit)
 from study.exploration import read_exploration
 from study.workflow import Paths, exploration
@@ -137,7 +137,7 @@ def fit_candidates(measurement: Measurement, candidates: Candidates, effects: tu
 
 
 def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borrowed_damping: float) -> Verdict:
-    """The loop (``study.discrepancy.select_effects``) on a structure's superelement: ``candidates`` maps friction
+    """The loop (``discrepancy.loop.select_effects``) on a structure's superelement: ``candidates`` maps friction
     models (at least the reference, Jenkins) to their ``Candidates``; the library is the effects outside the
     joint and the friction effects the available models hold."""
     if REFERENCE_MODEL not in candidates:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import COARSE
-from fem.commands import FeInputError, make_fe, read_csr
+from fem.fe_files import FeInputError, make_fe, read_csr
 from fem.prestress import prestressed_beam
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam

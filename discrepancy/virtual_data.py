@@ -2,7 +2,7 @@
 structure's mode with a reference joint plus library effects plus measurement noise, written as a backbone CSV or
 a ring-down CSV that says only that it is virtual (never what was put in). The truth stays with the caller.
 
-Backbone: the one-mode model (``study.discrepancy.model_backbone``) at log-spaced modal amplitudes, with Gaussian
+Backbone: the one-mode model (``discrepancy.loop.model_backbone``) at log-spaced modal amplitudes, with Gaussian
 noise of standard deviation ``frequency_noise`` times the frequency and ``damping_noise`` times the damping,
 stated in the file as the points' standard errors (as FreeVib states its estimates' noise).
 
@@ -25,7 +25,7 @@ from experiment.backbone import Backbone, ModeBackbone
 from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import write_ringdown_csv
-from study.discrepancy import EFFECTS, model_backbone
+from discrepancy.loop import EFFECTS, model_backbone
 
 REFERENCE_FREQUENCY_HZ = 169.48  # the BRB's Table 1 frequency and damping
 REFERENCE_DAMPING = 1.666e-3

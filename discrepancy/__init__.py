@@ -1,0 +1,15 @@
+"""The model-discrepancy loop: given a measured backbone and a model that does not fit it, which missing effect
+explains the residual; the effect added, the model refitted, the errors before and after; "unexplained" rather than
+a guess. ``surrogacy discrepancy`` runs it (:mod:`discrepancy.commands`).
+
+The loop and the one-mode route (:mod:`discrepancy.loop`)
+    Measurement, measurement_from_backbone   the measured levels (frequency, damping, their uncertainties)
+    EFFECTS, model_backbone, fit             the effect library, the one-mode joint model, weighted least squares
+    discrepancy_loop, select_effects         forward selection by BIC, stepwise swap and drop; Verdict
+The superelement route (:mod:`discrepancy.superelement_route`)
+    from_study, structure_discrepancy_loop   a study's structure and Pareto designs as the reference model
+Files (:mod:`discrepancy.files`)
+    read_measured_backbone, write_verdict    the measurement in, discrepancy.md/.png/.json out
+Data with known content for tests (:mod:`discrepancy.virtual_data`, labelled virtual)
+    undeclared_backbone, undeclared_ringdown and their writers
+"""

@@ -1,0 +1,89 @@
+"""The discrepancy loop's files: the measured backbone it reads (backbone CSV, ASB .mat backbone or ring-down) and
+what it writes for a verdict: ``discrepancy.md`` (the effect found at each step, the evidence, the errors before
+and after), ``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same
+numbers and the fitted parameters)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from matplotlib.ticker import NullFormatter
+
+from discrepancy.loop import Verdict, residual_features
+from experiment.backbone import mode_backbone, ringdown_backbone
+from experiment.backbone_files import read_asb_backbone, read_backbone
+from experiment.ringdown_files import read_ringdown
+from pipeline.files import atomic_path, write_json
+from study.figures import plt, save
+
+
+def read_measured_backbone(path: Path, mode_hz: float | None):
+    """A backbone from a backbone CSV, an ASB .mat backbone (Q, W, Z) or a ring-down file (needs mode_hz)."""
+    path = Path(path)
+    if mode_hz is not None:
+        return mode_backbone(ringdown_backbone(read_ringdown(path), mode_hz), path.stem, "measured")
+    if path.suffix.lower() == ".mat":
+        return read_asb_backbone(path)
+    return read_backbone(path)
+
+
+def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:
+    """The loop's steps as a Markdown table with the evidence and the errors before and after, after the
+    features of the reference model's residual (``discrepancy.loop.residual_features``)."""
+    lines = [f"Discrepancy loop on {source}.", "",
+             "Residual of the reference model, in units of the measurement's uncertainty:", "",
+             "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
+    lines += [f"| {name} | {f['offset']:.3g} | {f['slope_per_decade']:.3g} | {f['curvature_per_decade2']:.3g} | "
+              f"{f['sign_changes']} | {f['largest_kink']:.3g} |" for name, f in features.items()]
+    lines += ["",
+             "| step | effect added | chi^2/dof | BIC | L-inf f (Hz) | RMS f (Hz) | L-inf zeta | RMS zeta |",
+             "|---|---|---|---|---|---|---|---|"]
+    for number, step in enumerate(verdict.steps):
+        e = step.errors
+        reference = (f"reference: the study's best {step.fit.parameters['design']}" if "design" in step.fit.parameters
+                     else "reference (Jenkins, nominal f_0 and zeta_0)")
+        lines.append(f"| {number} | {step.effect or reference} | "
+                     f"{step.reduced_chi_squared:.3g} | {step.fit.bic:.4g} | {e['frequency_linf_hz']:.4g} | "
+                     f"{e['frequency_rms_hz']:.4g} | {e['damping_linf']:.3g} | {e['damping_rms']:.3g} |")
+    last = verdict.steps[-1]
+    if last.candidates:
+        lines += ["", "Candidates at the last decision (BIC; an effect is added when it lowers the BIC by more "
+                      "than 10): " + ", ".join(f"{k} {v:.4g}" for k, v in sorted(last.candidates.items(),
+                                                                                  key=lambda item: item[1]))]
+    found = ", ".join(verdict.effects) or "none"
+    lines += ["", f"Effects found: {found}. " + ("A residual above the measurement's noise remains UNEXPLAINED "
+                                                  "by the library." if verdict.unexplained else
+                                                  "The residual is at the measurement's noise.")]
+    return "\n".join(lines) + "\n"
+
+
+def plot_verdict(verdict: Verdict, measurement, destination: Path) -> None:
+    """Measured frequency and damping (with their uncertainties) against the reference model and the final one."""
+    figure, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for axis, measured, sigma, attribute, label in (
+            (axes[0], measurement.frequency_hz, measurement.sigma_frequency, "frequency_hz", "natural frequency (Hz)"),
+            (axes[1], measurement.damping, measurement.sigma_damping, "damping", "damping ratio (-)")):
+        axis.errorbar(measurement.amplitude, measured, sigma, fmt="ko", ms=3, label="measurement")
+        axis.semilogx(measurement.amplitude, getattr(verdict.steps[0].fit, attribute), "C0--", label="reference model")
+        axis.semilogx(measurement.amplitude, getattr(verdict.steps[-1].fit, attribute), "C3-",
+                      label="with " + (", ".join(verdict.effects) or "nothing added"))
+        axis.set(xlabel="modal amplitude", ylabel=label)
+        axis.xaxis.set_minor_formatter(NullFormatter())  # decade labels only: the minor ones overlap
+    axes[0].legend(fontsize=7)
+    figure.tight_layout()
+    save(figure, destination)
+
+
+def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record: dict) -> None:
+    """discrepancy.md, .png and .json (``record`` and the steps with their evidence) into ``out``."""
+    features = residual_features(measurement, verdict.steps[0].fit)
+    with atomic_path(out / "discrepancy.md") as temporary:
+        temporary.write_text(verdict_markdown(verdict, source, features))
+    plot_verdict(verdict, measurement, out / "discrepancy.png")
+    write_json(out / "discrepancy.json", {
+        **record, "effects": verdict.effects, "unexplained": verdict.unexplained,
+        "reference_residual_features": features,
+        "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
+                                                         for k, v in step.fit.parameters.items()},
+                   "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
+                   "candidates": step.candidates} for step in verdict.steps]})

@@ -1,0 +1,6 @@
+"""The pipeline's report: one Markdown file with every stage's figures and tables, read back from the files the
+stages wrote (:mod:`report.document`); ``surrogacy report`` writes it (:mod:`report.commands`).
+
+    Folders                 the build and results folders and the run log a report is made from
+    write_pipeline_report   the report, section by section in the order the data flows
+"""

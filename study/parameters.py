@@ -1,0 +1,69 @@
+"""A study's configuration: the sections of ``surrogacy study --config`` / ``--set`` ([study], [sample],
+[acceptance], [pareto]), each a frozen dataclass that checks its fields (ValueError naming the field)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from study.datasets import DATASET_MODELS, DATASETS
+from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
+from study.exploration import Sample
+from study.structures import N_LEVELS
+
+
+@dataclass(frozen=True)
+class StudyParameters:
+    """[study]: dataset ("beams" or "asb"), friction models (default: all the dataset allows), levels per
+    structure. The beams' superelements are the unstressed halves (``reduction.superelement.beam_superelement``)."""
+
+    dataset: str = "beams"
+    models: tuple[str, ...] = ()
+    n_levels: int = N_LEVELS
+
+    def __post_init__(self):
+        if self.dataset not in DATASETS:
+            raise ValueError(f"field 'dataset' = {self.dataset!r}: expected one of {DATASETS}")
+        unknown = [m for m in self.models if m not in DATASET_MODELS[self.dataset]]
+        if unknown:
+            raise ValueError(f"field 'models': {unknown} not available for dataset {self.dataset!r}; expected some "
+                             f"of {DATASET_MODELS[self.dataset]}")
+        if self.n_levels < 3:
+            raise ValueError(f"field 'n_levels' = {self.n_levels}: expected at least 3")
+
+    @property
+    def friction_models(self) -> tuple[str, ...]:
+        return self.models or DATASET_MODELS[self.dataset]
+
+
+@dataclass(frozen=True)
+class AcceptanceParameters:
+    """[acceptance]: L-infinity bounds of paper section 4.4."""
+
+    frequency_tolerance_hz: float = FREQUENCY_TOLERANCE_HZ
+    damping_tolerance: float = DAMPING_TOLERANCE
+
+    def __post_init__(self):
+        for name, value in asdict(self).items():
+            if not value > 0.0:
+                raise ValueError(f"field '{name}' = {value}: expected a positive bound")
+
+
+@dataclass(frozen=True)
+class ParetoParameters:
+    """[pareto]: NSGA-II generations and population, seeded from the sample's front; representative
+    designs per structure."""
+
+    generations: int = 20
+    population: int = 48
+    representatives: int = 3
+
+    def __post_init__(self):
+        for name, value in asdict(self).items():
+            if value < 1:
+                raise ValueError(f"field '{name}' = {value}: expected at least 1")
+
+
+def defaults() -> dict:
+    """Each section's default values: section name -> dataclass."""
+    return {"study": StudyParameters(), "sample": Sample(), "acceptance": AcceptanceParameters(),
+            "pareto": ParetoParameters()}
