@@ -30,7 +30,7 @@ from pathlib import Path  # noqa: E402
 from benchmarks.peak import measure  # noqa: E402
 from benchmarks.study import BEAMS, DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
 from benchmarks.table import row, show  # noqa: E402
-from nonlinear.joint import FRICTION_MODELS  # noqa: E402
+from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
 
 SETUPS = (("serial, this process", None), ("LocalCluster, 1 worker", 1), ("LocalCluster, 2 workers", 2))
@@ -64,7 +64,7 @@ def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: 
     """Explore N designs of every model serially (workers None) or on a LocalCluster of ``workers``; returns the
     shortest wall time of ``repeats`` explorations (s) and the workers' largest peak memory (MiB; None serially)."""
     structures = beams()
-    warm = Exploration(structures, FRICTION_MODELS, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
+    warm = Exploration(structures, MODEL_NAMES, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
     seconds = []
     with tempfile.TemporaryDirectory() as folder, _client(workers) as client:
         if client is None:
@@ -75,7 +75,7 @@ def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: 
             # a sample of its own each time: the same study submitted again on one client (same task and data
             # keys) was cancelled with "lost dependencies" here
             sample = Sample(seed=1 + repeat, n_designs=n_designs, chunk_size=chunk)
-            exploration = Exploration(structures, FRICTION_MODELS, sample, DAMPING_CASES)
+            exploration = Exploration(structures, MODEL_NAMES, sample, DAMPING_CASES)
             start = time.perf_counter()
             explore(exploration, Path(folder) / f"run-{repeat}", client, progress=False)
             seconds.append(time.perf_counter() - start)
@@ -88,8 +88,8 @@ def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterat
     if not all((ROM / f"{beam}.npz").exists() for beam in BEAMS):
         yield row("dask", "all set-ups", note=f"skipped: {ROM} lacks the beams' superelements (run `make rom`)")
         return
-    evaluations = n_designs * len(FRICTION_MODELS) * len(BEAMS)
-    setting = (f"{n_designs:,} designs x {len(FRICTION_MODELS)} models x {len(BEAMS)} beams x {len(LEVELS)} levels "
+    evaluations = n_designs * len(MODEL_NAMES) * len(BEAMS)
+    setting = (f"{n_designs:,} designs x {len(MODEL_NAMES)} models x {len(BEAMS)} beams x {len(LEVELS)} levels "
                f"in chunks of {chunk:,}, wall clock, best of {repeats}")
     times = {}
     for name, workers in SETUPS:

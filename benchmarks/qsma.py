@@ -32,8 +32,8 @@ import numpy as np  # noqa: E402
 
 from benchmarks.table import row, show  # noqa: E402
 from nonlinear.condensation import joint_space, modal_split, stuck_modes  # noqa: E402
-from nonlinear.joint import (FRICTION_MODELS, patch_elements, random_designs, stuck_stiffness,  # noqa: E402
-                             tangential_rows)
+from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
+from nonlinear.joint import patch_elements, random_designs, stuck_stiffness, tangential_rows  # noqa: E402
 from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
 from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
 
@@ -125,7 +125,7 @@ def parallel_rate(model: str, configuration: str, n_designs: int, n_levels: int,
                for spans in zip(*shares))
 
 
-def rows(models=FRICTION_MODELS, n_designs: int = 4000, n_levels: int = 30, repeats: int = 5,
+def rows(models=MODEL_NAMES, n_designs: int = 4000, n_levels: int = 30, repeats: int = 5,
          processes: int = 2, configuration: str = "CD1") -> Iterator[dict]:
     """The rows of the module docstring: per model its single-core rate (designs per CPU-second), then per model
     its rate per process with ``processes`` processes at once (designs per wall-clock second)."""
@@ -157,7 +157,7 @@ def main(argv=None) -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed repetitions; the shortest counts")
     parser.add_argument("--processes", type=int, default=2, help="processes of the parallel measurement")
     parser.add_argument("--configuration", default="CD1", help="ASB reduced model (five patches: CD1)")
-    parser.add_argument("--models", nargs="+", default=list(FRICTION_MODELS), choices=FRICTION_MODELS)
+    parser.add_argument("--models", nargs="+", default=list(MODEL_NAMES), choices=MODEL_NAMES)
     arguments = parser.parse_args(argv)
     show(rows(arguments.models, arguments.designs, arguments.levels, arguments.repeats, arguments.processes,
               arguments.configuration))

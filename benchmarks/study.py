@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.table import row, show  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
-from nonlinear.joint import FRICTION_MODELS  # noqa: E402
+from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
 from reduction.superelement import beam_superelement  # noqa: E402
 from study.structures import qsma_measurement, structure  # noqa: E402
@@ -68,11 +68,11 @@ def rows(n_designs: int = 4000, chunk: int = 1000) -> Iterator[dict]:
         return
     structures = beams()
     sample = Sample(seed=1, n_designs=n_designs, chunk_size=chunk)
-    warm = Exploration(structures, FRICTION_MODELS, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
+    warm = Exploration(structures, MODEL_NAMES, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
     projected = 0.0
     with tempfile.TemporaryDirectory() as folder:
         explore(warm, Path(folder) / "warm", progress=False)  # compile and load the kernels first
-        for model in FRICTION_MODELS:
+        for model in MODEL_NAMES:
             exploration = Exploration(structures, (model,), sample, DAMPING_CASES)
             start = time.process_time()
             explore(exploration, Path(folder) / model, progress=False)
@@ -84,7 +84,7 @@ def rows(n_designs: int = 4000, chunk: int = 1000) -> Iterator[dict]:
                                             f"chunks of {chunk:,}, errors and Parquet included, CPU time")
     yield row("study", "paper scale, projected", projected,
               note=f"{projected / 60:.0f} min: {PAPER_DESIGNS:,.0f} designs x {len(BEAMS)} beams x "
-                   f"{len(FRICTION_MODELS)} models at the rates above on {CORES} cores, perfect scaling assumed "
+                   f"{len(MODEL_NAMES)} models at the rates above on {CORES} cores, perfect scaling assumed "
                    f"(dask rows: the real scaling)")
     yield MEASURED_FULL_SCALE
 

@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
+from nonlinear.friction_models import FRICTION_MODELS
 from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.config import resolve
@@ -44,9 +45,11 @@ from discrepancy.loop import (EFFECTS, Fit, Measurement, Verdict, _to_parameters
 from study.exploration import read_exploration
 from study.workflow import Paths, exploration
 
-FRICTION_EFFECTS = {"jenkins": (), "iwan4": ("microslip",), "iwan5": ("microslip", "stiction")}
+FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_MODELS.items()
+                    if model.discrepancy_effects is not None}
+"""Friction model -> the friction effects it adds to the macroslip reference (``nonlinear.friction_models``)."""
 OUTSIDE_JOINT = ("linear_damping", "stiffness_change", "amplitude_damping", "cubic_stiffening")
-REFERENCE_MODEL = "jenkins"
+REFERENCE_MODEL = next(name for name, effects in FRICTION_EFFECTS.items() if not effects)  # macroslip only
 SHORTLIST = 8  # candidates per ranking refitted with effects outside the joint (``shortlist``)
 
 

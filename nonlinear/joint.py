@@ -4,13 +4,7 @@ Each patch pair p carries, on the relative virtual-node translation (top minus b
 each tangential direction x and y (same parameters in both) and a linear spring K_z in the normal direction.
 Patches share parameters by symmetry group (``patch_groups``, one group index per patch; the BRB's five
 patches form groups {1, 5}, {2, 4}, {3}). A design is one vector of group parameters, concatenated group by
-group in this order:
-
-    jenkins        (F_S, K_T, K_z)                     3 per group  (BRB: 9)
-    iwan4          (F_S, K_T, chi, beta, K_z)          5 per group  (BRB: 15)
-    iwan5          (F_S, K_T, chi, beta, theta, K_z)   6 per group  (BRB: 18)
-    iwan4_stuck    iwan4 groups, but the ``stuck_group`` (the BRB's middle patch 3, the last group by
-                   default) is linear: (K_T, K_z)      (BRB: 5 + 5 + 2 = 12)
+group, in the order of its friction model (``nonlinear.friction_models``: jenkins, iwan4, iwan5, iwan4_stuck).
 
 Convention: parameters are per patch pair, in N and N/m, not scaled by patch area (the authors' code scaled
 F_S, K_T and K_z by the patch area; Table 3's limits are then per m^2). Units: forces N, displacements m.
@@ -22,22 +16,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nonlinear import iwan, slip_laws
-from nonlinear.parameters import FrictionParameterError, check_iwan, check_jenkins, check_positive
+from nonlinear import slip_laws
+from nonlinear.friction_models import ELEMENT_DEFAULTS, TABLE3_LIMITS, FrictionModel, friction_model
+from nonlinear.parameters import FrictionParameterError
 
-GROUP_PARAMETERS = {
-    "jenkins": ("F_S", "K_T", "K_z"),
-    "iwan4": ("F_S", "K_T", "chi", "beta", "K_z"),
-    "iwan5": ("F_S", "K_T", "chi", "beta", "theta", "K_z"),
-    "iwan4_stuck": ("F_S", "K_T", "chi", "beta", "K_z"),
-}
-STUCK_GROUP_PARAMETERS = ("K_T", "K_z")
-# Paper Table 3: (minimum, maximum, logarithmic sampling) of each parameter.
-TABLE3_LIMITS = {
-    "F_S": (1e1, 1e11, True), "K_T": (1e2, 1e14, True), "chi": (-0.99, -0.01, False),
-    "beta": (1e-4, 1e4, True), "theta": (0.0, 1.0, False), "K_z": (1e2, 1e14, True),
-}
-FRICTION_MODELS = tuple(GROUP_PARAMETERS)
 BRB_PATCH_GROUPS = (0, 1, 2, 1, 0)
 
 
@@ -55,12 +37,12 @@ class ScaledLaw(NamedTuple):
 class PatchElements(NamedTuple):
     """Element parameters of every patch for a batch of designs; arrays of shape (n_designs, n_patches).
 
-    law: "jenkins", "iwan4" or "iwan5" (the law of the friction elements); stuck: (n_patches,) bool, patches
-    whose tangential elements are linear springs K_T. Unused entries (chi for Jenkins, F_S of a stuck patch)
-    hold values that make the laws well defined and are never read for those patches.
+    model: the friction model (``nonlinear.friction_models``); stuck: (n_patches,) bool, patches whose tangential
+    elements are linear springs K_T. Unused entries (chi for Jenkins, F_S of a stuck patch) hold values that make
+    the laws well defined and are never read for those patches.
     """
 
-    law: str
+    model: FrictionModel
     slip_force: np.ndarray
     stiffness: np.ndarray
     chi: np.ndarray
@@ -72,13 +54,7 @@ class PatchElements(NamedTuple):
 
 def parameter_names(model: str, n_groups: int, stuck_group: int | None = None) -> list[str]:
     """Names of the design vector's entries, e.g. 'F_S[0]' (group index in brackets)."""
-    _check_model(model)
-    stuck_group = _stuck_group(model, n_groups, stuck_group)
-    names = []
-    for group in range(n_groups):
-        group_names = STUCK_GROUP_PARAMETERS if group == stuck_group else GROUP_PARAMETERS[model]
-        names += [f"{name}[{group}]" for name in group_names]
-    return names
+    return friction_model(model).parameter_names(n_groups, stuck_group)
 
 
 def parameter_limits(model: str, n_groups: int, stuck_group: int | None = None):
@@ -122,43 +98,30 @@ def patch_elements(model: str, designs, patch_groups=BRB_PATCH_GROUPS, stuck_gro
 
     Raises FrictionParameterError for a wrong length or any parameter outside its physical range.
     """
-    _check_model(model)
+    friction = friction_model(model)
     groups = np.asarray(patch_groups, dtype=int)
     n_groups = int(groups.max()) + 1
-    names = parameter_names(model, n_groups, stuck_group)
+    names = friction.parameter_names(n_groups, stuck_group)
     designs = np.atleast_2d(np.asarray(designs, dtype=float))
     if designs.shape[1] != len(names):
         raise FrictionParameterError(
             f"model {model!r} with {n_groups} patch groups takes {len(names)} parameters {names}; "
             f"got {designs.shape[1]}")
-    stuck_group = _stuck_group(model, n_groups, stuck_group)
-    defaults = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0}
-    per_group = {name: np.tile(value, (designs.shape[0], n_groups)) for name, value in defaults.items()}
-    column = 0
-    for group in range(n_groups):
-        group_names = STUCK_GROUP_PARAMETERS if group == stuck_group else GROUP_PARAMETERS[model]
-        for name in group_names:
-            per_group[name][:, group] = designs[:, column]
-            column += 1
-    law = {"jenkins": "jenkins", "iwan4": "iwan4", "iwan5": "iwan5", "iwan4_stuck": "iwan4"}[model]
-    check_positive(per_group["K_z"], "normal stiffness K_z")
-    if law == "jenkins":
-        check_jenkins(per_group["K_T"], per_group["F_S"])
-    else:
-        check_iwan(per_group["F_S"], per_group["K_T"], per_group["chi"], per_group["beta"], per_group["theta"])
-    stuck = groups == stuck_group
-    return PatchElements(law, *(per_group[name][:, groups] for name in
-                                ("F_S", "K_T", "chi", "beta", "theta", "K_z")), stuck)
+    per_group = {name: np.tile(value, (designs.shape[0], n_groups)) for name, value in ELEMENT_DEFAULTS.items()}
+    for column, name in enumerate(names):
+        parameter, group = name[:-1].split("[")
+        per_group[parameter][:, int(group)] = designs[:, column]
+    ordered = [per_group[name] for name in ("F_S", "K_T", "chi", "beta", "theta", "K_z")]
+    friction.check(*ordered)
+    stuck = groups == friction.stuck_group_index(n_groups, stuck_group)
+    return PatchElements(friction, *(values[:, groups] for values in ordered), stuck)
 
 
 def scaled_law(elements: PatchElements) -> ScaledLaw:
     """Constants of every element's slip law: Iwan by Segalman's mapping, Jenkins as r = 0, s = F_S,
     phi_max = F_S / K_T, stuck patches r = s = 0 (no slip)."""
-    if elements.law == "jenkins":
-        phi_max, s = elements.slip_force / elements.stiffness, elements.slip_force
-        r = np.zeros_like(s)
-    else:
-        phi_max, r, s = iwan.segalman_constants(elements.slip_force, elements.stiffness, elements.chi, elements.beta)
+    phi_max, r, s = elements.model.slip_constants(elements.slip_force, elements.stiffness, elements.chi,
+                                                  elements.beta)
     stuck = elements.stuck
     return ScaledLaw(np.where(stuck, 1.0, phi_max), np.where(stuck, 0.0, r), np.where(stuck, 0.0, s),
                      elements.chi, elements.theta)
@@ -222,7 +185,7 @@ def tangential_dissipation(elements: PatchElements, amplitude) -> np.ndarray:
 def tangential_elements(elements: PatchElements) -> PatchElements:
     """The same elements listed once per tangential direction: arrays (n_designs, 2 n_patches) ordered
     (x, y) per patch, the order of the tangential joint unknowns."""
-    return PatchElements(elements.law, *(np.repeat(a, 2, axis=-1) for a in elements[1:]))
+    return PatchElements(elements.model, *(np.repeat(a, 2, axis=-1) for a in elements[1:]))
 
 
 def tangential_rows(n_patches: int) -> np.ndarray:
@@ -234,16 +197,3 @@ def stuck_stiffness(elements: PatchElements) -> np.ndarray:
     """Initial tangents of all joint springs (N/m), (n_designs, 3 n_patches) ordered x, y, z per patch."""
     return np.stack([elements.stiffness, elements.stiffness, elements.normal_stiffness], axis=-1).reshape(
         elements.stiffness.shape[0], -1)
-
-
-def _check_model(model: str) -> None:
-    if model not in GROUP_PARAMETERS:
-        raise FrictionParameterError(f"unknown friction model {model!r}; choose one of {FRICTION_MODELS}")
-
-
-def _stuck_group(model: str, n_groups: int, stuck_group: int | None) -> int | None:
-    if model != "iwan4_stuck":
-        return None
-    if n_groups < 2:
-        raise FrictionParameterError("the middle-stuck model needs at least two patch groups")
-    return n_groups - 1 if stuck_group is None else stuck_group

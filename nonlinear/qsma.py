@@ -186,7 +186,7 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
 
         # Continuation from the last level; for the convex laws (unique equilibrium) also a fresh start. The
         # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only.
-        starts = [linear / scale] if x is None else [x] if tangential.law == "iwan5" else [x, linear / scale]
+        starts = [linear / scale] if x is None else [x] if tangential.model.several_equilibria else [x, linear / scale]
         for start in starts:
             solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
             r = solution.x * scale

@@ -33,7 +33,7 @@ from experiment.ringdown import RingDown
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import patch_elements, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import stuck_target_mode
-from nonlinear.sliders import Sliders, initial_state, iwan_sliders, jenkins_sliders, slider_response
+from nonlinear.sliders import Sliders, initial_state, slider_response
 
 NEWTON_TOLERANCE = 1e-10  # residual force relative to the largest inertia, stiffness or joint force term
 MAX_NEWTON_ITERATIONS = 40
@@ -66,11 +66,9 @@ def element_sliders(model: str, design, patch_groups, stuck_group: int | None = 
         slip_force, stiffness = tangential.slip_force[0, j], tangential.stiffness[0, j]
         if tangential.stuck[j]:
             sliders.append(Sliders(np.array([stiffness]), np.array([np.inf])))
-        elif tangential.law == "jenkins":
-            sliders.append(jenkins_sliders(stiffness, slip_force))
         else:
-            sliders.append(iwan_sliders(slip_force, stiffness, tangential.chi[0, j], tangential.beta[0, j],
-                                        tangential.theta[0, j]))
+            sliders.append(tangential.model.sliders(slip_force, stiffness, tangential.chi[0, j],
+                                                    tangential.beta[0, j], tangential.theta[0, j]))
     return sliders
 
 

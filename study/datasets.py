@@ -20,13 +20,17 @@ from __future__ import annotations
 from pathlib import Path
 
 from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
+from nonlinear.friction_models import models_for
+from nonlinear.joint import BRB_PATCH_GROUPS
 from reduction.superelement import StructureError, beam_superelement
 from study.structures import N_LEVELS, Structure, asb_superelement, structure
 
 BEAMS = ("BRB", "LBRB", "SBRB")
 ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")
 DATASETS = ("beams", "asb")
-DATASET_MODELS = {"beams": ("jenkins", "iwan4", "iwan5", "iwan4_stuck"), "asb": ("jenkins", "iwan4", "iwan5")}
+DATASET_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1), "asb": models_for(1)}
+"""The friction models each dataset's structures can carry: the beams' three patch groups, the ASB's one (every
+patch in one group, ``study.structures.asb_superelement``)."""
 DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
 
 

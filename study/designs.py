@@ -17,12 +17,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import qmc
 
-from nonlinear.joint import FRICTION_MODELS, from_unit, parameter_limits
+from nonlinear.friction_models import MODEL_NAMES
+from nonlinear.joint import from_unit, parameter_limits
 
 
 def chunk_seed(seed: int, model: str, chunk: int) -> np.random.SeedSequence:
     """The seed sequence of one chunk of one model's sample."""
-    return np.random.SeedSequence([seed, FRICTION_MODELS.index(model), chunk])
+    return np.random.SeedSequence([seed, MODEL_NAMES.index(model), chunk])
 
 
 def unit_chunk(seed: int, model: str, chunk: int, chunk_size: int, dimension: int) -> np.ndarray:

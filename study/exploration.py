@@ -33,7 +33,8 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from nonlinear.condensation import modal_split
-from nonlinear.joint import FRICTION_MODELS, parameter_names
+from nonlinear.friction_models import MODEL_NAMES
+from nonlinear.joint import parameter_names
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
 from study.designs import design_chunk
@@ -80,9 +81,9 @@ class Exploration:
     damping_cases: dict
 
     def __post_init__(self):
-        unknown = [model for model in self.models if model not in FRICTION_MODELS]
+        unknown = [model for model in self.models if model not in MODEL_NAMES]
         if unknown:
-            raise StudyError(f"models: unknown friction model(s) {unknown}; expected some of {FRICTION_MODELS}")
+            raise StudyError(f"models: unknown friction model(s) {unknown}; expected some of {MODEL_NAMES}")
         groups = {max(structure.space.superelement.patch_groups) + 1 for structure in self.structures}
         if len(groups) != 1:
             raise StudyError("structures: one design must fit every structure, but the numbers of patch groups "

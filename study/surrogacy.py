@@ -27,13 +27,12 @@ import numpy as np
 import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
+from nonlinear.friction_models import friction_model
 from pipeline.files import atomic_path
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ, accepted
 
 CONFIDENCE_LEVEL = 0.95
 INTERVAL_METHOD = "beta"  # Clopper-Pearson, statsmodels' name
-PAPER_MODEL_NAMES = {"iwan4_stuck": "iwan4_middle_stuck"}
-"""Friction models named differently in the paper's Table 5 (``nonlinear.joint.FRICTION_MODELS`` -> paper)."""
 TABLE_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "accepted_surrogate",
                  "accepted_both", "paper")
 
@@ -184,7 +183,7 @@ def surrogacy_table(matrices: Mapping[str, SurrogacyMatrix], structures: Sequenc
 
     matrices: friction model -> SurrogacyMatrix over the S structures named (in order) by ``structures``;
     paper: ``read_paper_surrogacy``; its value is matched on (model, surrogate, real), the model under its
-    paper name (``PAPER_MODEL_NAMES``), NaN where the paper has none.
+    paper name (``nonlinear.friction_models.FrictionModel.paper_name``), NaN where the paper has none.
     """
     rows = [(model, structures[surrogate], structures[real], matrix.confidence[surrogate, real],
              matrix.lower[surrogate, real], matrix.upper[surrogate, real], matrix.accepted_counts[surrogate],
@@ -195,7 +194,7 @@ def surrogacy_table(matrices: Mapping[str, SurrogacyMatrix], structures: Sequenc
     table["paper"] = np.nan
     if paper is not None:
         values = paper.set_index(["model", "surrogate", "real"])["confidence"]
-        keys = zip(table["model"].map(lambda model: PAPER_MODEL_NAMES.get(model, model)), table["surrogate"],
+        keys = zip(table["model"].map(lambda model: friction_model(model).paper_name or model), table["surrogate"],
                    table["real"])
         table["paper"] = [values.get(key, np.nan) for key in keys]
     return table

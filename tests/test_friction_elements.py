@@ -12,7 +12,8 @@ from scipy.integrate import quad
 
 from nonlinear import iwan, jenkins, slip_laws
 from nonlinear.parameters import FrictionParameterError
-from nonlinear.joint import (FRICTION_MODELS, patch_elements, random_designs, scaled_law, slip_displacement,
+from nonlinear.friction_models import MODEL_NAMES
+from nonlinear.joint import (patch_elements, random_designs, scaled_law, slip_displacement,
                              tangential_dissipation, tangential_elements, tangential_force, tangential_slip_deficit,
                              tangential_tangent)
 from nonlinear.sliders import initial_state, iwan_sliders, jenkins_sliders, slider_response
@@ -228,10 +229,10 @@ def closed_forms(elements, u):
     """Tangent (N/m), force (N) and Masing dissipation (J) at u of paper Eqs. 14-22 in closed form
     (``nonlinear.jenkins``, ``nonlinear.iwan``), dispatched on the law; stuck patches K_T, K_T u, 0."""
     e = elements
-    if e.law == "jenkins":
+    if e.model.element == "jenkins":
         forms = (jenkins.tangent(u, e.stiffness, e.slip_force), jenkins.backbone(u, e.stiffness, e.slip_force),
                  jenkins.dissipation(u, e.stiffness, e.slip_force))
-    elif e.law == "iwan4":
+    elif e.model.element == "iwan4":
         args = (e.slip_force, e.stiffness, e.chi, e.beta)
         forms = (iwan.four_parameter_tangent(u, *args), iwan.four_parameter_backbone(u, *args),
                  iwan.four_parameter_dissipation(u, *args))
@@ -254,7 +255,7 @@ def table3_elements_from_stuck_to_deep_macroslip(model, seed):
     return elements, scaled * np.where(elements.stuck, 1e-3, slip_displacement(elements))
 
 
-@pytest.mark.parametrize("model", FRICTION_MODELS)
+@pytest.mark.parametrize("model", MODEL_NAMES)
 def test_branch_free_tangent_force_and_dissipation_are_the_closed_forms(model):
     """``tangential_tangent``, ``_force`` and ``_dissipation`` (one scaled slip law, ``nonlinear.slip_laws``)
     equal the closed forms of Eqs. 14-22 on Table 3 elements from stuck to deep macroslip. Both sides sum a few
@@ -275,7 +276,7 @@ def test_branch_free_tangent_force_and_dissipation_are_the_closed_forms(model):
         assert np.all(error <= 1e-12 * (np.abs(closed) + scale)), (name, np.max(error / (np.abs(closed) + scale)))
 
 
-@pytest.mark.parametrize("model", FRICTION_MODELS)
+@pytest.mark.parametrize("model", MODEL_NAMES)
 def test_masing_dissipation_is_the_kernels_formula_without_its_cancellation(model):
     """slip_laws.masing_dissipation is x g - 2 G (the QSMA kernel's Masing formula, from the slip deficit and its
     integral) to that difference's round-off, 32 eps (|x g| + 2 |G|) (three powers and a few products; 9 eps

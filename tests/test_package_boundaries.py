@@ -1,7 +1,9 @@
-"""Package boundaries, read from the import statements (ast), so that they cannot erode unnoticed.
+"""Package boundaries, read from the source (ast), so that they cannot erode unnoticed.
 
 experiment/ (measured and simulated ring-downs, backbones) knows nothing of the joint model in nonlinear/;
-nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); both import.
+nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); a package imports
+only the packages before it in the data's flow; no library module imports a command module; no module but the
+friction-model registry decides on a model's name.
 """
 
 import ast
@@ -9,6 +11,8 @@ import importlib
 from pathlib import Path
 
 import pytest
+
+from nonlinear.friction_models import MODEL_NAMES
 
 ROOT = Path(__file__).resolve().parents[1]
 FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files")
@@ -95,3 +99,37 @@ def test_packages_import_only_the_packages_before_them(package):
     if package == "pipeline":  # the console script collects every stage's commands by name, at run time
         offending.pop("cli.py", None)
     assert not offending, offending
+
+
+def model_name_branches(path: Path, names=MODEL_NAMES) -> list[str]:
+    """Places in a module that decide on a friction model's name: a comparison with a model name (``==``, ``in``,
+    against a name or a tuple, list or set of them) or a dict keyed by model names, as 'line: source'."""
+    source = path.read_text()
+    found = []
+    for node in ast.walk(ast.parse(source, filename=str(path))):
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+            constants = [c for operand in operands
+                         for c in (operand.elts if isinstance(operand, (ast.Tuple, ast.List, ast.Set)) else [operand])]
+        elif isinstance(node, ast.Dict):
+            constants = [key for key in node.keys if key is not None]
+        else:
+            continue
+        if any(isinstance(c, ast.Constant) and c.value in names for c in constants):
+            found.append(f"{node.lineno}: {ast.get_source_segment(source, node)}")
+    return found
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_branch_on_a_friction_model_name_outside_the_registry(package):
+    offending = {path.name: model_name_branches(path) for path in sorted((ROOT / package).glob("*.py"))
+                 if path != ROOT / "nonlinear" / "friction_models.py"}
+    offending = {module: places for module, places in offending.items() if places}
+    assert not offending, offending
+
+
+def test_a_planted_branch_on_a_model_name_is_found(tmp_path):
+    planted = tmp_path / "transient.py"
+    planted.write_text('law = {"jenkins": 1, "iwan4": 2}\nif model == "iwan5":\n    pass\n'
+                       'stuck = model in ("iwan4_stuck", "other")\nname = "iwan4"\n')
+    assert [place.split(":")[0] for place in model_name_branches(planted)] == ["1", "2", "4"]
