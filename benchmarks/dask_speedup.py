@@ -28,7 +28,8 @@ from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from benchmarks.peak import measure  # noqa: E402
-from benchmarks.study import BEAMS, DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
+from benchmarks.study import DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
+from geometry.parameters import BEAM_NAMES  # noqa: E402
 from benchmarks.table import row, show  # noqa: E402
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
@@ -85,11 +86,11 @@ def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: 
 def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterator[dict]:
     """A row per set-up (``SETUPS``): wall time (s), peak memory of the driving process (MiB) and the speed-up
     over the serial run."""
-    if not all((ROM / f"{beam}.npz").exists() for beam in BEAMS):
+    if not all((ROM / f"{beam}.npz").exists() for beam in BEAM_NAMES):
         yield row("dask", "all set-ups", note=f"skipped: {ROM} lacks the beams' superelements (run `make rom`)")
         return
-    evaluations = n_designs * len(MODEL_NAMES) * len(BEAMS)
-    setting = (f"{n_designs:,} designs x {len(MODEL_NAMES)} models x {len(BEAMS)} beams x {len(LEVELS)} levels "
+    evaluations = n_designs * len(MODEL_NAMES) * len(BEAM_NAMES)
+    setting = (f"{n_designs:,} designs x {len(MODEL_NAMES)} models x {len(BEAM_NAMES)} beams x {len(LEVELS)} levels "
                f"in chunks of {chunk:,}, wall clock, best of {repeats}")
     times = {}
     for name, workers in SETUPS:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from benchmarks.peak import measure
 from benchmarks.table import row, show
+from geometry.parameters import BEAM_NAMES
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -165,7 +166,7 @@ SHARED_STEPS = (("tied modes", "CalculiX modes", ("assemble K, M", "tied modes")
                 ("preload", "CalculiX preload", ("assemble K, M", "preload contact")))  # compared: ccx, ours
 
 
-def rows(coarse: bool = False, beams=("BRB", "LBRB", "SBRB")) -> Iterator[dict]:
+def rows(coarse: bool = False, beams=BEAM_NAMES) -> Iterator[dict]:
     """A row per beam and step (``STEPS``, then ``CALCULIX_STEPS`` where ccx is installed): the step's own wall
     time (s) and its process's peak memory (MiB); then per beam the CalculiX / ours time ratio of each analysis
     both codes make from the mesh (> 1: ours faster). ``coarse``: the coarse test mesh (``COARSE``) instead of

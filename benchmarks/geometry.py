@@ -10,8 +10,8 @@ from collections.abc import Iterator
 
 from benchmarks.peak import measure
 from benchmarks.table import row, show
+from geometry.parameters import BEAM_NAMES
 
-BEAMS = ("BRB", "LBRB", "SBRB")
 
 
 def mesh_beam(name: str) -> dict:
@@ -28,7 +28,7 @@ def mesh_beam(name: str) -> dict:
 
 def rows() -> Iterator[dict]:
     """A row per beam: wall time (s) and peak memory (MiB) of meshing it in a fresh process (gmsh, one thread)."""
-    for name in BEAMS:
+    for name in BEAM_NAMES:
         seconds, peak, counts = measure(mesh_beam, name)
         yield row("geometry", f"{name} mesh", seconds, peak,
                   note=f"default sizes, {counts['nodes']:,} nodes, {counts['tetrahedra']:,} tetrahedra")

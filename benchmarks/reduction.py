@@ -16,6 +16,7 @@ from pathlib import Path
 
 from benchmarks.peak import measure
 from benchmarks.table import row, show
+from geometry.parameters import BEAM_NAMES
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -32,7 +33,7 @@ def reduce_beam(name: str) -> str:
             f"{record['stuck_joint_frequencies_hz'][0]:.1f} Hz")
 
 
-def rows(beams=("BRB", "LBRB", "SBRB")) -> Iterator[dict]:
+def rows(beams=BEAM_NAMES) -> Iterator[dict]:
     """A row per beam: wall time (s) and peak memory (MiB) of its reduction, or why it was skipped (no current
     FE result of the beam's mesh)."""
     from fem.fe_files import FeInputError, beam_inputs

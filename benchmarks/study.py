@@ -29,6 +29,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks.table import row, show  # noqa: E402
+from geometry.parameters import BEAM_NAMES  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from study.exploration import Exploration, Sample, explore  # noqa: E402
@@ -36,7 +37,6 @@ from reduction.superelement import beam_superelement  # noqa: E402
 from study.structures import qsma_measurement, structure  # noqa: E402
 
 ROM = Path("build/rom")
-BEAMS = ("BRB", "LBRB", "SBRB")
 TRUE_DESIGN = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
 LEVELS = np.geomspace(1e-7, 3e-5, 20)
 DAMPING_CASES = {"BRB": [1.6659e-3] * 3, "LBRB": [9.243e-4] * 3, "SBRB": [9.461e-4] * 3}
@@ -52,7 +52,7 @@ MEASURED_FULL_SCALE = row(
 def beams():
     """The three beams with the known-answer virtual measurement."""
     structures = []
-    for beam in BEAMS:
+    for beam in BEAM_NAMES:
         superelement = beam_superelement(ROM / f"{beam}.npz")
         measured = qsma_measurement(joint_space(superelement), beam, "iwan4", TRUE_DESIGN, LEVELS, 1.6659e-3)
         structures.append(structure(beam, superelement, measured, 0.0, len(LEVELS)))
@@ -62,7 +62,7 @@ def beams():
 def rows(n_designs: int = 4000, chunk: int = 1000) -> Iterator[dict]:
     """The rows of the module docstring: per model its exploration rate (evaluations per CPU-second), the
     projected paper scale on ``CORES`` cores (s) and the measured one."""
-    if not all((ROM / f"{beam}.npz").exists() for beam in BEAMS):
+    if not all((ROM / f"{beam}.npz").exists() for beam in BEAM_NAMES):
         yield row("study", "all models", note=f"skipped: {ROM} lacks the beams' superelements (run `make rom`)")
         yield MEASURED_FULL_SCALE
         return
@@ -77,13 +77,13 @@ def rows(n_designs: int = 4000, chunk: int = 1000) -> Iterator[dict]:
             start = time.process_time()
             explore(exploration, Path(folder) / model, progress=False)
             seconds = time.process_time() - start
-            rate = n_designs * len(BEAMS) / seconds
-            projected += PAPER_DESIGNS * len(BEAMS) / (CORES * rate)
+            rate = n_designs * len(BEAM_NAMES) / seconds
+            projected += PAPER_DESIGNS * len(BEAM_NAMES) / (CORES * rate)
             yield row("study", model, seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, rate,
-                      "evaluations/s/core", f"{n_designs:,} designs x {len(BEAMS)} beams x {len(LEVELS)} levels, "
+                      "evaluations/s/core", f"{n_designs:,} designs x {len(BEAM_NAMES)} beams x {len(LEVELS)} levels, "
                                             f"chunks of {chunk:,}, errors and Parquet included, CPU time")
     yield row("study", "paper scale, projected", projected,
-              note=f"{projected / 60:.0f} min: {PAPER_DESIGNS:,.0f} designs x {len(BEAMS)} beams x "
+              note=f"{projected / 60:.0f} min: {PAPER_DESIGNS:,.0f} designs x {len(BEAM_NAMES)} beams x "
                    f"{len(MODEL_NAMES)} models at the rates above on {CORES} cores, perfect scaling assumed "
                    f"(dask rows: the real scaling)")
     yield MEASURED_FULL_SCALE

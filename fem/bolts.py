@@ -25,6 +25,9 @@ from .elasticity import edge_indices, quadratic_node_coordinates
 from .modes import node_dofs
 
 
+BOLT_PRELOAD = 11580.0  # N per bolt at 20 N m (paper section 4.1), the beams' and the ASB's
+
+
 @dataclass(frozen=True)
 class Bolt:
     """One bolt: shank area m^2, length in tension m, Young's modulus Pa, Poisson's ratio, preload N, and the
@@ -34,7 +37,7 @@ class Bolt:
     length: float = 0.0254
     youngs_modulus: float = 190e9
     poissons_ratio: float = 0.29
-    preload: float = 11580.0
+    preload: float = BOLT_PRELOAD
     mass: float = 0.02864
 
     @property

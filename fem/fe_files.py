@@ -32,7 +32,7 @@ import scipy.sparse as sp
 
 from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BeamParameters
-from pipeline.cache import StageInputError, is_current, package_versions, sidecar_record, upstream_file
+from pipeline.cache import StageInputError, is_current, sidecar_record, stage_versions, upstream_file
 from pipeline.files import atomic_path, sha256_json, write_json
 
 from .bolts import Bolt
@@ -41,6 +41,7 @@ from .prestress import PrestressedBeam, prestressed_beam
 from .render import render_fe
 
 FORMAT_VERSION = 2  # 2: sidecar layout of pipeline.cache
+VERSIONS = stage_versions(FORMAT_VERSION, "numpy", "scipy", "scikit-fem", "scikit-sparse")
 N_MODES = 10
 RENDERS = ("contact_pressure", "first_bending")  # <beam>_<kind>.png
 FeInputError = StageInputError  # what the FE and reduction stages raise for a missing or bad input
@@ -74,11 +75,6 @@ def input_record(mesh_sha: str, beam: BeamParameters, material: Material, bolt: 
     """Everything the FE result depends on, as recorded in the sidecar and hashed into the cache key."""
     return {"mesh_sha256": mesh_sha, "beam": dataclasses.asdict(beam), "material": dataclasses.asdict(material),
             "bolt": dataclasses.asdict(bolt), "n_modes": n_modes}
-
-
-def versions() -> dict:
-    """The sidecar's versions: the format and the packages that assemble and solve the model."""
-    return {"format": FORMAT_VERSION, **package_versions("numpy", "scipy", "scikit-fem", "scikit-sparse")}
 
 
 def _csr_arrays(name: str, matrix: sp.csr_matrix) -> dict[str, np.ndarray]:
@@ -115,7 +111,7 @@ def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Ma
     folder = Path(folder)
     sidecar = folder / f"{name}.json"
     files = {"npz": folder / f"{name}.npz", **{kind: folder / f"{name}_{kind}.png" for kind in RENDERS}}
-    if is_current(sidecar, inputs, versions(), files):
+    if is_current(sidecar, inputs, VERSIONS, files):
         return sidecar
     beam_mesh = read_beam_mesh(mesh_path, beam)
     model = prestressed_beam(beam_mesh, beam, material, bolt, n_modes)
@@ -125,7 +121,7 @@ def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Ma
             np.savez(stream, **fe_arrays(model))
         pressure_range = render_fe(beam_mesh, model, name, temporary["contact_pressure"], temporary["first_bending"])
     write_json(sidecar, sidecar_record(
-        inputs, versions(), files, contact_pressure_range_pa=list(pressure_range),
+        inputs, VERSIONS, files, contact_pressure_range_pa=list(pressure_range),
         first_bending_hz={"tied": float(model.frequencies[6]),
                           "tied_prestressed": float(model.prestressed_frequencies[6])}))
     return sidecar

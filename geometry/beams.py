@@ -15,7 +15,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from pipeline.cache import is_current, package_versions, sidecar_record
+from pipeline.cache import is_current, sidecar_record, stage_versions
 from pipeline.files import atomic_path, write_json
 
 from . import properties
@@ -25,16 +25,12 @@ from .parameters import BeamParameters, MeshParameters, check_mesh_size
 from .render import render_patches
 
 FORMAT_VERSION = 2  # 2: sidecar layout of pipeline.cache
+VERSIONS = stage_versions(FORMAT_VERSION, "gmsh", "meshio")  # the sidecar's versions
 
 
 def input_record(beam: BeamParameters, sizes: MeshParameters) -> dict:
     """Everything the mesh depends on, as recorded in the sidecar and hashed into the cache key."""
     return {"beam": dataclasses.asdict(beam), "mesh": dataclasses.asdict(sizes)}
-
-
-def versions() -> dict:
-    """The sidecar's versions: the format and the packages that write the mesh files."""
-    return {"format": FORMAT_VERSION, **package_versions("gmsh", "meshio")}
 
 
 def _write_vtu(mesh, path: Path) -> None:
@@ -70,7 +66,7 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
     files = {"msh": folder / f"{beam.name}.msh", "vtu": folder / f"{beam.name}.vtu"}
     if render:
         files["png"] = folder / f"{beam.name}.png"
-    if is_current(sidecar, inputs, versions(), files):
+    if is_current(sidecar, inputs, VERSIONS, files):
         return sidecar
     with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
         temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
@@ -83,7 +79,7 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
         if render:
             render_patches(mesh, temporary["png"], f"{beam.name}: interface patches 1-5 (upper half lifted)")
     write_json(sidecar, sidecar_record(
-        inputs, versions(), files,
+        inputs, VERSIONS, files,
         nodes=len(mesh.points),
         tetrahedra={name: len(tets) for name, tets in mesh.volumes.items()},
         physical_groups={name: {"dimension": groups[name][0], "entities": groups[name][1],

@@ -181,3 +181,4 @@ BRB = BeamParameters()
 LBRB = BRB.replace(name="LBRB", body_length=0.4856)
 SBRB = BRB.replace(name="SBRB", spring_height=0.004874)
 BEAMS = {beam.name: beam for beam in (BRB, LBRB, SBRB)}
+BEAM_NAMES = tuple(BEAMS)  # the three Brake-Reuss beams, in the order every stage lists them

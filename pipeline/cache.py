@@ -45,6 +45,12 @@ def package_versions(*packages: str) -> dict[str, str | None]:
     return {package: version(package) for package in packages}
 
 
+def stage_versions(format_version: int, *packages: str) -> dict:
+    """A stage's sidecar versions: the format of its files and the packages that produce them; a sidecar with
+    other versions is not current (``is_current``)."""
+    return {"format": format_version, **package_versions(*packages)}
+
+
 def read_sidecar(path: Path) -> dict | None:
     """The sidecar's JSON object, or None when it is missing, unreadable, truncated or not a JSON object."""
     try:

@@ -42,7 +42,7 @@ from fem.elasticity import solid_mesh
 from fem.fe_files import FeInputError, beam_inputs, read_csr
 from fem.modes import interface_quadratic_pairs, node_dofs
 from geometry.beam_mesh import interface_partners, read_beam_mesh
-from pipeline.cache import is_current, package_versions, sidecar_record, upstream_file
+from pipeline.cache import is_current, sidecar_record, stage_versions, upstream_file
 from pipeline.files import atomic_path, write_json, write_mat
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
@@ -53,6 +53,7 @@ from .superelement import Superelement, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
 FORMAT_VERSION = 3  # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache
+VERSIONS = stage_versions(FORMAT_VERSION, "numpy", "scipy", "scikit-fem")  # the sidecar's versions
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
 FE_ARRAYS = ("coordinates", *(f"{matrix}_{part}" for matrix in ("stiffness", "mass", "stress_stiffness")
                               for part in ("data", "indices", "indptr", "shape")))  # of the FE .npz, read here
@@ -77,11 +78,6 @@ class ReductionParameters:
         if not self.sensor_body_fractions or not all(0.0 < f < 1.0 for f in self.sensor_body_fractions):
             raise FeInputError(f"parameter 'sensor_body_fractions' = {self.sensor_body_fractions}: expected "
                                f"fractions of the body length inside (0, 1)")
-
-
-def versions() -> dict:
-    """The sidecar's versions: the format and the packages that reduce the model and write the .mat."""
-    return {"format": FORMAT_VERSION, **package_versions("numpy", "scipy", "scikit-fem")}
 
 
 def fe_inputs(fe_folder: Path, name: str, mesh_sha: str) -> tuple[Path, dict]:
@@ -159,7 +155,7 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
     files = {"npz": folder / f"{name}.npz", "mat": folder / f"{name}.mat"}
     if render:
         files["png"] = folder / f"{name}_first_bending.png"
-    if is_current(sidecar, inputs, versions(), files):
+    if is_current(sidecar, inputs, VERSIONS, files):
         return sidecar
     beam_mesh = read_beam_mesh(mesh_path, beam)
     with np.load(fe_path, allow_pickle=False) as fe:
@@ -177,7 +173,7 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
                                       superelement.mass.shape[0])
     total_mass, centre, inertia = rigid_body_properties(rigid.T @ superelement.mass @ rigid)
     write_json(sidecar, sidecar_record(
-        inputs, versions(), files, mass_kg=total_mass, centre_of_mass_m=centre.tolist(),
+        inputs, VERSIONS, files, mass_kg=total_mass, centre_of_mass_m=centre.tolist(),
         inertia_about_centre_kg_m2=inertia.tolist(), stuck_joint_frequencies_hz=frequencies.tolist(),
         fixed_interface_frequencies_hz=arrays["fixed_interface_frequencies"].tolist()))
     return sidecar

@@ -16,8 +16,10 @@ import numpy as np
 import scipy.io
 import scipy.linalg
 
+from fem.bolts import BOLT_PRELOAD
+
 DOFS_PER_PATCH = 6  # x, y, normal translations, then rotations about x, y, normal
-ASB_PRELOAD = 11580.0  # N per bolt, the studies' value (paper section 4.1)
+ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")  # the ASB's reduced models and measured backbones
 TIED_MODES = 6  # tied modes searched for a measured one
 
 
@@ -142,7 +144,7 @@ def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch
         patch_areas=np.asarray(data["PatchAreas"], dtype=float).ravel(),
         patch_groups=tuple(int(g) for g in patch_groups),
         sensors=np.asarray(data["R"], dtype=float),
-        preload=ASB_PRELOAD * np.asarray(data["Fv"], dtype=float).ravel(),
+        preload=BOLT_PRELOAD * np.asarray(data["Fv"], dtype=float).ravel(),
         name=Path(path).stem.removeprefix("MAT_NULLRED_") + ("" if coupling == "distributed" else f" ({coupling})"),
     )
 

@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from experiment.backbone_files import read_backbone
+from geometry.parameters import BEAM_NAMES
 from pipeline.files import atomic_path
 from study.figures import plt, save
 
-BEAMS = ("BRB", "LBRB", "SBRB")
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
 
 
@@ -58,7 +58,7 @@ def stage_table(folder: Path, columns: list[str], cells) -> list[str]:
     """A Markdown table with a row per beam from its sidecar ``<folder>/<beam>.json``: ``cells(sidecar)`` gives the
     row's cells after the beam's name; a beam without a sidecar is said not run."""
     lines = ["| beam | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
-    for beam in BEAMS:
+    for beam in BEAM_NAMES:
         sidecar = _read_json(folder / f"{beam}.json")
         row = cells(sidecar) if sidecar is not None else ["not run"] + [""] * (len(columns) - 1)
         lines.append(f"| {beam} | " + " | ".join(row) + " |")
@@ -79,7 +79,7 @@ def geometry_section(build: Path, out: Path) -> list[str]:
     table = stage_table(build / "beams", ["nodes", "mass on the mesh (kg)", "mass from the drawing (kg)",
                                           "interface area, mesh / drawing (mm^2)"], mesh_cells)
     return (["## 1. Geometry: the three Brake-Reuss beams", "", *table, ""]
-            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAMS])
+            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAM_NAMES])
 
 
 def fe_section(build: Path, out: Path) -> list[str]:
@@ -89,7 +89,7 @@ def fe_section(build: Path, out: Path) -> list[str]:
                                          f"{sidecar['first_bending_hz']['tied_prestressed']:.2f}",
                                          f"{1e-6 * sidecar['contact_pressure_range_pa'][1]:.1f}"])
     lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "", *table, ""]
-    for beam in BEAMS:
+    for beam in BEAM_NAMES:
         lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out),
                   _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out)]
     return lines
@@ -102,7 +102,7 @@ def reduction_section(build: Path, out: Path) -> list[str]:
                                          ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])])
     return (["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "", *table, ""]
             + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out)
-               for beam in BEAMS])
+               for beam in BEAM_NAMES])
 
 
 def plot_backbones(destination: Path, groups: dict) -> None:
@@ -228,7 +228,7 @@ def provenance_section(folders: Folders) -> list[str]:
         values = _read_json(sidecar)
         if values is not None:
             lines.append(f"| {stage} | {json.dumps(values['versions'])} | - |")
-    for beam in BEAMS:
+    for beam in BEAM_NAMES:
         experiment = _read_json(folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json")
         if experiment is not None:
             lines.append(f"| virtual experiment {beam} | {json.dumps(experiment['versions'])} | {experiment['seed']} |")

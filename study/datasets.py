@@ -20,13 +20,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
+from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import models_for
 from nonlinear.joint import BRB_PATCH_GROUPS
-from reduction.superelement import StructureError, beam_superelement
+from reduction.superelement import ASB_CONFIGURATIONS, StructureError, beam_superelement
 from study.structures import N_LEVELS, Structure, asb_superelement, structure
 
-BEAMS = ("BRB", "LBRB", "SBRB")
-ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")
 DATASETS = ("beams", "asb")
 DATASET_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1), "asb": models_for(1)}
 """The friction models each dataset's structures can carry: the beams' three patch groups, the ASB's one (every
@@ -54,7 +53,7 @@ def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
 def structure_names(dataset: str) -> list[str]:
     if dataset not in DATASETS:
         raise StructureError(f"dataset {dataset!r} is not one of {DATASETS}")
-    return list(BEAMS) if dataset == "beams" else [f"ASB {c}" for c in ASB_CONFIGURATIONS]
+    return list(BEAM_NAMES) if dataset == "beams" else [f"ASB {c}" for c in ASB_CONFIGURATIONS]
 
 
 def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_folder: Path,
@@ -80,5 +79,5 @@ def damping_cases(dataset: str, structures: list[Structure], table1: dict | None
     """Linear damping cases (module docstring): case name -> zeta_0 of each structure. table1: paper Table 1
     (``virtual_experiment.reference_joint.read_low_amplitude_measurements``), for the beams."""
     if dataset == "beams":
-        return {beam: [table1[beam].damping] * len(structures) for beam in BEAMS}
+        return {beam: [table1[beam].damping] * len(structures) for beam in BEAM_NAMES}
     return {"measured": [float(s.target.damping[0]) for s in structures]}

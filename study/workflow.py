@@ -27,8 +27,9 @@ from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_uni
 from pipeline.cache import is_current, package_versions, sidecar_record
 from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
+from geometry.parameters import BEAM_NAMES
 from study.analysis import anova_observations, model_errors, representative_designs, sample_front
-from study.datasets import (ASB_CONFIGURATIONS, BEAMS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
+from study.datasets import (ASB_CONFIGURATIONS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, explore, read_exploration
@@ -68,7 +69,7 @@ def measurements(paths: Paths, parameters: dict) -> None:
     if dataset == "asb":
         sources = [paths.data / "asb-backbones" / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
     else:
-        sources = [paths.rom / f"{beam}.npz" for beam in BEAMS] + [paths.reference / TABLE1, paths.reference / TABLE3]
+        sources = [paths.rom / f"{beam}.npz" for beam in BEAM_NAMES] + [paths.reference / TABLE1, paths.reference / TABLE3]
     missing = [str(source) for source in sources if not source.exists()]
     if missing:
         raise StructureError(f"{', '.join(missing)}: missing (inputs of the {dataset} measurements)")

@@ -12,12 +12,11 @@ import pytest  # noqa: E402
 
 from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
 from geometry.beams import make_beam  # noqa: E402
-from geometry.parameters import BEAMS, MeshParameters  # noqa: E402
+from geometry.parameters import BEAM_NAMES, BEAMS, MeshParameters  # noqa: E402
 from pipeline.cli import main as surrogacy  # noqa: E402
 from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
 
 BUILD = Path(__file__).resolve().parents[1] / "build"
-BEAM_NAMES = ("BRB", "LBRB", "SBRB")
 
 COARSE = MeshParameters(size=0.0127, lap_size=0.0064, hole_size=0.0032)
 

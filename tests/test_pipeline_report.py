@@ -9,6 +9,7 @@ import re
 
 import pytest
 
+from geometry.parameters import BEAM_NAMES
 from pipeline.cli import main as surrogacy
 from discrepancy.virtual_data import write_undeclared_ringdown
 from tests.conftest import asb_data_folder
@@ -54,7 +55,7 @@ def pipeline_report(beam_roms, tmp_path_factory):
 def test_report_numbers_are_the_stages_own(pipeline_report):
     report, build, results = pipeline_report
     text = report.read_text()
-    for beam in ("BRB", "LBRB", "SBRB"):
+    for beam in BEAM_NAMES:
         fe = json.loads((build / "fe" / f"{beam}.json").read_text())
         assert f"| {beam} | {fe['first_bending_hz']['tied']:.2f} |" in text
         rom = json.loads((build / "rom" / f"{beam}.json").read_text())
@@ -76,7 +77,7 @@ def test_report_shows_every_figure_the_stages_wrote_and_names_stages_not_run(pip
     assert all(path.exists() for path in linked)
     written = [*(build / stage / f"{beam}{suffix}" for stage, suffixes in
                  (("beams", [".png"]), ("fe", ["_contact_pressure.png", "_first_bending.png"]),
-                  ("rom", ["_first_bending.png"])) for suffix in suffixes for beam in ("BRB", "LBRB", "SBRB")),
+                  ("rom", ["_first_bending.png"])) for suffix in suffixes for beam in BEAM_NAMES),
                *results.rglob("*.png")]
     assert {path.resolve() for path in written if path.exists()} == linked
     assert "_freevib not run_" in text  # this run had no ring-down stage: said, not filled in

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from extended_precision import ReferenceDesign
+from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import joint_mechanisms, joint_space, stuck_modes
 from nonlinear import qsma_kernel
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, slip_displacement, stuck_stiffness,
@@ -46,7 +47,7 @@ REGRESSION_CASES = [
 @pytest.fixture(scope="module")
 def beam_spaces(beam_roms):
     """Joint spaces of the three default-mesh superelements."""
-    return {beam: joint_space(load_superelement(beam_roms / f"{beam}.npz")) for beam in ("BRB", "LBRB", "SBRB")}
+    return {beam: joint_space(load_superelement(beam_roms / f"{beam}.npz")) for beam in BEAM_NAMES}
 
 
 def slip_amplitude(space, model, design) -> float:

@@ -17,6 +17,7 @@ import pytest
 
 from experiment.backbone import Backbone, ModeBackbone
 from experiment.backbone_files import read_backbone, write_backbone
+from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import joint_space
 from nonlinear.joint import parameter_limits, parameter_names, to_unit
 from study.designs import design_chunk
@@ -40,7 +41,7 @@ def beams(beam_roms):
     """BRB, LBRB, SBRB (prestressed) with synthetic measurements of the true design, and the BRB over the lower
     half of its levels only ('BRB low')."""
     structures = []
-    for beam in ("BRB", "LBRB", "SBRB"):
+    for beam in BEAM_NAMES:
         superelement = beam_superelement(beam_roms / f"{beam}.npz")
         space = joint_space(superelement)
         levels = np.geomspace(1e-7, 3e-5, N_LEVELS)

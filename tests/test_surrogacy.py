@@ -8,13 +8,14 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+from geometry.parameters import BEAM_NAMES
 from study.errors import accepted
 from study.surrogacy import (read_paper_surrogacy, replicate_surrogacy, replicate_table, surrogacy_against_bounds,
                              surrogacy_markdown, surrogacy_matrix, surrogacy_table, plot_bounds_sensitivity,
                              write_surrogacy_csv, write_surrogacy_markdown)
 
 PAPER_TABLE5 = Path(__file__).resolve().parents[2] / "shared" / "reference" / "paper_table5_surrogacy.csv"
-STRUCTURES = ("BRB", "LBRB", "SBRB")
+STRUCTURES = BEAM_NAMES
 
 
 def nested_regions(n=1000):

@@ -24,7 +24,8 @@ from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.files import sha256_file
 from reduction.superelement import stuck_joint_modes
-from virtual_experiment.hammer_test import (BEAMS, HammerTest, hammer_hits, hit_pool, low_amplitude_table,
+from geometry.parameters import BEAM_NAMES
+from virtual_experiment.hammer_test import (HammerTest, hammer_hits, hit_pool, low_amplitude_table,
                                             virtual_experiment, virtual_experiments, write_virtual_experiment)
 from virtual_experiment.reference_joint import (TABLE1, TABLE3, beam_space, outside_limits,
                                                 read_low_amplitude_measurements, read_parameter_limits,
@@ -190,9 +191,9 @@ def test_three_beams_virtual_experiments(tmp_path, table1, beam_roms):
     four times Table 1's; the SBRB, stiffer at the joint for the same hammer, is the most linear (paper
     section 3)."""
     rows = virtual_experiments(ROM, tmp_path)
-    assert [row["beam"] for row in rows] == list(BEAMS)
+    assert [row["beam"] for row in rows] == list(BEAM_NAMES)
     drops = {}
-    for beam in BEAMS:
+    for beam in BEAM_NAMES:
         read = read_backbone(tmp_path / f"{beam}.csv")
         backbone = read.backbone
         assert np.all(np.isfinite(backbone.natural_frequency_hz)) and np.all(np.isfinite(backbone.damping_ratio))

@@ -46,6 +46,7 @@ from experiment.backbone import MeasuredBackbone, ModeBackbone, mode_backbone, r
 from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import write_ringdown_mat
+from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import parameter_names
 from nonlinear.transient import Hammer, ring_down, sensor_modes
@@ -55,9 +56,6 @@ from virtual_experiment.reference_joint import (MODEL, TABLE1, TABLE3, LowAmplit
                                                 outside_limits, read_low_amplitude_measurements,
                                                 read_parameter_limits, reference_folder, reference_joint,
                                                 stuck_frequency_hz)
-
-BEAMS = ("BRB", "LBRB", "SBRB")
-
 
 @dataclass(frozen=True)
 class HammerTest:
@@ -317,7 +315,7 @@ def write_low_amplitude_table(rows: list[dict], destination: Path) -> None:
 
 
 def virtual_experiments(rom_folder: Path, out_folder: Path, table1_path: Path | None = None,
-                        table3_path: Path | None = None, test: HammerTest = HammerTest(), beams=BEAMS,
+                        table3_path: Path | None = None, test: HammerTest = HammerTest(), beams=BEAM_NAMES,
                         ring_downs: bool = True) -> list[dict]:
     """The three beams' virtual experiments with one reference joint, written to ``out_folder``.
 

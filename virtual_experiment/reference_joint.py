@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
+from fem.bolts import BOLT_PRELOAD
 from nonlinear.condensation import JointSpace, joint_space
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import beam_superelement, target_mode
@@ -33,7 +34,6 @@ TABLE1 = "paper_table1_low_amplitude.csv"  # beam, frequency_hz, damping_factor
 TABLE3 = "paper_table3_parameter_limits.csv"  # parameter, minimum, maximum, sampling, unit
 MODEL = "iwan4"
 POISSON_RATIO = 0.29  # paper section 4.1
-BOLT_PRELOAD = 11_580.0  # N per bolt at 20 N m (paper section 4.1)
 N_BOLTS = 3
 FRICTION_COEFFICIENT = 0.3  # mu of F_S = mu p_c A_p
 CHI = -0.5  # Iwan exponent: dissipation per cycle ~ amplitude^(3 + chi)
