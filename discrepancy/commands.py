@@ -1,7 +1,7 @@
 """``surrogacy discrepancy``: what the model of a measured mode lacks, with the effects found, the evidence and the
 errors before and after.
 
-Two models (issue 15):
+Two models:
 
 ``surrogacy discrepancy FILE``: a backbone CSV, an ASB measured backbone (.mat with Q, W, Z) or a ring-down (.csv,
 .mat, .uff with ``--mode-hz``), with the one-mode joint model (``discrepancy.loop``) for measurements with no

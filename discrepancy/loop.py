@@ -1,4 +1,4 @@
-"""The model-discrepancy loop (DESIGN section 7): from a measured backbone and a model that does not fit it, find
+"""The model-discrepancy loop (docs/design.md section 7): from a measured backbone and a model that does not fit it, find
 which missing effect explains the residual, add it, refit, and report the error before and after; answer
 "unexplained" rather than guess.
 

@@ -1,5 +1,5 @@
 """The discrepancy loop on a structure's own model: its superelement and friction model, with the study's fits as
-the reference (issue 15, items 1 and 5). ``discrepancy.loop`` holds the loop, the effect library and the one-mode
+the reference. ``discrepancy.loop`` holds the loop, the effect library and the one-mode
 model for measurements with no finite-element model behind them; this module puts the study's evaluation in the
 one-mode model's place.
 

@@ -1,6 +1,6 @@
 """Measured (or simulated) ring-downs to backbones: natural frequency and damping against amplitude.
 
-Paper section 3.1; DESIGN.md section 6. Nothing here knows the joint model (``nonlinear``).
+Paper section 3.1; docs/design.md section 6. Nothing here knows the joint model (``nonlinear``).
 
 Ring-downs (:mod:`experiment.ringdown`, :mod:`experiment.ringdown_files`)
     RingDown                 one hit: time (n_samples,) s, signals (n_channels, n_samples) in SI units

@@ -1,5 +1,5 @@
 """The finite-element stage (scikit-fem, quadratic tetrahedra): preload with contact, stress stiffness, tied modes
-(DESIGN section 3).
+(docs/design.md section 3).
 
 - ``elasticity``: ``Material``, ``solid_mesh``, ``stiffness_matrix``, ``mass_matrix``, ``rigid_body_modes``.
 - ``bolts``: ``Bolt``, shank stiffness, stress stiffness and mass joined by washer couplings

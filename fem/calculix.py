@@ -1,13 +1,13 @@
 """Independent cross-check with CalculiX (``ccx``, Debian package calculix-ccx): input decks from our meshes.
 
 The deck holds the same straight-sided quadratic tetrahedra as the scikit-fem model (C3D10, Abaqus/CalculiX
-node order: corners 1-4, then the mid-side nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; DESIGN section 3.1), the
+node order: corners 1-4, then the mid-side nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; docs/design.md section 3.1), the
 same material and the same tie: every upper interface node is merged into its lower partner, which is exactly
 the DOF identification of ``fem.modes.tie_transformation``.
 
 The preload deck (``preload_contact_deck``) solves the prestress step of ``fem.contact`` independently: the two
 halves unmerged, frictionless hard contact on the lap, each bolt a preloaded axial spring between two reference
-nodes joined to the washer footprints by distributing couplings (DCOUP3D; DESIGN section 3.1), and a load-free
+nodes joined to the washer footprints by distributing couplings (DCOUP3D; docs/design.md section 3.1), and a load-free
 support. Contact is node-to-surface (upper interface nodes against the lower interface faces): on this conforming
 interface every slave node sits on a master node, so the constraint is our node-pair constraint up to the
 penalty. Surface-to-surface contact integrates the pressure over the six-node slave faces instead (negative

@@ -1,4 +1,4 @@
-"""Frictionless hard contact between the interface node pairs: the bolt-preload static solve (DESIGN section 3).
+"""Frictionless hard contact between the interface node pairs: the bolt-preload static solve (docs/design.md section 3).
 
 For each interface pair i (lower node l, upper node s at the same position, normal +z) the gap is
 g_i = u_z(s) - u_z(l) and the contact force on the upper node is N_i (+z). Conditions: g >= 0, N >= 0, g N = 0.

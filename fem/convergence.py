@@ -1,4 +1,4 @@
-"""Mesh-convergence study of the tied first out-of-plane bending frequency (DESIGN sections 2 and 3).
+"""Mesh-convergence study of the tied first out-of-plane bending frequency (docs/design.md sections 2 and 3).
 
 The three element sizes of ``geometry.parameters.MeshParameters`` (far field, lap, holes) are scaled together by
 a factor s (s < 1 refines); each mesh is solved for the first out-of-plane bending frequency of the beam with the

@@ -2,7 +2,7 @@
 
 Used for the bolts' washer footprints (fem/bolts.py) and for the whole-joint interface patches, each averaged
 to a virtual node (paper 4.1, reduction stage). The reference node carries u_v = (t, theta), the weighted
-least-squares rigid motion of the nodes, written about their weighted centroid c (DESIGN.md section 4):
+least-squares rigid motion of the nodes, written about their weighted centroid c (docs/design.md section 4):
 
     minimise  sum_i w_i |u_i - t - theta x r_i|^2,   r_i = x_i - c,   c = sum_i w_i x_i / W,   W = sum_i w_i.
 

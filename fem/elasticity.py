@@ -2,7 +2,7 @@
 
 The geometry stage writes 4-node tetrahedra (or gmsh 10-node ones with straight sides); here only their corners
 are used and scikit-fem's quadratic Lagrange tetrahedron (``ElementTetP2``, mid-side nodes at the straight
-edge midpoints) is built on them, three displacement components per node (DESIGN section 3).
+edge midpoints) is built on them, three displacement components per node (docs/design.md section 3).
 
 Degrees of freedom follow scikit-fem's vector numbering: the "quadratic nodes" are the mesh vertices
 (0..n_vertices-1) followed by the edge midpoints (in ``mesh.edges`` order), and the DOF of component k
@@ -49,7 +49,7 @@ class Material:
             raise ValueError(f"field 'poissons_ratio' = {self.poissons_ratio!r}: expected 0 <= nu < 0.5")
 
 
-#: The material of the public BRB ABAQUS input deck (DESIGN section 3); the default is ``Material()``.
+#: The material of the public BRB ABAQUS input deck (docs/design.md section 3); the default is ``Material()``.
 DECK_MATERIAL = Material(youngs_modulus=192.85e9, poissons_ratio=0.29, density=7857.8)
 
 

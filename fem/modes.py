@@ -1,4 +1,4 @@
-"""Linear modes of the two-half beams with the lap interface tied (DESIGN section 3).
+"""Linear modes of the two-half beams with the lap interface tied (docs/design.md section 3).
 
 Tying identifies every upper interface quadratic node (vertex or edge midpoint) with its lower partner at the
 same position: u = T q, where T keeps every DOF except the tied upper ones, whose rows copy their lower

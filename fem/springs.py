@@ -1,4 +1,4 @@
-"""Linear springs joining the lap through whole-joint patches (paper 4.1; DESIGN sections 4 and 5).
+"""Linear springs joining the lap through whole-joint patches (paper 4.1; docs/design.md sections 4 and 5).
 
 Each of the five interface patches of each half is averaged to a 6-DOF virtual node (``fem.coupling``: the
 area-weighted least-squares rigid motion u_v = (t, theta) = T u, nodal areas of the six-node triangles). Patch

@@ -1,7 +1,7 @@
 """Stress (geometric) stiffness of a prestressed solid, K_sigma, and the dynamic stiffness K_A = K + K_sigma.
 
 K_sigma(u, v) = integral of grad(v) : (sigma0 grad(u)) dV = sum_ijk sigma0_ij d_i u_k d_j v_k dV
-(DESIGN section 3), sigma0 the prestress (Pa), here evaluated at the quadrature points of each element chunk.
+(docs/design.md section 3), sigma0 the prestress (Pa), here evaluated at the quadrature points of each element chunk.
 """
 
 from __future__ import annotations

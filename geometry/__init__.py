@@ -1,4 +1,4 @@
-"""The geometry stage: parametric gmsh models of the Brake-Reuss beams BRB, LBRB and SBRB (DESIGN section 2).
+"""The geometry stage: parametric gmsh models of the Brake-Reuss beams BRB, LBRB and SBRB (docs/design.md section 2).
 
 - ``parameters``: ``BeamParameters``, ``MeshParameters`` (validated; ``GeometryError``), ``BEAMS``,
   ``reference_brb``.

@@ -1,6 +1,6 @@
 """Joint model and its nonlinear modal analysis: friction elements, QSMA, transient ring-down.
 
-DESIGN.md section 5. Ring-downs (measured, or simulated here) are processed into backbones by ``experiment``.
+docs/design.md section 5. Ring-downs (measured, or simulated here) are processed into backbones by ``experiment``.
 
 Friction elements (:mod:`nonlinear.jenkins`, :mod:`nonlinear.iwan`, :mod:`nonlinear.sliders`)
     jenkins.backbone, .tangent, .dissipation          Jenkins element in closed form

@@ -1,6 +1,6 @@
 """The superelement seen from the joint: unjoined modes, stuck modes and the exact joint-space compliance.
 
-Joint stiffnesses span 1e2 to 1e14 N/m next to modal stiffnesses near 1e5 (DESIGN.md section 5.1), so the
+Joint stiffnesses span 1e2 to 1e14 N/m next to modal stiffnesses near 1e5 (docs/design.md section 5.1), so the
 joined structure is never formed in the superelement's own coordinates. Instead:
 
 1. Once per structure, the modes of the two unjoined halves, K psi = lambda M psi, mass-normalised. Modes
@@ -21,7 +21,7 @@ joined structure is never formed in the superelement's own coordinates. Instead:
 
 The target mode is chosen by shape, not index: the stuck mode with the largest modal assurance criterion
 (mass-weighted) against a reference mode, by default the first elastic mode with all relative patch
-translations tied (DESIGN.md 5.1: a third of Table 3's designs have a rigid rocking of the halves first).
+translations tied (docs/design.md section 5.1: a third of Table 3's designs have a rigid rocking of the halves first).
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
 
 class JointMechanisms(NamedTuple):
     """Relative rigid motions of the halves that move the joint only tangentially (a uniform slide in x or y,
-    the twist about the normal; DESIGN.md section 5.1, deep macroslip): with every tangential element in
+    the twist about the normal; docs/design.md section 5.1, deep macroslip): with every tangential element in
     macroslip nothing but the slip forces holds them, so their equilibrium is a balance of slip forces.
 
     tangential: (k, 2 n_patches) orthonormal tangential joint motions d_j (m per unit coordinate), (x, y) per

@@ -8,7 +8,7 @@ the physical parameters
     chi  exponent in (-1, 0), beta = S (chi+1) / (R phi_max^(chi+1))  spike-to-continuum stiffness ratio (>= 0),
     theta  (five-parameter model) dynamic-to-static slider strength ratio in [0, 1] (Eq. 20),
 
-mapped to (phi_max, R, S) by Segalman's relations (DESIGN.md section 5). R reaches 1e37 inside Table 3, so
+mapped to (phi_max, R, S) by Segalman's relations (docs/design.md section 5). R reaches 1e37 inside Table 3, so
 every law here is written in the scaled slip x = u / phi_max with the scaled constants
 
     r = R phi_max^(chi + 2)  (N),   s = S phi_max  (N),

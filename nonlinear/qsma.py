@@ -11,7 +11,7 @@ tracked by shape, see ``nonlinear.condensation``). QSMA solves the static proble
 
 Write the joint force as f_J(r) = K_d r - g(r): g is the force lost to slip, nonzero only in the tangential
 elements. With the exact joint-space compliance C = B (K + B^T K_d B)^+ B^T and b = B phi_0 this is
-(DESIGN.md section 5.1)
+(docs/design.md section 5.1)
 
     r = (alpha / lambda_1) b + C g(r),     q = phi_0^T M u = (alpha + b^T g(r)) / lambda_1,
 

@@ -7,7 +7,7 @@ x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
     R(x) = r - linear - C g(r) = 0,   g the slip deficits (``nonlinear.slip_laws``),
 
 the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i),
-convex for the Jenkins and four-parameter Iwan laws (DESIGN.md section 5.1) and for the five-parameter one
+convex for the Jenkins and four-parameter Iwan laws (docs/design.md section 5.1) and for the five-parameter one
 away from macroslip. Newton's step uses the slope of g, clipped at K_T only where the true one (a stiction
 backbone that softens) would make the Newton matrix indefinite, keeping it positive semi-definite so the step
 descends E towards a stable state; only the elements that slip (slope > 0) enter its linear system, symmetric

@@ -1,6 +1,6 @@
 """QSMA for many designs per call: the formulation of ``nonlinear.qsma`` vectorised over designs.
 
-Per design only 2 n_patches tangential joint unknowns are nonlinear (DESIGN.md section 5.1); everything
+Per design only 2 n_patches tangential joint unknowns are nonlinear (docs/design.md section 5.1); everything
 linear is condensed exactly into the joint-space compliance, from the small exact stuck eigenproblem of
 ``nonlinear.stuck_modes`` (through ``nonlinear.condensation.stuck_modes``). The levels and the modal
 backbone are then computed by the compiled damped Newton method of ``nonlinear.qsma_kernel`` on the convex

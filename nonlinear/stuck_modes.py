@@ -1,4 +1,4 @@
-"""Stuck modes of the joined superelement from a small exact eigenproblem (DESIGN.md section 5.1), compiled.
+"""Stuck modes of the joined superelement from a small exact eigenproblem (docs/design.md section 5.1), compiled.
 
 Coordinates are the unjoined modes eta of ``nonlinear.condensation.joint_space``: identity mass, stiffness
 Lambda = diag(lambda), relative joint translations r = Phi eta (m = 3 n_patches rows). With the stuck joint

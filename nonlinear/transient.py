@@ -1,6 +1,6 @@
 """Transient ring-down of the reduced jointed model with discretised hysteretic joint elements.
 
-The independent check of QSMA (DESIGN.md section 5): the same superelement and joint, but integrated in time
+The independent check of QSMA (docs/design.md section 5): the same superelement and joint, but integrated in time
 with the many-slider elements of ``nonlinear.sliders`` (history-dependent, Masing by construction) instead
 of QSMA's backbone and closed-form dissipation.
 

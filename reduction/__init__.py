@@ -1,5 +1,5 @@
-"""The reduction stage: whole-joint patches and the Hurty/Craig-Bampton superelement of each beam (DESIGN
-section 4).
+"""The reduction stage: whole-joint patches and the Hurty/Craig-Bampton superelement of each beam
+(docs/design.md section 4).
 
 - ``craig_bampton``: ``hurty_craig_bampton`` -> ``HurtyCraigBampton``, ``reduced_matrix``,
   ``rigid_reduced_coordinates``, ``rigid_body_properties``, ``virtual_dof_labels``.

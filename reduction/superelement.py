@@ -1,6 +1,6 @@
 """The superelement: the reduced linear model of two unjoined halves, as the nonlinear stage sees it.
 
-One interface for the project's own Hurty/Craig-Bampton superelements (DESIGN.md section 4) and for the
+One interface for the project's own Hurty/Craig-Bampton superelements (docs/design.md section 4) and for the
 external ASB models (``/work/shared/data/asb-reduced-models``, see its README). The joint acts on relative
 patch motions only, so the nonlinear stage needs: the mass and stiffness in the reduced coordinates, the map
 from reduced coordinates to the relative (top minus bottom) virtual-node motion of every patch, and the
@@ -208,7 +208,7 @@ def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, n
 def beam_superelement(path: Path, prestress: bool = False) -> Superelement:
     """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): the unstressed K of the two
     halves, or with ``prestress`` K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks'
-    string term, DESIGN 3-4).
+    string term, docs/design.md section 3-4).
 
     The prestressed stiffness of the free halves is indefinite (BRB: modes at -245, -230, -22 Hz in the
     superelement's coordinates: the preload's geometric stiffness without the joint that balances it), which

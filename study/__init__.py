@@ -1,4 +1,4 @@
-"""The study stage (DESIGN section 7; paper sections 4.4, 5.2): can a joint fitted on one structure (the
+"""The study stage (docs/design.md section 7; paper sections 4.4, 5.2): can a joint fitted on one structure (the
 surrogate) be trusted in another (the real one)? ``surrogacy study`` runs it step by step (:mod:`study.commands`,
 :mod:`study.workflow`).
 

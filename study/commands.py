@@ -1,4 +1,4 @@
-"""``surrogacy study``: the surrogacy study of one dataset, step by step (DESIGN.md section 7).
+"""``surrogacy study``: the surrogacy study of one dataset, step by step (docs/design.md section 7).
 
 Steps (``--steps``, default all, in this order; each reads the files the previous one wrote, so a user can stop
 after any step and inspect them):

@@ -9,7 +9,7 @@ as exact. Per design:
    eigenvalue lambda_1 the Rayleigh quotient; b = Phi psi;
 3. the tangential compliance C = Phi_t A^-1 Phi_t^T and, for amplitude control, C' = C - b_t b_t^T / lambda_1;
 4. per level, damped Newton on the convex potential E(r) = (r - q b)^T C'^-1 (r - q b) / 2 - sum phi_i G(x_i),
-   whose gradient C'^-1 (r - q b) - g(r) vanishes exactly where r = q b + C' g(r) (DESIGN.md section 5.1): each
+   whose gradient C'^-1 (r - q b) - g(r) vanishes exactly where r = q b + C' g(r) (docs/design.md section 5.1): each
    level starts from the previous level's solution (the first from the stuck solution q b), and a step is
    halved until E decreases; with 40 digits, E's round-off stays far below its changes even at 1e4 slip
    displacements, where float64 loses them;

@@ -1,4 +1,4 @@
-"""Bad input at the door of the stages (issue 17): one line naming the source, the field and what was expected,
+"""Bad input at the door of the stages : one line naming the source, the field and what was expected,
 exit 2, and nothing written; never a traceback, a hang or a silently wrong result."""
 
 import numpy as np

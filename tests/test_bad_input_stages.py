@@ -1,4 +1,4 @@
-"""Bad input at the door of the stages, continued (issue 17): options named as the user typed them, output
+"""Bad input at the door of the stages: options named as the user typed them, output
 folders that cannot be one, upstream files damaged behind their recorded hash, a truncated own sidecar, and ring-
 down time columns rounded in the file. Each refusal is one line naming the file or option and what was expected,
 exit 2, with nothing written (temporaries included); never a traceback, a hang or a silently wrong result."""
@@ -80,10 +80,8 @@ OPTION_CASES = [  # (arguments before --out, message); RING_DOWN stands for the 
 @pytest.mark.parametrize("arguments, message", OPTION_CASES,
                          ids=[" ".join(case[0][:1] + case[0][-2:]) for case in OPTION_CASES])
 def test_bad_option_is_named_as_typed_and_writes_nothing(tmp_path, capsys, ring_down, arguments, message):
-    """Before: --mesh-factor 0 named the internal field 'size', --stiffness -1 ran a minute to 'no bending mode',
-    --mode-hz -5, nan and an inverted --band were reported as bands beyond the Nyquist frequency, --trim-periods
-    and --smoothing-periods by their internal names, --grid-points 0 and --cycles 0 ended in a traceback, and
-    fe --modes 3 named n_modes and left a locked output folder."""
+    """Every option out of range is refused before any input is read, named as the user typed it (not by the
+    library's internal name), with what was expected, and no output folder is left behind."""
     out = tmp_path / "out"
     arguments = [str(ring_down) if argument == "RING_DOWN" else argument for argument in arguments]
     assert surrogacy([*arguments, "--out", str(out)]) == 2
@@ -98,8 +96,8 @@ def test_bad_option_is_named_as_typed_and_writes_nothing(tmp_path, capsys, ring_
                                        ["calibrate"], ["fe-convergence"]], ids=lambda arguments: arguments[0])
 @pytest.mark.parametrize("below", [False, True], ids=["file", "below a file"])
 def test_out_that_is_a_file_is_refused_at_the_door(tmp_path, capsys, ring_down, arguments, below):
-    """--out naming a file (or a path below one) was an OSError message of errno 17 or 20, and calibrate and
-    fe-convergence found it only after every mesh was solved (minutes): now refused before any input is read."""
+    """--out naming a file (or a path below one) is refused before any input is read, also by calibrate and
+    fe-convergence, which would otherwise find it only after every mesh was solved (minutes)."""
     blocker = tmp_path / "results"
     blocker.write_text("not a folder\n")
     out = blocker / "sub" if below else blocker

@@ -1,4 +1,4 @@
-"""Same inputs, same bytes (issue 17, item 6): the geometry, FE and reduction stages run twice on the coarse BRB,
+"""Same inputs, same bytes: the geometry, FE and reduction stages run twice on the coarse BRB,
 each time in a fresh interpreter with its own string-hash seed and time zone, give byte-identical build files
 (every file's SHA-256, every array of every .npz), so that the stages' caches, keyed on their inputs' hashes,
 hold."""

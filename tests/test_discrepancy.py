@@ -1,4 +1,4 @@
-"""The discrepancy loop on data with undeclared effects (issue 15): backbones of a reference joint with library
+"""The discrepancy loop on data with undeclared effects: backbones of a reference joint with library
 effects put in and noise, written as backbone CSVs that do not say what was put in and read back as a user's
 file would be.
 

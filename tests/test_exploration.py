@@ -286,8 +286,7 @@ def test_cluster_writes_the_serial_rows(exploration, serial_folder, tmp_path, re
 def test_same_study_twice_on_one_client(exploration, serial_folder, tmp_path, local_cluster):
     """A user re-running a study in one Dask session (a notebook, a script that explores twice): the second run
     scatters the same inputs and submits tasks of the same keys as the first, whose futures are being released;
-    both runs write the serial rows. (A "lost dependencies" cancellation was reported for repeats inside the
-    benchmark; not reproduced here, this guards the pattern.)"""
+    both runs write the serial rows."""
     for run in ("first", "second"):
         folder = tmp_path / run
         explore(exploration, folder, client=local_cluster, progress=False)

@@ -56,7 +56,7 @@ def test_tied_first_bending_is_below_the_solid_bar(brb):
 
 def test_modes_are_reproducible_to_the_last_bit(brb):
     """A fixed Lanczos start vector and the sign convention (largest entry positive): the same matrices give the
-    same floats twice, so the FE files keep their hashes and the reduction's cache holds (issue 17, item 4)."""
+    same floats twice, so the FE files keep their hashes and the reduction's cache holds."""
     _, stiffness, mass, lower, upper = brb
     first = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), 8)
     second = tied_modes(stiffness, mass, tie_transformation(stiffness.shape[0], lower, upper), 8)

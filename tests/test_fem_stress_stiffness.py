@@ -31,7 +31,7 @@ def axial_stress(force: float) -> np.ndarray:
 def test_clamped_free_bar_buckles_at_the_euler_load_with_shear_correction():
     """P_cr = pi^2 E I / (4 L^2) (n = 1) and 9 times that (n = 2), lowered by shear, P / (1 + P / (kappa G A))
     (0.16 % and 1.4 %). The clamp that also holds the end section's Poisson contraction and a 2 x 2 section
-    mesh leave a few 1e-3: the DESIGN's 0.5 % bound."""
+    mesh leave a few 1e-3: the design document's 0.5 % bound (docs/design.md section 3)."""
     material, mesh = Material(), bar_mesh()
     stiffness = stiffness_matrix(mesh, material)
     geometric = stress_stiffness_matrix(mesh, uniform_prestress(axial_stress(-1.0)))  # 1 N compression

@@ -19,8 +19,8 @@ from experiment.modal_filter import band_pass, modal_coordinates
 
 SAMPLE_RATE = 4000.0  # Hz: 40 samples per period of the 100 Hz test mode
 NOISE = 1e-4  # sensor noise, standard deviation relative to the initial amplitude (80 dB dynamic range)
-FREQUENCY_TOLERANCE = 1e-3  # issue 5: omega within 0.1 %
-DAMPING_TOLERANCE = 0.02  # issue 5: zeta within 2 %
+FREQUENCY_TOLERANCE = 1e-3  # omega within 0.1 %
+DAMPING_TOLERANCE = 0.02  # zeta within 2 %
 
 
 def linear_decay(time, frequency_hz, damping_ratio, phase=0.3, quantity="displacement"):

@@ -1,4 +1,4 @@
-"""Stages after an interruption and beside a concurrent run (issue 17, item 5): the temporaries a killed run
+"""Stages after an interruption and beside a concurrent run: the temporaries a killed run
 left are swept when the stage next runs, Ctrl-C ends a stage with exit 130 and no traceback, a rerun after any
 interruption gives the files of an uninterrupted run without recomputing the beams already finished, and a second
 run into a folder another run is writing is refused with one line naming the folder (exit 2), touching nothing.
@@ -154,7 +154,7 @@ def test_ctrl_c_while_the_stages_load_is_a_clean_exit(tmp_path):
 
 class CtrlCInFinaliser:
     """An object whose finaliser receives Ctrl-C: Python prints the KeyboardInterrupt raised there as "Exception
-    ignored" and goes on, as it does in its import machinery's callbacks (the CI failure of stop 20)."""
+    ignored" and goes on, as it does in its import machinery's callbacks."""
 
     def __del__(self):
         os.kill(os.getpid(), signal.SIGINT)

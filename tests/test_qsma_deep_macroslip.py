@@ -25,7 +25,7 @@ from reduction.superelement import load_superelement
 from test_qsma_vectorised import unique_equilibrium
 
 LINEAR_DAMPING = 1e-3
-# Issue 12's regression cases: model, design (groups {1, 5}, {2, 4}, {3}), {q: (omega rad/s, zeta)} on the BRB.
+# Regression cases found in deep macroslip: model, design (groups {1, 5}, {2, 4}, {3}), {q: (omega rad/s, zeta)} on the BRB.
 REGRESSION_CASES = [
     ("iwan4", [15077569.45561209, 1252196466887.063, -0.459996818495245, 4889.320403581977, 4445485557795.587,
                81129.69557265747, 70071043197.98123, -0.8321271581552883, 0.00784928209729223, 3283482084890.8633,

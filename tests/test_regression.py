@@ -1,4 +1,4 @@
-"""End-to-end regression (issue 16 item 3): key numbers of the default pipeline against values stored when they
+"""End-to-end regression: key numbers of the default pipeline against values stored when they
 were checked, so that a change that moves them fails loudly. Each tolerance says why it is what it is.
 
 Stored on 2026-11-23 from the default meshes (build/, made by the pipeline's own stages): the superelements'

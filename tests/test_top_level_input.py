@@ -1,4 +1,4 @@
-"""Bad input at the top level (issue 16): a missing data file named to make, an unknown beam name, a malformed
+"""Bad input at the top level: a missing data file named to make, an unknown beam name, a malformed
 configuration. Each stops with one clear message naming what is wrong, and the results of earlier runs in the
 output folder are left byte for byte as they were."""
 

@@ -2,7 +2,7 @@
 
 The paper's Fig. 3 backbones of the BRB, LBRB and SBRB (seed paper section 3: first out-of-plane bending mode,
 Hilbert (FreeVib) estimates averaged over seven hammer hits) are not public. A virtual experiment stands in for
-each (DESIGN section 7): the same reference joint in all three beams, the beam's linear damping from the paper's
+each (docs/design.md section 7): the same reference joint in all three beams, the beam's linear damping from the paper's
 Table 1, seven hammer hits simulated on the project's superelement, ten accelerometers with sensor noise, and
 the records processed exactly like a measurement (:func:`experiment.backbone.ringdown_backbone`: modal filter with
 the low-level mode shapes, band-pass, FreeVib, averaging over the hits). Its backbone is labelled ``virtual``.
