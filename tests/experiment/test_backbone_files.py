@@ -6,7 +6,6 @@ mass-normalised backbone whose low-amplitude frequency and damping are those of 
 93.7 Hz, 7.0e-4 to 7.7e-4 over 7e-6 to 1.1e-4 m kg^0.5) and survives the CSV round trip.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,9 @@ import pytest
 from experiment.backbone import ModeBackbone, mode_backbone, ringdown_backbone
 from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
 from experiment.ringdown import RingDown
+from locations import SHARED
 
-ASB_BACKBONES = Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-backbones"
+ASB_BACKBONES = SHARED / "data" / "asb-backbones"
 FREQUENCY_HZ, DAMPING_RATIO, SAMPLE_RATE = 50.0, 2e-3, 2000.0
 
 

@@ -1,7 +1,6 @@
 """Confidence of surrogacy (paper Eq. 29, Table 5): exact counts on constructed acceptance regions, binomial
 intervals and their coverage, replicate spread, the acceptance-bounds sweep, and the tables read back."""
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -9,12 +8,13 @@ import pytest
 from scipy import stats
 
 from geometry.parameters import BEAM_NAMES
+from locations import SHARED
 from study.errors import accepted
 from study.surrogacy import (read_paper_surrogacy, replicate_surrogacy, replicate_table, surrogacy_against_bounds,
                              surrogacy_markdown, surrogacy_matrix, surrogacy_table, plot_bounds_sensitivity,
                              write_surrogacy_csv, write_surrogacy_markdown)
 
-PAPER_TABLE5 = Path(__file__).resolve().parents[2] / "shared" / "reference" / "paper_table5_surrogacy.csv"
+PAPER_TABLE5 = SHARED / "reference" / "paper_table5_surrogacy.csv"
 STRUCTURES = BEAM_NAMES
 
 

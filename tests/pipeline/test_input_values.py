@@ -1,5 +1,6 @@
-"""Bad input at the door of the stages : one line naming the source, the field and what was expected,
-exit 2, and nothing written; never a traceback, a hang or a silently wrong result."""
+"""Bad values at the door of the stages (configuration fields, material, mesh-convergence options, FE sidecars,
+ring-down files): one line naming the source, the field and what was expected, exit 2, and nothing written;
+never a traceback, a hang or a silently wrong result."""
 
 import numpy as np
 import pytest

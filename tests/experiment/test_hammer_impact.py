@@ -6,15 +6,15 @@ and damps more with amplitude (paper section 3.1, Fig. 3); the sensor near a nod
 first; the Hilbert and the cycle-by-cycle estimators agree within their stated uncertainty.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from experiment.backbone import ringdown_backbone
 from experiment.ringdown_files import read_ringdown
+from locations import SHARED
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "chen2022-brb-hammer" / "HammerImpact.mat"
+DATA = SHARED / "data" / "chen2022-brb-hammer" / "HammerImpact.mat"
 MODE_HZ = 80.5  # first spectral peak of all three channels (data README)
 
 pytestmark = pytest.mark.skipif(not DATA.is_file(), reason=f"measured data not found at {DATA} "

@@ -5,16 +5,16 @@ rigid-joint (tied) first bending frequency, an upper bound of every joint design
 low-amplitude frequency with the energy-consistent coupling and below it with the file's soft virtual nodes.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.io
 
+from locations import SHARED
 from nonlinear.condensation import joint_space
 from reduction.superelement import Superelement, load_superelement, save_superelement
 
-MEASURED = Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-backbones"
+MEASURED = SHARED / "data" / "asb-backbones"
 CONFIGURATIONS = ["C1", "C2", "C3", "C4", "C4a", "CD1"]
 
 

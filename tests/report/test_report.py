@@ -12,7 +12,7 @@ import pytest
 from geometry.parameters import BEAM_NAMES
 from pipeline.cli import main as surrogacy
 from discrepancy.virtual_data import write_undeclared_ringdown
-from tests.conftest import asb_data_folder
+from reduction.superelement import asb_data_folder
 
 ASB_C1 = asb_data_folder().parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
 

@@ -126,7 +126,7 @@ def test_reference_model_is_required(brb):
 def small_asb_study(tmp_path_factory):
     """A small study of the ASB on its measured backbones (Jenkins and Iwan), through the study's command."""
     from pipeline.cli import main as surrogacy
-    from tests.conftest import asb_data_folder
+    from reduction.superelement import asb_data_folder
 
     data = asb_data_folder().parent
     if not (data / "asb-backbones").is_dir():

@@ -1,17 +1,17 @@
 """Four-way ANOVA of the surrogacy confidence (paper Table 6) on balanced synthetic data with known effects."""
 
 import itertools
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from geometry.parameters import BEAM_NAMES
+from locations import SHARED
 from study.anova import anova_markdown, read_paper_anova, surrogacy_anova, write_anova_markdown
 from study.surrogacy import replicate_surrogacy, replicate_table
 
-PAPER_TABLE6 = Path(__file__).resolve().parents[2] / "shared" / "reference" / "paper_table6_anova.csv"
+PAPER_TABLE6 = SHARED / "reference" / "paper_table6_anova.csv"
 STRUCTURES = BEAM_NAMES
 MODELS = ("jenkins", "iwan4", "iwan5", "iwan4_stuck")
 LINEAR_DAMPING = (1.67e-3, 2.0e-3, 2.5e-3)

@@ -4,7 +4,7 @@ were checked, so that a change that moves them fails loudly. Each tolerance says
 Stored on 2026-11-23 from the default meshes (build/, made by the pipeline's own stages): the superelements'
 tied first bending, the BRB's contact under the preload, the reference joint tuned on the BRB and its QSMA
 backbone, the surrogacy counts of a small ASB study and a discrepancy verdict (the surrogacy of a known case is
-asserted exactly in tests/test_study.py). These numbers were themselves checked elsewhere: the tied
+asserted exactly in tests/study/test_study.py). These numbers were themselves checked elsewhere: the tied
 frequencies against the full FE model (test_superelement, < 0.5 %), QSMA against the oracle and 40-digit
 references (test_qsma_deep_macroslip), the virtual experiments against QSMA (test_virtual_experiment).
 """
@@ -89,7 +89,7 @@ def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
     from study.datasets import structure_names
     from study.errors import accepted
     from study.surrogacy import surrogacy_matrix
-    from tests.conftest import asb_data_folder
+    from reduction.superelement import asb_data_folder
 
     data = asb_data_folder().parent
     if not (data / "asb-backbones").is_dir():

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from locations import REPOSITORY
 from nonlinear.friction_models import MODEL_NAMES
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPOSITORY
 FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files")
 """Modules that read or write files of measured data."""
 PACKAGES = ("pipeline", "geometry", "fem", "reduction", "experiment", "nonlinear", "virtual_experiment", "study",

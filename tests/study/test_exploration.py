@@ -28,13 +28,13 @@ import pytest
 
 import study.exploration as exploration_module
 from experiment.backbone_files import read_asb_backbone
+from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from reduction.superelement import asb_data_folder
 from study.exploration import (Exploration, Sample, StudyError, chunk_path, explore, finished_chunks, manifest,
                                read_exploration)
 from study.structures import asb_superelement, structure
 
-REPOSITORY = Path(__file__).resolve().parents[1]
 CONFIGURATIONS = ("C1", "C2", "C3")
 MODELS = ("jenkins", "iwan4")
 SAMPLE = Sample(seed=11, n_designs=240, chunk_size=30, n_replicates=3)  # 8 chunks per model
@@ -131,7 +131,7 @@ def test_reference_study_has_unconverged_designs(exploration, serial_folder):
 
 KILLED_STUDY = """
 import sys, time
-sys.path.insert(0, {tests!r})
+sys.path[:0] = [{tests!r}, {helpers!r}]
 import pyarrow.parquet as pq
 from test_exploration import asb_exploration
 from study.exploration import explore
@@ -161,7 +161,8 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
     file is neither a chunk nor read), the rerun evaluates exactly the missing chunks, leaves the finished ones
     untouched (same inode, size and mtime), and the study equals an uninterrupted run."""
     script = tmp_path / "killed_study.py"
-    script.write_text(KILLED_STUDY.format(tests=str(Path(__file__).parent), killed_at=KILLED_AT_WRITE))
+    script.write_text(KILLED_STUDY.format(tests=str(Path(__file__).parent), helpers=str(Path(__file__).parents[1]),
+                                            killed_at=KILLED_AT_WRITE))
     folder, log = tmp_path / "study", tmp_path / "killed_study.log"
     with open(log, "w") as output:
         child = subprocess.Popen([sys.executable, str(script), str(folder)], cwd=REPOSITORY, stdout=output,

@@ -14,12 +14,12 @@ also rings the other modes, whose joint motion adds slip that QSMA's single-mode
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from experiment.backbone_files import read_backbone
+from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.files import sha256_file
@@ -31,7 +31,7 @@ from virtual_experiment.reference_joint import (TABLE1, TABLE3, beam_space, outs
                                                 read_low_amplitude_measurements, read_parameter_limits,
                                                 reference_folder, reference_joint, stuck_frequency_hz)
 
-ROM = Path(__file__).resolve().parents[1] / "build" / "rom"  # built by the beam_roms fixture (conftest)
+ROM = REPOSITORY / "build" / "rom"  # built by the beam_roms fixture (conftest)
 # Two hits of the default test's hardest ones: 0.64 and 1.6 N s nominal, 5e-5 to 2.5e-4 m kg^0.5 (about 20 s).
 SHORT_TEST = HammerTest(n_hits=2, impulse_range=2.5)
 # One coarse hit, enough for FreeVib (50 periods, 20 samples per period; about 3 s): files and seeds.

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from locations import REPOSITORY
 from pipeline.cli import main as surrogacy
-from tests.conftest import asb_data_folder
+from reduction.superelement import asb_data_folder
 
-REPOSITORY = Path(__file__).resolve().parents[1]
 
 
 def folder_digest(folder: Path) -> dict:

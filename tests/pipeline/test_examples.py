@@ -3,11 +3,11 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from locations import REPOSITORY
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPOSITORY
 DATA = ROOT.parent / "shared" / "data"
 
 pytestmark = pytest.mark.skipif(not (DATA / "asb-backbones").is_dir(), reason=f"shared data not found at {DATA}")
