@@ -23,7 +23,6 @@ displacement magnitude. They are files ``contact_pressure`` and ``first_bending`
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 from pathlib import Path
 
@@ -33,7 +32,7 @@ import scipy.sparse as sp
 from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BeamParameters
 from pipeline.cache import StageInputError, is_current, sidecar_record, stage_versions, upstream_file
-from pipeline.files import atomic_path, sha256_json, write_json
+from pipeline.files import atomic_paths, sha256_json, write_json
 
 from .bolts import Bolt
 from .elasticity import Material
@@ -115,8 +114,7 @@ def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Ma
         return sidecar
     beam_mesh = read_beam_mesh(mesh_path, beam)
     model = prestressed_beam(beam_mesh, beam, material, bolt, n_modes)
-    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
-        temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
+    with atomic_paths(files) as temporary:
         with open(temporary["npz"], "wb") as stream:
             np.savez(stream, **fe_arrays(model))
         pressure_range = render_fe(beam_mesh, model, name, temporary["contact_pressure"], temporary["first_bending"])

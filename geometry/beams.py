@@ -8,7 +8,6 @@ marks a complete result, and ``make_beam`` then does nothing. All files are writ
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 from pathlib import Path
 
@@ -16,7 +15,7 @@ import meshio
 import numpy as np
 
 from pipeline.cache import is_current, sidecar_record, stage_versions
-from pipeline.files import atomic_path, write_json
+from pipeline.files import atomic_paths, write_json
 
 from . import properties
 from .beam_mesh import read_beam_mesh
@@ -68,8 +67,7 @@ def make_beam(beam: BeamParameters, sizes: MeshParameters, folder: Path, render:
         files["png"] = folder / f"{beam.name}.png"
     if is_current(sidecar, inputs, VERSIONS, files):
         return sidecar
-    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
-        temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
+    with atomic_paths(files) as temporary:
         with gmsh_session():
             groups = build_beam_mesh(beam, sizes)
             cad = cad_measures(groups)

@@ -17,8 +17,8 @@ import threading
 import time
 from pathlib import Path
 
-STAGE_COMMANDS = ("geometry.commands", "fem.commands", "reduction.commands", "experiment.commands", "study.commands",
-                  "discrepancy.commands", "report.commands")
+STAGE_COMMANDS = ("pipeline.commands", "geometry.commands", "fem.commands", "reduction.commands",
+                  "experiment.commands", "study.commands", "discrepancy.commands", "report.commands")
 
 
 def parser() -> argparse.ArgumentParser:

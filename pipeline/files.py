@@ -74,6 +74,14 @@ def write_json(destination: Path, value) -> None:
         temporary.write_text(json.dumps(value, indent=2, sort_keys=True) + "\n")
 
 
+@contextlib.contextmanager
+def atomic_paths(files: dict[str, Path]):
+    """Yield a temporary path (``atomic_path``) for every file of one result, kind -> path; all are renamed into
+    place only if every one was written, none otherwise (a stage's files never disagree)."""
+    with contextlib.ExitStack() as stack:
+        yield {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
+
+
 def write_mat(path: Path, content: dict) -> None:
     """Write ``content`` (name -> array) as a compressed MATLAB 5 file whose bytes depend on the content only.
 

@@ -30,7 +30,6 @@ The .mat holds the same arrays, with ``M`` = mass, ``K`` = stiffness, ``K_prestr
 
 from __future__ import annotations
 
-import contextlib
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,7 +42,7 @@ from fem.fe_files import FeInputError, beam_inputs, read_csr
 from fem.modes import interface_quadratic_pairs, node_dofs
 from geometry.beam_mesh import interface_partners, read_beam_mesh
 from pipeline.cache import is_current, sidecar_record, stage_versions, upstream_file
-from pipeline.files import atomic_path, write_json, write_mat
+from pipeline.files import atomic_paths, write_json, write_mat
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
                             virtual_dof_labels)
@@ -161,8 +160,7 @@ def make_rom(name: str, beams_folder: Path, fe_folder: Path, folder: Path,
     with np.load(fe_path, allow_pickle=False) as fe:
         superelement, arrays = rom_arrays(beam_mesh, beam, fe, Bolt(**fe_record["inputs"]["bolt"]), parameters)
     frequencies, shapes = stuck_joint_modes(superelement, 4)
-    with contextlib.ExitStack() as stack:  # every file renamed into place only if all were written
-        temporary = {kind: stack.enter_context(atomic_path(path)) for kind, path in files.items()}
+    with atomic_paths(files) as temporary:
         with open(temporary["npz"], "wb") as stream:
             np.savez(stream, **arrays)
         write_mat(temporary["mat"], matlab_arrays(arrays))

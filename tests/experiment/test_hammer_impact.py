@@ -77,8 +77,8 @@ def test_a_band_without_the_mode_is_refused_not_estimated(mode_hz):
         ringdown_backbone(read_ringdown(DATA), mode_hz, per_channel=True)
 
 
-def test_out_of_range_option_is_named():
-    from experiment.ringdown import RingDownError
+def test_out_of_range_setting_is_named_before_any_signal_is_read():
+    from experiment.backbone import BackboneSettingError
 
-    with pytest.raises(RingDownError, match="option trim_periods = -5.0"):
+    with pytest.raises(BackboneSettingError, match="trim_periods = -5.0: expected a finite number of periods >= 0"):
         ringdown_backbone(read_ringdown(DATA), MODE_HZ, trim_periods=-5.0)

@@ -1,0 +1,161 @@
+"""The demo: every stage end to end, each one run as the user runs it (``surrogacy <stage> ...`` in a process of
+its own), in the order the data flows, with the measured-data stages skipped, each with one line saying why, where
+their data is absent.
+
+Order. The ASB study needs nothing of ours but the installed tool (its superelements are ABAQUS's), while the
+geometry, FE and reduction stages compute on one core: it runs beside them (its progress in
+``results/study-asb.log``) and compiles the QSMA kernel into numba's cache for the beams' study as well. Then the
+beams' study, the discrepancy loops and the report. A failed stage stops the demo with its exit status; Ctrl-C
+stops every stage still running (each exits 130, finished results kept).
+"""
+
+from __future__ import annotations
+
+import shlex
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from geometry.parameters import BEAM_NAMES
+from reduction.superelement import ASB_CONFIGURATIONS
+
+STEPS = ("beams", "fe", "rom", "freevib", "study-asb", "study-beams", "discrepancy", "discrepancy-modal-asb", "report")
+DEMO_STEPS = tuple(step for step in STEPS if step != "discrepancy-modal-asb")
+"""The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more)."""
+BESIDE = ("study-asb",)
+"""Steps started in the background, beside the steps before the beams' study."""
+
+
+@dataclass(frozen=True)
+class DemoOptions:
+    """What the demo reads and how big its studies are.
+
+    data: folder with the ASB's measured backbones and reduced models (asb-backbones/, asb-reduced-models/).
+    reference: folder with the paper's tables. ringdown: a measured ring-down file, mode_hz its mode's frequency
+    guess (Hz). designs, chunk: designs per friction model and per chunk of the studies. scheduler: a
+    dask.distributed address or "local" (None: in the study's process). run_log: the run log every stage appends
+    to (``surrogacy --run-log``). build, results: the stages' output folders.
+    """
+
+    data: Path
+    reference: Path
+    ringdown: Path
+    mode_hz: float
+    designs: int = 100_000
+    chunk: int = 500
+    scheduler: str | None = None
+    run_log: Path | None = None
+    build: Path = Path("build")
+    results: Path = Path("results")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One run of a stage: its name, the ``surrogacy`` arguments of each run (several for the discrepancy loops),
+    or the reason it is skipped."""
+
+    name: str
+    runs: tuple[tuple[str, ...], ...] = ()
+    skipped: str | None = None
+
+
+def study_options(options: DemoOptions) -> tuple[str, ...]:
+    """The options both studies share: the paper's tables, stale chunks recomputed, the sample's size."""
+    scheduler = ("--scheduler", options.scheduler) if options.scheduler else ()
+    return ("--reference", str(options.reference), "--restart-stale", "--set", f"sample.n_designs={options.designs}",
+            "--set", f"sample.chunk_size={options.chunk}", *scheduler)
+
+
+def plan(options: DemoOptions) -> list[Step]:
+    """The demo's steps (``STEPS``), each with its runs or the reason it is skipped (its data absent)."""
+    build, results = options.build, options.results
+    backbones = options.data / "asb-backbones"
+    table1 = options.reference / "paper_table1_low_amplitude.csv"
+    steps = [Step("beams", (("beams", "--out", str(build / "beams")),)),
+             Step("fe", (("fe", "--beams", str(build / "beams"), "--out", str(build / "fe")),)),
+             Step("rom", (("rom", "--beams", str(build / "beams"), "--fe", str(build / "fe"), "--out",
+                           str(build / "rom")),))]
+    if options.ringdown.is_file():
+        steps.append(Step("freevib", (("freevib", str(options.ringdown), "--mode-hz", f"{options.mode_hz:g}",
+                                       "--per-channel", "--out", str(results / "freevib")),)))
+    else:
+        steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
+    if backbones.is_dir():
+        steps.append(Step("study-asb", (("study", "--out", str(results / "study-asb"), "--data", str(options.data),
+                                         "--set", "study.dataset=asb", *study_options(options)),)))
+    else:
+        steps.append(Step("study-asb", skipped=f"{backbones} not found"))
+    if table1.is_file():
+        steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
+                                           *study_options(options)),)))
+    else:
+        steps.append(Step("study-beams", skipped=f"{table1} not found (the paper's Table 1)"))
+    loops = []
+    if options.ringdown.is_file():
+        loops.append(("discrepancy", str(options.ringdown), "--mode-hz", f"{options.mode_hz:g}", "--out",
+                      str(results / "discrepancy" / "chen2022")))
+    studied = {"study-beams": BEAM_NAMES, "study-asb": tuple(f"ASB {c}" for c in ASB_CONFIGURATIONS)}
+    ran = {step.name for step in steps if not step.skipped}
+    loops += [("discrepancy", "--study", str(results / study), "--structure", structure, "--out",
+               str(results / "discrepancy" / f"study-{structure.replace(' ', '_')}"))
+              for study, structures in studied.items() if study in ran for structure in structures]
+    steps.append(Step("discrepancy", tuple(loops)) if loops else Step("discrepancy", skipped="no measurement found"))
+    asb_files = [backbones / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
+    steps.append(Step("discrepancy-modal-asb", tuple(
+        ("discrepancy", str(path), "--out", str(results / "discrepancy" / path.name.split("_20Nm")[0]))
+        for path in asb_files if path.is_file())) if any(path.is_file() for path in asb_files)
+        else Step("discrepancy-modal-asb", skipped=f"{backbones} holds no ASB backbone"))
+    steps.append(Step("report", (("report", "--build", str(build), "--results", str(results), "--out",
+                                  str(results / "report.md")),)))
+    return steps
+
+
+def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:
+    """The command line of one run: this interpreter's ``surrogacy`` console script, the run log first."""
+    log = ["--run-log", str(run_log)] if run_log is not None else []
+    return [sys.executable, "-m", "pipeline.cli", *log, *run]
+
+
+def run_steps(steps: list[Step], options: DemoOptions) -> None:
+    """Run the steps in order, ``BESIDE`` ones in the background until the beams' study needs the processor.
+    The runs log to ``options.run_log``; a background run writes its output to ``<options.results>/<step>.log``.
+    Raises ``subprocess.CalledProcessError`` with the exit status of the first run that fails; every run still
+    going is stopped (SIGTERM) first."""
+    background: list[tuple[str, subprocess.Popen, Path]] = []
+    try:
+        for step in steps:
+            if step.skipped:
+                print(f"{step.name}: {step.skipped}, skipped", flush=True)
+                continue
+            if step.name in BESIDE:
+                log = options.results / f"{step.name}.log"
+                log.parent.mkdir(parents=True, exist_ok=True)
+                print(f"{step.name}: running beside the next steps; its progress: {log}", flush=True)
+                with open(log, "w") as stream:
+                    background.append((step.name, subprocess.Popen(
+                        command(step.runs[0], options.run_log), stdout=stream, stderr=subprocess.STDOUT), log))
+                continue
+            if step.name == "study-beams":
+                wait_for(background)
+            for run in step.runs:
+                print("surrogacy " + shlex.join(run), flush=True)
+                subprocess.run(command(run, options.run_log), check=True)
+        wait_for(background)
+    finally:
+        for _, process, _ in background:
+            if process.poll() is None:
+                process.terminate()
+                process.wait()
+
+
+def wait_for(background: list) -> None:
+    """Wait for the background runs; the last lines of a failed one's log, then CalledProcessError."""
+    while background:
+        name, process, log = background.pop(0)
+        status = process.wait()
+        lines = log.read_text(errors="replace").splitlines()
+        if status != 0:
+            print("\n".join(lines[-5:]), file=sys.stderr)
+            raise subprocess.CalledProcessError(status, f"surrogacy study ({name}, log {log})")
+        print(f"{name}: {lines[-1] if lines else 'done'}", flush=True)
