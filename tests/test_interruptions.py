@@ -10,6 +10,7 @@ written (a ``.partial-*`` temporary exists) and once its sidecar is in place (th
 
 import argparse
 import fcntl
+import json
 import os
 import shutil
 import signal
@@ -141,6 +142,22 @@ def test_ctrl_c_after_gmsh_started_is_a_clean_exit(tmp_path, point):
     assert not partial_files(out)
     finished = {".lock", "BRB.json", "BRB.msh", "BRB.vtu", "BRB.png"} if point == "done" else {".lock"}
     assert {path.name for path in out.iterdir()} == finished
+
+
+def test_sigterm_after_gmsh_started_is_a_clean_exit(tmp_path):
+    """gmsh's library resets SIGTERM to the default action as it initialises: a SIGTERM once a beam was meshing
+    killed the process outright (temporaries left, no run log line). SIGTERM while the BRB's files are written now
+    ends with exit 143, no traceback, no temporaries, and the run logged with its status (about 10 s)."""
+    out, run_log = tmp_path / "beams", tmp_path / "runs.jsonl"
+    process = start(["--run-log", str(run_log), "beams", "--beam", *BEAMS, "--out", str(out), *COARSE],
+                    tmp_path / "beams.log")
+    interrupt_at("writing", process, out)
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=120) == 128 + signal.SIGTERM
+    assert "Traceback" not in (tmp_path / "beams.log").read_text()
+    assert not partial_files(out)
+    assert {path.name for path in out.iterdir()} == {".lock"}
+    assert json.loads(run_log.read_text())["status"] == 128 + signal.SIGTERM
 
 
 def test_ctrl_c_while_the_stages_load_is_a_clean_exit(tmp_path):
