@@ -29,7 +29,7 @@ from study.analysis import anova_observations, model_errors, representative_desi
 from study.datasets import (ASB_CONFIGURATIONS, BEAMS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
-from study.exploration import Exploration, explore, read_exploration
+from study.exploration import Exploration, check_explored, explore, read_exploration
 from study.report import write_report
 from study.structures import StructureError
 from study.virtual_experiment import TABLE1, TABLE3, read_low_amplitude_measurements, virtual_experiments
@@ -97,9 +97,12 @@ def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: 
 
 
 def analyse(paths: Paths, parameters: dict) -> None:
-    """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress."""
+    """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress. Refused
+    (StudyError) unless the designs folder holds the whole exploration of the current inputs
+    (``study.exploration.check_explored``)."""
     study, acceptance = parameters["study"], parameters["acceptance"]
     explored = exploration(paths, parameters)
+    check_explored(explored, paths.designs)
     names = explored.names
     case = DEFAULT_DAMPING_CASE[study.dataset]
     out = paths.analysis

@@ -30,8 +30,8 @@ import study.exploration as exploration_module
 from experiment.backbone_files import read_asb_backbone
 from nonlinear.joint import parameter_names
 from reduction.superelement import asb_data_folder
-from study.exploration import (Exploration, Sample, StudyError, chunk_path, explore, finished_chunks, manifest,
-                               read_exploration)
+from study.exploration import (Exploration, Sample, StudyError, check_explored, chunk_path, explore, finished_chunks,
+                               manifest, read_exploration)
 from study.structures import asb_superelement, structure
 
 REPOSITORY = Path(__file__).resolve().parents[1]
@@ -430,3 +430,99 @@ def test_restart_stale_discards_only_another_studys_chunks(exploration, serial_f
     assert finished_chunks(other, folder) == all_chunks(other)
     explore(exploration, folder, progress=False, restart_stale=True)
     assert_same_study(folder, serial_folder, exploration)
+
+
+def test_truncated_chunk_is_recomputed_naming_it(exploration, serial_folder, tmp_path, capsys):
+    """A chunk file cut short (a disk that filled up, a copy that stopped) is removed and recomputed by the next
+    exploration, which names it on stderr; the study is then the serial one."""
+    folder = tmp_path / "truncated"
+    shutil.copytree(serial_folder, folder)
+    path = chunk_path(folder, MODELS[1], 3)
+    path.write_bytes(path.read_bytes()[:1000])
+    with pytest.raises(StudyError, match=re.escape(f"{path}: not a readable Parquet chunk")):
+        check_explored(exploration, folder)
+    explore(exploration, folder, progress=False)
+    assert f"{path}: not a readable Parquet chunk (truncated?): removed, recomputing" in capsys.readouterr().err
+    assert_same_study(folder, serial_folder, exploration)
+    check_explored(exploration, folder)
+
+
+@pytest.mark.parametrize("change", ["deleted chunk", "extra chunk", "other inputs"])
+def test_analysis_refuses_a_folder_that_is_not_this_studys_exploration(exploration, serial_folder, tmp_path, change):
+    """``check_explored``, the analysis' check: a deleted chunk, a chunk beyond the sample, or an exploration of
+    other inputs (another zeta_0 case) is refused naming the file; the serial folder itself passes."""
+    check_explored(exploration, serial_folder)
+    folder = tmp_path / "changed"
+    shutil.copytree(serial_folder, folder)
+    analysed = exploration
+    if change == "deleted chunk":
+        named = chunk_path(folder, MODELS[0], 5)
+        named.unlink()
+    elif change == "extra chunk":
+        named = chunk_path(folder, MODELS[0], SAMPLE.n_chunks)
+        shutil.copy(chunk_path(folder, MODELS[0], 0), named)
+    else:
+        named = folder / "exploration.json"
+        analysed = replace(exploration, damping_cases={**DAMPING_CASES, "high": (1e-3,) * 3})
+    with pytest.raises(StudyError, match=re.escape(str(named))):
+        check_explored(analysed, folder)
+
+
+def asb_study_arguments(out: Path, *steps: str) -> list[str]:
+    """``surrogacy study`` on the ASB with Jenkins and 4 designs in 2 chunks (a few seconds)."""
+    return ["study", "--out", str(out), "--data", str(asb_data_folder().parent),
+            "--reference", str(REPOSITORY.parent / "shared" / "reference"), "--set", "study.dataset=asb",
+            "--set", 'study.models=["jenkins"]', "--set", "sample.n_designs=4", "--set", "sample.chunk_size=2",
+            "--steps", *steps]
+
+
+@pytest.fixture(scope="module")
+def asb_cli_study(exploration, tmp_path_factory) -> Path:
+    """A tiny ASB study's measurements and exploration, written by the ``surrogacy study`` command."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path_factory.mktemp("asb_cli") / "study"
+    assert surrogacy(asb_study_arguments(folder, "measurements", "explore")) == 0
+    return folder
+
+
+def scale_frequencies(path: Path, factor: float) -> None:
+    """Multiply the natural_frequency column of a backbone CSV by ``factor``."""
+    lines = path.read_text().splitlines()
+    for index, line in enumerate(lines):
+        if line[:1].isdigit():
+            cells = line.split(",")
+            cells[1] = repr(float(cells[1]) * factor)
+            lines[index] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("change, named, expected", [
+    ("deleted chunk", "designs/jenkins/chunk-000001.parquet", "missing (1 of the 2 chunks of jenkins)"),
+    ("truncated chunk", "designs/jenkins/chunk-000001.parquet", "not a readable Parquet chunk"),
+    ("edited measurement", "designs/exploration.json", "explored for other inputs"),
+])
+def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, tmp_path, capsys, change, named,
+                                                                 expected):
+    """``surrogacy study --steps analyse`` after a chunk was deleted or cut short, or after a measurement was
+    edited (frequencies x 1.05): exit 2, one line naming the file, what differs and what to run; no analysis
+    written. ``--steps explore analyse`` then recomputes the deleted or truncated chunk (a few seconds each)."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    chunk = folder / "designs" / "jenkins" / "chunk-000001.parquet"
+    if change == "deleted chunk":
+        chunk.unlink()
+    elif change == "truncated chunk":
+        chunk.write_bytes(chunk.read_bytes()[:500])
+    else:
+        scale_frequencies(folder / "measurements" / "ASB_C1.csv", 1.05)
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "analyse")) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{folder / named}: {expected}" in lines[0] and "--steps explore analyse" in lines[0]
+    assert not (folder / "analysis").exists()
+    if change != "edited measurement":
+        assert surrogacy(asb_study_arguments(folder, "explore")) == 0
+        assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
