@@ -322,8 +322,19 @@ def read_exploration(folder: Path, model: str, columns: list[str] | None = None)
     paths = sorted((Path(folder) / model).glob("chunk-*.parquet"))
     if not paths:
         raise StudyError(f"{Path(folder) / model}: no chunk files (run the exploration first)")
-    frame = pa.concat_tables([pq.read_table(path, columns=columns) for path in paths]).to_pandas()
+    frame = pa.concat_tables([read_chunk(path, columns) for path in paths]).to_pandas()
     return frame.sort_values("design").reset_index(drop=True) if "design" in frame else frame
+
+
+def read_chunk(path: Path, columns: list[str] | None = None) -> pa.Table:
+    """One chunk file's rows (``columns`` only, when given). Raises StudyError naming the file when it cannot be
+    read as a chunk of the study (truncated, not Parquet, a column missing)."""
+    try:
+        return pq.read_table(path, columns=columns)
+    except (pa.ArrowException, OSError) as error:
+        first_line = (str(error).splitlines() or [type(error).__name__])[0]
+        raise StudyError(f"{path}: not a readable chunk of the study ({first_line}); run the explore step, which "
+                         "recomputes it") from None
 
 
 def manifest(folder: Path) -> dict:

@@ -433,14 +433,17 @@ def test_restart_stale_discards_only_another_studys_chunks(exploration, serial_f
 
 
 def test_truncated_chunk_is_recomputed_naming_it(exploration, serial_folder, tmp_path, capsys):
-    """A chunk file cut short (a disk that filled up, a copy that stopped) is removed and recomputed by the next
-    exploration, which names it on stderr; the study is then the serial one."""
+    """A chunk file cut short (a disk that filled up, a copy that stopped) is refused by the analysis' check and
+    its readers, naming it, then removed and recomputed by the next exploration, which names it on stderr; the
+    study is then the serial one."""
     folder = tmp_path / "truncated"
     shutil.copytree(serial_folder, folder)
     path = chunk_path(folder, MODELS[1], 3)
     path.write_bytes(path.read_bytes()[:1000])
     with pytest.raises(StudyError, match=re.escape(f"{path}: not a readable Parquet chunk")):
         check_explored(exploration, folder)
+    with pytest.raises(StudyError, match=re.escape(f"{path}: not a readable chunk of the study")):
+        read_exploration(folder, MODELS[1])
     explore(exploration, folder, progress=False)
     assert f"{path}: not a readable Parquet chunk (truncated?): removed, recomputing" in capsys.readouterr().err
     assert_same_study(folder, serial_folder, exploration)
