@@ -123,6 +123,7 @@ def run(arguments: argparse.Namespace) -> None:
 def run_steps(arguments: argparse.Namespace, parameters: dict) -> None:
     """The chosen steps, in order, into ``arguments.out`` (held by the caller)."""
     out = Path(arguments.out)
+    workflow.check_dataset(out, parameters["study"].dataset)
     write_json(out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},
         "seed": parameters["sample"].seed, "inputs": {"rom": str(arguments.rom), "data": str(arguments.data),

@@ -22,14 +22,14 @@ import pandas as pd
 
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
-from pipeline.cache import is_current, package_versions, sidecar_record
+from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
 from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from study.analysis import anova_observations, model_errors, representative_designs, sample_front
 from study.datasets import (ASB_CONFIGURATIONS, BEAMS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
-from study.exploration import Exploration, check_explored, explore, read_exploration
+from study.exploration import Exploration, StudyError, check_explored, explore, read_exploration
 from study.report import write_report
 from study.structures import StructureError
 from study.virtual_experiment import TABLE1, TABLE3, read_low_amplitude_measurements, virtual_experiments
@@ -55,6 +55,28 @@ class Paths(NamedTuple):
     @property
     def analysis(self) -> Path:
         return self.out / "analysis"
+
+
+def recorded_dataset(out: Path) -> tuple[Path, str] | None:
+    """The dataset a study folder's files record, and the file that records it: ``study.json``, else
+    ``measurements/measurements.json``; None for a new folder (or files that record none)."""
+    for path, keys in ((out / "study.json", ("configuration", "study", "dataset")),
+                       (out / "measurements" / "measurements.json", ("inputs", "dataset"))):
+        value = read_sidecar(path)
+        for key in keys:
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, str):
+            return path, value
+    return None
+
+
+def check_dataset(out: Path, dataset: str) -> None:
+    """Refuse, before any step, a results folder that holds a study of another dataset: its measurements and
+    designs would be mixed with this one's. Raises StudyError naming the file that records the other dataset."""
+    recorded = recorded_dataset(Path(out))
+    if recorded is not None and recorded[1] != dataset:
+        raise StudyError(f"{recorded[0]}: a study of the {recorded[1]!r} dataset; expected {dataset!r} here "
+                         f"(give the {dataset} study another --out)")
 
 
 def measurements(paths: Paths, parameters: dict) -> None:

@@ -529,3 +529,21 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
     if change != "edited measurement":
         assert surrogacy(asb_study_arguments(folder, "explore")) == 0
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
+
+
+def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_path, capsys):
+    """A beams study into an ASB study's folder: exit 2 at once, one line naming the file that records the ASB
+    dataset, and the folder untouched (no virtual experiment run, no measurement file added)."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    before = file_identities(folder)
+    capsys.readouterr()
+    started = time.perf_counter()
+    assert surrogacy(["study", "--out", str(folder), "--rom", str(tmp_path / "rom"), "--steps", "measurements"]) == 2
+    assert time.perf_counter() - started < 5.0
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"surrogacy study: error: {folder / 'study.json'}: a study of the 'asb' dataset; expected "
+                     "'beams' here (give the beams study another --out)"]
+    assert file_identities(folder) == before
