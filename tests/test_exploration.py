@@ -547,3 +547,28 @@ def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_
     assert lines == [f"surrogacy study: error: {folder / 'study.json'}: a study of the 'asb' dataset; expected "
                      "'beams' here (give the beams study another --out)"]
     assert file_identities(folder) == before
+
+
+def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_path, capsys, monkeypatch):
+    """The disk fills up while a chunk is written (pyarrow's OSError names no file): exit 2, one line naming the
+    chunk and the errno, no temporary left, and the next run computes the chunk."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    chunk = folder / "designs" / "jenkins" / "chunk-000001.parquet"
+    chunk.unlink()
+
+    def full_disk(table, where, **options):
+        Path(where).write_bytes(b"PAR1")
+        raise OSError(28, "Error writing bytes to file. Detail: [errno 28] No space left on device")
+
+    monkeypatch.setattr(exploration_module.pq, "write_table", full_disk)
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if "%|" not in line and line.strip()]
+    assert len(lines) == 1 and f"{chunk}: [Errno 28] Error writing bytes" in lines[0], lines
+    assert not list(folder.rglob(".partial-*")) and not chunk.exists()
+    monkeypatch.undo()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 0
+    assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")

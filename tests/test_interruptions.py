@@ -9,9 +9,11 @@ written (a ``.partial-*`` temporary exists) and once its sidecar is in place (th
 """
 
 import argparse
+import errno
 import fcntl
 import json
 import os
+import re
 import shutil
 import signal
 import time
@@ -20,7 +22,7 @@ import pytest
 
 from pipeline.cli import main as surrogacy
 from pipeline.cli import run, stage_signals
-from pipeline.files import LOCK, atomic_path
+from pipeline.files import LOCK, OutputFolderError, atomic_path
 from stage_runs import COARSE, digests, partial_files, run_to_end, start, wait_for
 
 BEAMS = ["BRB", "LBRB"]
@@ -287,4 +289,25 @@ def test_a_temporary_exists_only_once_written(tmp_path):
     entered = atomic_path(tmp_path / "BRB.npz")
     temporary = entered.__enter__()  # its exit never registered
     assert temporary.parent == tmp_path and temporary.name.startswith(".partial-BRB-") and temporary.suffix == ".npz"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_temporary_onto_a_folder_is_refused_naming_it(tmp_path):
+    """``atomic_path`` onto a folder is refused before anything is written, naming the folder (the rename used to
+    fail after the work, naming the temporary)."""
+    (tmp_path / "report.md").mkdir()
+    with pytest.raises(OutputFolderError, match=re.escape(f"{tmp_path / 'report.md'}: a folder")):
+        with atomic_path(tmp_path / "report.md") as temporary:
+            temporary.write_text("never")
+    assert [path.name for path in tmp_path.iterdir()] == ["report.md"]
+
+
+def test_a_full_disk_names_the_file_being_written(tmp_path):
+    """A writer that fails for a full disk without naming a file (pyarrow, numpy) is said with the destination's
+    path and the same errno, and its temporary is removed."""
+    with pytest.raises(OSError, match=re.escape(f"{tmp_path / 'chunk.parquet'}: [Errno 28]")) as error:
+        with atomic_path(tmp_path / "chunk.parquet") as temporary:
+            temporary.write_bytes(b"PAR1")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    assert error.value.errno == errno.ENOSPC
     assert list(tmp_path.iterdir()) == []
