@@ -1,7 +1,10 @@
 """The exploration on disk, with real components started as a user starts them: a study killed with SIGKILL
 resumes without losing or repeating a chunk, a dask.distributed LocalCluster and an external `dask scheduler`
 with two `dask worker` processes write the same rows as the serial run, another Parquet reader than pyarrow
-reads the same values and metadata, and a folder of another study is refused.
+reads the same values and metadata, and a folder of another study is refused. The analysis refuses a folder that
+is not the whole exploration of the current inputs (a chunk deleted, cut short or added, a measurement edited), a
+truncated chunk is recomputed and named, a full disk names the chunk, and the ``surrogacy study`` command refuses
+a folder of another dataset and a measurement out of range before any work.
 
 The study: two friction models on the ASB configurations C1-C3 (reduced models and measured backbones in
 ../shared/data; the tests skip, naming the path, where they are absent) at 8 levels, 8 chunks of 30 designs per
@@ -572,3 +575,26 @@ def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_p
     monkeypatch.undo()
     assert surrogacy(asb_study_arguments(folder, "explore")) == 0
     assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
+
+
+def test_negative_damping_in_a_measurement_is_refused_by_the_study(asb_cli_study, tmp_path, capsys):
+    """A measurement file with a negative damping ratio (it was accepted): the explore step ends with exit 2 and
+    one line naming the file and the field, and writes no chunk."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    shutil.rmtree(folder / "designs")
+    measurement = folder / "measurements" / "ASB_C2.csv"
+    lines = measurement.read_text().splitlines()
+    row = next(index for index, line in enumerate(lines) if line[:1].isdigit())
+    cells = lines[row].split(",")
+    cells[4] = "-0.0003"
+    lines[row] = ",".join(cells)
+    measurement.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"surrogacy study: error: {measurement}: field damping_ratio: 1 value(s) out of range, the first -0.0003 "
+        "(expected non-negative ratios (fraction of critical) at every point)"]
+    assert not list((folder / "designs").rglob("*.parquet"))
