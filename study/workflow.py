@@ -57,26 +57,27 @@ class Paths(NamedTuple):
         return self.out / "analysis"
 
 
-def recorded_dataset(out: Path) -> tuple[Path, str] | None:
-    """The dataset a study folder's files record, and the file that records it: ``study.json``, else
-    ``measurements/measurements.json``; None for a new folder (or files that record none)."""
+def recorded_datasets(out: Path) -> list[tuple[Path, str]]:
+    """(file, dataset) of each file of a study folder that records its dataset: ``study.json`` and
+    ``measurements/measurements.json``; none for a new folder."""
+    recorded = []
     for path, keys in ((out / "study.json", ("configuration", "study", "dataset")),
                        (out / "measurements" / "measurements.json", ("inputs", "dataset"))):
         value = read_sidecar(path)
         for key in keys:
             value = value.get(key) if isinstance(value, dict) else None
         if isinstance(value, str):
-            return path, value
-    return None
+            recorded.append((path, value))
+    return recorded
 
 
 def check_dataset(out: Path, dataset: str) -> None:
     """Refuse, before any step, a results folder that holds a study of another dataset: its measurements and
     designs would be mixed with this one's. Raises StudyError naming the file that records the other dataset."""
-    recorded = recorded_dataset(Path(out))
-    if recorded is not None and recorded[1] != dataset:
-        raise StudyError(f"{recorded[0]}: a study of the {recorded[1]!r} dataset; expected {dataset!r} here "
-                         f"(give the {dataset} study another --out)")
+    for path, recorded in recorded_datasets(Path(out)):
+        if recorded != dataset:
+            raise StudyError(f"{path}: a study of the {recorded!r} dataset; expected {dataset!r} here (give the "
+                             f"{dataset} study another --out)")
 
 
 def measurements(paths: Paths, parameters: dict) -> None:
