@@ -507,7 +507,7 @@ def scale_frequencies(path: Path, factor: float) -> None:
     ("deleted chunk", "designs/jenkins/chunk-000001.parquet", "missing (1 of the 2 chunks of jenkins)"),
     ("truncated chunk", "designs/jenkins/chunk-000001.parquet", "not a readable Parquet chunk"),
     ("edited measurement", "designs/exploration.json", "explored for other inputs"),
-])
+], ids=["deleted chunk", "truncated chunk", "edited measurement"])
 def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, tmp_path, capsys, change, named,
                                                                  expected):
     """``surrogacy study --steps analyse`` after a chunk was deleted or cut short, or after a measurement was
