@@ -280,6 +280,9 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
     check_nyquist(hits, band_hz)
     records, shapes = [], []
     for hit in hits:
+        if not np.any(hit.signals):
+            raise RingDownError(hit.source, hit.hit, f"all channels are zero ({', '.join(hit.channels)}): no signal "
+                                "to analyse")
         try:
             signals, shape = mode_signals(hit, band_hz, mode_shapes, mode_index, per_channel)
         except ModalFilterError as error:

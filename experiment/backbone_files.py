@@ -64,9 +64,14 @@ ASB_MODAL_AMPLITUDE_UNIT = "m kg^0.5"
 """Unit of a mass-normalised modal amplitude q (u = phi q with phi^T M phi = 1)."""
 
 
-def file_error(path, field: str, problem: str) -> ValueError:
-    """A ValueError naming the file, the field and the problem."""
-    return ValueError(f"{path}: field '{field}': {problem}")
+class NotABackboneError(ValueError):
+    """A file that is not a backbone at all (another kind of file: a ring-down, a table), as opposed to a
+    backbone file with a malformed field."""
+
+
+def file_error(path, field: str, problem: str, kind: type[ValueError] = ValueError) -> ValueError:
+    """A ValueError (or ``kind``) naming the file, the field and the problem."""
+    return kind(f"{path}: field '{field}': {problem}")
 
 
 def backbone_header(amplitude_unit: str) -> list[str]:
@@ -86,13 +91,14 @@ def write_backbone(mode: ModeBackbone, destination: Path) -> None:
 
 
 def read_backbone(path: Path) -> ModeBackbone:
-    """Read a backbone CSV (format in the module docstring); a malformed file raises a ValueError naming it."""
+    """Read a backbone CSV (format in the module docstring); a malformed file raises a ValueError naming it, a file
+    without the backbone title line a NotABackboneError."""
     path = Path(path)
     with open(path, newline="") as stream:
         lines = stream.read().splitlines()
     comments = [line[1:].strip() for line in lines if line.startswith("#")]
     if not comments or comments[0] != BACKBONE_TITLE:
-        raise file_error(path, "title", f"first line must read '# {BACKBONE_TITLE}'")
+        raise file_error(path, "title", f"first line must read '# {BACKBONE_TITLE}'", NotABackboneError)
     header = dict(comment.partition(": ")[::2] for comment in comments[1:])
     missing = [key for key in BACKBONE_KEYS if key not in header]
     if missing:
@@ -100,6 +106,8 @@ def read_backbone(path: Path) -> ModeBackbone:
     rows = [line for line in lines if line and not line.startswith("#")]
     if not rows or next(csv.reader(rows[:1])) != backbone_header(header["amplitude_unit"]):
         raise file_error(path, "columns", f"header row must read {','.join(backbone_header(header['amplitude_unit']))}")
+    if len(rows) == 1:
+        raise file_error(path, "rows", "none below the header row (expected one row per amplitude)")
     try:
         table = np.loadtxt(rows[1:], delimiter=",", ndmin=2).reshape(-1, len(BACKBONE_COLUMNS))
     except ValueError as error:
@@ -121,7 +129,10 @@ def read_asb_backbone(path: Path) -> ModeBackbone:
     contents = scipy.io.loadmat(path)
     missing = [name for name in "QWZ" if name not in contents]
     if missing:
-        raise file_error(path, ", ".join(missing), "missing (expected vectors Q, W, Z)")
+        raise file_error(path, ", ".join(missing), "missing (expected vectors Q, W, Z)", NotABackboneError)
+    complex_valued = [name for name in "QWZ" if np.iscomplexobj(contents[name])]
+    if complex_valued:
+        raise file_error(path, ", ".join(complex_valued), "complex values; expected real vectors")
     amplitude, frequency, damping = (np.ravel(contents[name]).astype(float) for name in "QWZ")
     if not amplitude.size == frequency.size == damping.size:
         raise file_error(path, "Q, W, Z", f"lengths differ: {amplitude.size}, {frequency.size}, {damping.size}")

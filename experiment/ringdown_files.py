@@ -149,6 +149,8 @@ def read_csv(path: Path) -> list[RingDown]:
         lines = [line for line in stream if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise RingDownError(path, "header", "file holds no header row")
+    if len(lines) == 1:
+        raise RingDownError(path, "samples", "no sample rows below the header row")
     headers = [column.strip() for column in next(csv.reader(lines[:1]))]
     repeated = sorted({header for header in headers if headers.count(header) > 1})
     if repeated:
@@ -193,6 +195,11 @@ def mat_hits(path: Path, fields: dict, hit_label: str) -> list[RingDown]:
         raise RingDownError(path, "units", "missing or malformed: expected a string '<time unit>, <signal unit>'"
                                                ", e.g. 's, m/s^2'")
     time_unit, signal_unit = (part.strip() for part in fields["units"].split(","))
+    complex_valued = [name for name, value in fields.items()
+                      if isinstance(value, np.ndarray) and value.dtype.kind == "c"]
+    if complex_valued:
+        raise RingDownError(path, ", ".join(complex_valued), "complex values; expected real samples (a time signal, "
+                                                              "not a spectrum)")
     time = np.asarray(fields["time"], dtype=float)
     columns = {name: value.reshape(value.shape[0], -1) for name, value in fields.items()
                if name not in ("time", "units") and isinstance(value, np.ndarray) and value.ndim in (1, 2)
@@ -277,6 +284,8 @@ READERS = {".csv": read_csv, ".mat": read_mat, ".uff": read_uff58, ".unv": read_
 def read_ringdown(path: Path) -> list[RingDown]:
     """Ring-down hits from a file, the reader chosen by suffix (.csv, .mat, .uff/.unv)."""
     path = Path(path)
+    if path.is_dir():
+        raise RingDownError(path, "file", f"a folder; expected a ring-down file ({', '.join(sorted(READERS))})")
     if not path.is_file():
         raise RingDownError(path, "file", "does not exist")
     reader = READERS.get(path.suffix.lower())

@@ -78,6 +78,9 @@ def read_beam_mesh(path: Path, beam: BeamParameters | None = None) -> BeamMesh:
         except Exception as error:  # gmsh raises a bare Exception with its own message
             raise MeshFileError(f"{path}: not a readable gmsh file ({error})") from None
         node_tags, coordinates, _ = gmsh.model.mesh.getNodes()
+        if node_tags.size == 0:
+            raise MeshFileError(f"{path}: no nodes (an empty or truncated mesh file; a mesh of the geometry stage "
+                                "has them all); rerun make beams")
         order = np.argsort(node_tags)
         index_of_tag = np.full(int(node_tags.max()) + 1, -1, dtype=np.int64)
         index_of_tag[node_tags[order]] = np.arange(len(order))

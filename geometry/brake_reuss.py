@@ -15,6 +15,8 @@ Physical groups (names used by every later stage), for side in {lower, upper}:
 
 from __future__ import annotations
 
+import signal
+import threading
 from contextlib import contextmanager
 
 import gmsh
@@ -34,16 +36,29 @@ def physical_group_names(beam: BeamParameters) -> list[str]:
     return [f"{side}_{name}" for side in SIDES for name in per_side]
 
 
+def _restore_handlers(handlers: dict) -> None:
+    """Install again the Python signal handlers ``handlers`` (signal number -> handler), in the main thread only
+    (where Python handles signals); a signal whose handler was not set from Python (None) is left alone."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for number, handler in handlers.items():
+        if handler is not None:
+            signal.signal(number, handler)
+
+
 @contextmanager
 def gmsh_session():
     """An initialised, quiet, single-threaded (hence deterministic) gmsh session, finalised on exit.
 
     Initialised with ``interruptible=False``: by default gmsh's Python API resets SIGINT to the operating system's
-    default action and never restores it, so once a beam had been meshed, Ctrl-C killed the process outright
-    (no KeyboardInterrupt, no clean-up of temporary files, not exit 130). Python's handler is kept instead; a
-    Ctrl-C during a gmsh call takes effect when that call returns.
+    default action and never restores it. gmsh's library also resets SIGTERM to its default action as it
+    initialises, so that a SIGTERM would kill the process outright (no clean-up of temporary files, not exit 143,
+    no run log). Python's handlers of both signals are installed again right after; a signal during a gmsh call
+    takes effect when that call returns.
     """
+    handlers = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     gmsh.initialize(readConfigFiles=False, interruptible=False)
+    _restore_handlers(handlers)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.NumThreads", 1)

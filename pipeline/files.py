@@ -55,17 +55,31 @@ def atomic_path(destination: Path):
 
     On any exception (Ctrl-C and SIGTERM included) the temporary file is removed and ``destination`` is left as
     it was. Nothing is created before the caller's ``with`` block (or ExitStack) has registered the exit: an
-    interruption between the two leaves no file.
+    interruption between the two leaves no file. A ``destination`` that is a folder is refused
+    (``check_output_file``); an OSError that names no file (a full disk, as a library's writer reports it) is
+    raised again naming ``destination``.
     """
     destination = Path(destination)
+    check_output_file(destination)
     destination.parent.mkdir(parents=True, exist_ok=True)
     temporary = destination.with_name(f"{PARTIAL}{destination.stem}-{secrets.token_hex(6)}{destination.suffix}")
     try:
         yield temporary
         os.replace(temporary, destination)
+    except OSError as error:
+        if error.filename is not None:
+            raise
+        raise naming(error, destination) from error
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.remove(temporary)
+
+
+def naming(error: OSError, path: Path) -> OSError:
+    """An OSError saying ``error`` with ``path`` in front, its errno kept: the file a write failed on."""
+    named = OSError(f"{path}: {error}")
+    named.errno = error.errno
+    return named
 
 
 def write_json(destination: Path, value) -> None:
@@ -139,6 +153,12 @@ def check_output_folder(folder: Path) -> None:
     if not os.access(existing, os.W_OK | os.X_OK):
         raise OutputFolderError(f"{folder}: {existing} is not writable by this user; expected a writable output "
                                 "folder")
+
+
+def check_output_file(path: Path) -> None:
+    """Refuse an output file's path that names a folder, before any work. Raises OutputFolderError naming it."""
+    if Path(path).is_dir():
+        raise OutputFolderError(f"{path}: a folder; expected the name of a file to write (a new or existing file)")
 
 
 @contextlib.contextmanager

@@ -23,7 +23,7 @@ import numpy as np
 
 from experiment.backbone_files import read_backbone
 from geometry.parameters import BEAM_NAMES
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, check_output_file, check_output_folder
 from study.figures import plt, save
 
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
@@ -244,7 +244,11 @@ def provenance_section(folders: Folders) -> list[str]:
 
 
 def write_pipeline_report(folders: Folders, destination: Path) -> Path:
-    """Write the report (module docstring) to ``destination`` (Markdown) and its backbone figure beside it."""
+    """Write the report (module docstring) to ``destination`` (Markdown) and its backbone figure beside it. A
+    destination that cannot be written (a folder, or in a folder that cannot be one) is refused before any work
+    (``pipeline.files.OutputFolderError``)."""
+    check_output_file(destination)
+    check_output_folder(Path(destination).parent)
     out = Path(destination).parent
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Surrogate system hypothesis for joint mechanics: pipeline report", "",

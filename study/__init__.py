@@ -10,6 +10,7 @@ Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.explo
     design_chunk                chunk c of a replicated Latin hypercube over paper Table 3, from the seed
     design_errors, accepted     L-infinity errors of paper Eqs. 26-27 per design and structure, acceptance
     explore, read_exploration   every chunk on every structure to Parquet; resumable; serial or dask
+    check_explored              the analysis' check: the whole exploration of the current inputs
 Answers (:mod:`study.surrogacy`, :mod:`study.pareto`, :mod:`study.anova`, :mod:`study.prestress`)
     surrogacy_matrix            SC_IJ (Eq. 29) with binomial intervals; replicate spread; bounds sweep
     non_dominated, nsga2_front  Pareto fronts of the sample and of NSGA-II seeded from it (Fig. 6)

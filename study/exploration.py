@@ -24,6 +24,7 @@ cases): a folder holding another study's chunks is refused, never mixed.
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,21 +154,59 @@ def write_chunk(table: pa.Table, destination: Path, key: str) -> None:
         pq.write_table(table.replace_schema_metadata(metadata), temporary)
 
 
+def stored_key(path: Path) -> str | None:
+    """The study key in a chunk file's metadata ('' where it has none); None where the file cannot be read as
+    Parquet (truncated, or another kind of file)."""
+    try:
+        return (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode()
+    except (pa.ArrowException, OSError):
+        return None
+
+
 def finished_chunks(exploration: Exploration, folder: Path) -> set[tuple[str, int]]:
-    """(model, chunk) already written for this study. Raises StudyError for a chunk file of another study."""
+    """(model, chunk) already written for this study. Raises StudyError for a chunk file of another study or
+    one that cannot be read."""
     key, done = exploration.key(), set()
     for model in exploration.models:
         for chunk in range(exploration.sample.n_chunks):
             path = chunk_path(folder, model, chunk)
             if not path.exists():
                 continue
-            stored = (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode()
+            stored = stored_key(path)
+            if stored is None:
+                raise StudyError(f"{path}: not a readable Parquet chunk (truncated?); run the explore step, "
+                                 "which recomputes it (--steps explore analyse)")
             if stored != key:
                 raise StudyError(f"{path}: written by another study (study_key {stored[:12]}..., this study "
                                  f"{key[:12]}...); use another results folder, or discard them with "
                                  "--restart-stale")
             done.add((model, chunk))
     return done
+
+
+def check_explored(exploration: Exploration, folder: Path) -> None:
+    """Refuse to analyse ``folder`` unless it holds exactly this study's exploration: its manifest with this
+    study's key (the same measurements, superelements, sample and damping cases), and every chunk of every model,
+    readable and of this study, and no other. Raises StudyError naming the first file that differs and what to
+    run."""
+    folder = Path(folder)
+    recorded = manifest(folder).get("study_key")
+    if recorded != exploration.key():
+        raise StudyError(f"{folder / 'exploration.json'}: explored for other inputs (study_key {str(recorded)[:12]}"
+                         f"...; the current measurements, superelements, sample and damping cases give "
+                         f"{exploration.key()[:12]}...); run the explore step again (--steps explore analyse "
+                         "--restart-stale)")
+    finished_chunks(exploration, folder)
+    for model in exploration.models:
+        expected = {chunk_path(folder, model, chunk) for chunk in range(exploration.sample.n_chunks)}
+        missing = sorted(expected - set((folder / model).glob("chunk-*.parquet")))
+        if missing:
+            raise StudyError(f"{missing[0]}: missing ({len(missing)} of the {len(expected)} chunks of {model}); "
+                             "run the explore step to compute them (--steps explore analyse)")
+        extra = sorted(set((folder / model).glob("chunk-*.parquet")) - expected)
+        if extra:
+            raise StudyError(f"{extra[0]}: not a chunk of this study (its sample has {len(expected)} chunks per "
+                             "model); remove it, or rerun the explore step with --restart-stale")
 
 
 def _evaluate(exploration: Exploration, model: str, chunk: int) -> pa.Table:
@@ -192,10 +231,20 @@ def discard_stale_chunks(exploration: Exploration, folder: Path) -> list[Path]:
     superelement or sample), so that this study recomputes them; returns them. Only chunk files are touched."""
     key, stale = exploration.key(), []
     for path in sorted(Path(folder).glob("*/chunk-*.parquet")):
-        if (pq.read_schema(path).metadata or {}).get(b"study_key", b"").decode() != key:
+        if stored_key(path) != key:
             path.unlink()
             stale.append(path)
     return stale
+
+
+def discard_unreadable_chunks(folder: Path) -> list[Path]:
+    """Remove the chunk files in ``folder`` that cannot be read as Parquet (truncated: a disk that filled up, a
+    copy that stopped), so that the exploration recomputes them; returns them, each said on one line of stderr."""
+    unreadable = [path for path in sorted(Path(folder).glob("*/chunk-*.parquet")) if stored_key(path) is None]
+    for path in unreadable:
+        path.unlink()
+        tqdm.write(f"{path}: not a readable Parquet chunk (truncated?): removed, recomputing", file=sys.stderr)
+    return unreadable
 
 
 def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True,
@@ -204,10 +253,12 @@ def explore(exploration: Exploration, folder: Path, client=None, progress: bool 
     ``client``; returns the chunk files of the whole study. Holds the folder's lock (a second run into it is
     refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
     Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first.
-    A chunk another study wrote is refused (StudyError), or with ``restart_stale`` discarded and recomputed."""
+    A chunk file that cannot be read (truncated) is removed and recomputed, said on stderr. A chunk another
+    study wrote is refused (StudyError), or with ``restart_stale`` discarded and recomputed."""
     folder = Path(folder)
     with folder_lock(folder):
         sweep_partial_files(folder)
+        discard_unreadable_chunks(folder)
         if restart_stale:
             discard_stale_chunks(exploration, folder)
         return _explore(exploration, folder, client, progress)
@@ -272,8 +323,19 @@ def read_exploration(folder: Path, model: str, columns: list[str] | None = None)
     paths = sorted((Path(folder) / model).glob("chunk-*.parquet"))
     if not paths:
         raise StudyError(f"{Path(folder) / model}: no chunk files (run the exploration first)")
-    frame = pa.concat_tables([pq.read_table(path, columns=columns) for path in paths]).to_pandas()
+    frame = pa.concat_tables([read_chunk(path, columns) for path in paths]).to_pandas()
     return frame.sort_values("design").reset_index(drop=True) if "design" in frame else frame
+
+
+def read_chunk(path: Path, columns: list[str] | None = None) -> pa.Table:
+    """One chunk file's rows (``columns`` only, when given). Raises StudyError naming the file when it cannot be
+    read as a chunk of the study (truncated, not Parquet, a column missing)."""
+    try:
+        return pq.read_table(path, columns=columns)
+    except (pa.ArrowException, OSError) as error:
+        first_line = (str(error).splitlines() or [type(error).__name__])[0]
+        raise StudyError(f"{path}: not a readable chunk of the study ({first_line}); run the explore step, which "
+                         "recomputes it") from None
 
 
 def manifest(folder: Path) -> dict:
@@ -281,4 +343,10 @@ def manifest(folder: Path) -> dict:
     path = Path(folder) / "exploration.json"
     if not path.exists():
         raise StudyError(f"{path}: missing (run the exploration first)")
-    return json.loads(path.read_text())
+    try:
+        record = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise StudyError(f"{path}: not a JSON manifest ({error}); run the explore step again") from None
+    if not isinstance(record, dict):
+        raise StudyError(f"{path}: expected a JSON object; run the explore step again")
+    return record

@@ -64,8 +64,8 @@ class Structure:
 
 def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Target:
     """The measured backbone's medians in up to ``n_levels`` log-spaced amplitude bins (module docstring).
-    Raises StructureError naming ``path`` and the field for NaN values, fewer than MIN_POINTS amplitudes (or
-    filled bins), a non-positive or non-increasing amplitude."""
+    Raises StructureError naming ``path`` and the field for NaN values, a non-positive frequency, a negative
+    damping ratio, fewer than MIN_POINTS amplitudes (or filled bins), a non-positive or non-increasing amplitude."""
     backbone = measured.backbone
     amplitude = np.asarray(backbone.amplitude, dtype=float)
     columns = {"modal_amplitude": amplitude, "natural_frequency": np.asarray(backbone.natural_frequency_hz, float),
@@ -74,6 +74,12 @@ def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str 
         if not np.all(np.isfinite(values)):
             raise StructureError(f"{path}: field {field}: {np.sum(~np.isfinite(values))} NaN or infinite values "
                                  "(expected finite numbers at every point)")
+    out_of_range = {"natural_frequency": (columns["natural_frequency"] <= 0.0, "positive frequencies (Hz)"),
+                    "damping_ratio": (columns["damping_ratio"] < 0.0, "non-negative ratios (fraction of critical)")}
+    for field, (bad, expected) in out_of_range.items():
+        if np.any(bad):
+            raise StructureError(f"{path}: field {field}: {np.sum(bad)} value(s) out of range, the first "
+                                 f"{columns[field][bad][0]:.6g} (expected {expected} at every point)")
     if amplitude.size < MIN_POINTS:
         raise StructureError(f"{path}: field modal_amplitude: {amplitude.size} points (expected at least "
                              f"{MIN_POINTS})")

@@ -24,7 +24,7 @@ import pandas as pd
 
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
-from pipeline.cache import is_current, package_versions, sidecar_record
+from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
 from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
@@ -32,7 +32,7 @@ from study.analysis import anova_observations, model_errors, representative_desi
 from study.datasets import (ASB_CONFIGURATIONS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
-from study.exploration import Exploration, explore, read_exploration
+from study.exploration import Exploration, StudyError, check_explored, explore, read_exploration
 from study.report import write_report
 from reduction.superelement import StructureError
 from virtual_experiment.hammer_test import virtual_experiments
@@ -60,6 +60,29 @@ class Paths(NamedTuple):
     @property
     def analysis(self) -> Path:
         return self.out / "analysis"
+
+
+def recorded_datasets(out: Path) -> list[tuple[Path, str]]:
+    """(file, dataset) of each file of a study folder that records its dataset: ``study.json`` and
+    ``measurements/measurements.json``; none for a new folder."""
+    recorded = []
+    for path, keys in ((out / "study.json", ("configuration", "study", "dataset")),
+                       (out / "measurements" / "measurements.json", ("inputs", "dataset"))):
+        value = read_sidecar(path)
+        for key in keys:
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, str):
+            recorded.append((path, value))
+    return recorded
+
+
+def check_dataset(out: Path, dataset: str) -> None:
+    """Refuse, before any step, a results folder that holds a study of another dataset: its measurements and
+    designs would be mixed with this one's. Raises StudyError naming the file that records the other dataset."""
+    for path, recorded in recorded_datasets(Path(out)):
+        if recorded != dataset:
+            raise StudyError(f"{path}: a study of the {recorded!r} dataset; expected {dataset!r} here (give the "
+                             f"{dataset} study another --out)")
 
 
 def measurements(paths: Paths, parameters: dict) -> None:
@@ -102,9 +125,12 @@ def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: 
 
 
 def analyse(paths: Paths, parameters: dict) -> None:
-    """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress."""
+    """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress. Refused
+    (StudyError) unless the designs folder holds the whole exploration of the current inputs
+    (``study.exploration.check_explored``)."""
     study, acceptance = parameters["study"], parameters["acceptance"]
     explored = exploration(paths, parameters)
+    check_explored(explored, paths.designs)
     names = explored.names
     case = DEFAULT_DAMPING_CASE[study.dataset]
     out = paths.analysis
@@ -233,6 +259,7 @@ def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = Non
     """The chosen ``steps`` of ``STEPS``, in order, into ``paths.out`` (held by the caller), after writing
     study.json (the resolved configuration, seed, inputs, versions). Yields (step, its result): the report's path
     for ``report``, None otherwise."""
+    check_dataset(paths.out, parameters["study"].dataset)
     write_json(paths.out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},
         "seed": parameters["sample"].seed, "inputs": {"rom": str(paths.rom), "data": str(paths.data),

@@ -12,6 +12,7 @@ file would be.
 
 import numpy as np
 import pytest
+import scipy.io
 
 from experiment.backbone_files import read_backbone
 from nonlinear.modal_joint import modal_joint_backbone
@@ -119,13 +120,21 @@ def test_command_reports_the_effect_and_the_errors_before_and_after(tmp_path, ca
     assert sorted(p.name for p in out.iterdir()) == [".lock", "discrepancy.json", "discrepancy.md", "discrepancy.png"]
 
 
-def test_command_refuses_a_ring_down_without_its_mode(tmp_path, capsys):
+@pytest.mark.parametrize("suffix", [".csv", ".mat"])
+def test_command_refuses_a_ring_down_without_its_mode(tmp_path, capsys, suffix):
+    """A ring-down (CSV, or a .mat struct as Chen's HammerImpact.mat) given without --mode-hz: one line naming the
+    file and asking for --mode-hz (the .mat was "field 'Q, W, Z': missing")."""
     from pipeline.cli import main as surrogacy
 
-    path = tmp_path / "measured.csv"
-    path.write_text("time [s],acc1 [m/s^2]\n0,1\n")
+    path = tmp_path / f"measured{suffix}"
+    if suffix == ".csv":
+        path.write_text("time [s],acc1 [m/s^2]\n0,1\n")
+    else:
+        scipy.io.savemat(path, {"HIdata": {"time": np.arange(8) / 8.0, "units": "s, m/s^2", "acc1": np.ones(8)}})
     assert surrogacy(["discrepancy", str(path), "--out", str(tmp_path / "out")]) == 2
-    assert str(path) in capsys.readouterr().err
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(path) in lines[0] and "not a backbone: for a ring-down give --mode-hz F" in lines[0]
+    assert not (tmp_path / "out").exists()
 
 
 def test_residual_features_carry_each_signature(tmp_path):

@@ -1,11 +1,12 @@
 """Backbone files: the documented CSV that studies read, and the measured ASB backbones.
 
 Checked: a backbone extracted from ring-downs, labelled and written, reads back with the same floats and
-labels; a malformed file is refused naming the field; the measured ASB C1 backbone reads as a measured
+labels; a malformed file (no rows, complex values) is refused naming the field; the measured ASB C1 backbone reads as a measured
 mass-normalised backbone whose low-amplitude frequency and damping are those of the data README (about
 93.7 Hz, 7.0e-4 to 7.7e-4 over 7e-6 to 1.1e-4 m kg^0.5) and survives the CSV round trip.
 """
 
+import re
 
 import numpy as np
 import pytest
@@ -67,3 +68,24 @@ def test_measured_asb_backbone_reads_and_round_trips(tmp_path):
     assert 6.5e-4 < np.median(damping[:100]) and np.median(damping[-100:]) < 8e-4
     write_backbone(measured, tmp_path / "asb_c1.csv")
     assert_same_backbone(read_backbone(tmp_path / "asb_c1.csv"), measured)
+
+
+def test_backbone_csv_without_rows_and_complex_asb_vectors_are_refused(tmp_path):
+    """A backbone CSV holding its header only, and an ASB backbone .mat with complex values, are refused naming
+    the file and the field (numpy's warning and a silently dropped imaginary part before)."""
+    import scipy.io
+
+    asb_c1 = ASB_BACKBONES / "ASB_C1_20Nm_BB.mat"
+    if not asb_c1.exists():
+        pytest.skip(f"measured ASB backbone not available at {asb_c1} (shared data folder absent)")
+    path = tmp_path / "X.csv"
+    write_backbone(read_asb_backbone(asb_c1), path)
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(line for line in lines if line.startswith("#") or line.startswith("modal")) + "\n")
+    with pytest.raises(ValueError, match=re.escape(f"{path}: field 'rows': none below the header row")):
+        read_backbone(path)
+    contents = scipy.io.loadmat(asb_c1)
+    complex_path = tmp_path / "ASB_C1_20Nm_BB.mat"
+    scipy.io.savemat(complex_path, {"Q": contents["Q"], "W": contents["W"] * (1 + 1e-3j), "Z": contents["Z"]})
+    with pytest.raises(ValueError, match=re.escape(f"{complex_path}: field 'W': complex values")):
+        read_asb_backbone(complex_path)

@@ -210,3 +210,41 @@ def test_written_ring_downs_read_back(tmp_path, time, suffix, rtol):
     for record, hit in zip(records, hits):
         np.testing.assert_allclose(record.time, hit.time, rtol=rtol)
         np.testing.assert_allclose(record.signals, hit.signals, rtol=rtol)
+
+
+def bad_ring_down(tmp_path, time, kind: str):
+    """A ring-down file that cannot be analysed, and (field, problem) of its refusal."""
+    if kind == "all channels zero":
+        return (write_csv(tmp_path / "zero.csv", ["time [s]", "tip [m/s^2]", "root [m/s^2]"],
+                          zip(time, 0 * time, 0 * time)), "hit 1", "all channels are zero (tip, root)")
+    if kind == "header only":
+        return write_csv(tmp_path / "header.csv", ["time [s]", "tip [m/s^2]"], []), "samples", "no sample rows"
+    if kind == "complex channel":
+        path = tmp_path / "complex.mat"
+        scipy.io.savemat(path, {"time": time, "units": "s, m/s^2", "tip": acceleration_decay(time),
+                                "root": acceleration_decay(time) * (1 + 0.1j)})
+        return path, "root", "complex values; expected real samples"
+    (tmp_path / "folder.csv").mkdir()
+    return tmp_path / "folder.csv", "file", "a folder; expected a ring-down file"
+
+
+BAD_RING_DOWNS = ["all channels zero", "header only", "complex channel", "a folder"]
+
+
+@pytest.mark.parametrize("kind", BAD_RING_DOWNS)
+def test_ring_down_that_cannot_be_analysed_is_named_for_what_it_is(tmp_path, time, kind):
+    """Channels that are all zero were reported as "no decay", a header without samples as a header count
+    mismatch (with numpy's warning), a complex channel was dropped without a word, a folder "does not exist"."""
+    path, field, problem = bad_ring_down(tmp_path, time, kind)
+    with pytest.raises(RingDownError) as error:
+        ringdown_backbone(read_ringdown(path), FREQUENCY_HZ)
+    assert_names(error, path, field, problem)
+
+
+@pytest.mark.parametrize("kind", BAD_RING_DOWNS)
+def test_command_names_a_ring_down_that_cannot_be_analysed_on_one_line(tmp_path, time, capsys, kind):
+    path, field, problem = bad_ring_down(tmp_path, time, kind)
+    assert main(["freevib", str(path), "--mode-hz", "50", "--out", str(tmp_path / "out")]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and f"{path}: field '{field}': {problem}" in message
+    assert not (tmp_path / "out").exists()

@@ -141,6 +141,19 @@ def test_fe_names_a_renamed_physical_group(coarse_brb, tmp_path, capsys):
     assert no_results(out)
 
 
+def test_fe_names_an_empty_mesh_its_sidecar_vouches_for(coarse_brb, tmp_path, capsys):
+    """An empty .msh whose hash the sidecar records (a disk that filled up as it was written, then rehashed) was
+    numpy's "zero-size array to reduction operation maximum", without the file."""
+    beams = tmp_path / "beams"
+    shutil.copytree(coarse_brb, beams)
+    (beams / "BRB.msh").write_bytes(b"")
+    rehash(beams / "BRB.json", "msh")
+    out = tmp_path / "fe"
+    assert surrogacy(["fe", "--beam", "BRB", "--beams", str(beams), "--out", str(out)]) == 2
+    refused(capsys, "no nodes (an empty or truncated mesh file", str(beams / "BRB.msh"))
+    assert no_results(out)
+
+
 @pytest.mark.parametrize("key", ["files", "inputs"])
 def test_fe_names_a_sidecar_without_a_key_before_touching_its_output(coarse_brb, tmp_path, capsys, key):
     beams = tmp_path / "beams"

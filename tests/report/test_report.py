@@ -34,6 +34,19 @@ def test_run_log_records_each_run_with_its_status(tmp_path):
     assert all(record["wall_s"] >= 0 and record["peak_memory_mb"] > 10 for record in records)
 
 
+def test_report_into_a_folder_is_refused_before_any_work(tmp_path, capsys):
+    """``--out`` naming an existing folder: one line naming it, at once and writing nothing (it named the report's
+    temporary file after the work)."""
+    build, results, out = tmp_path / "build", tmp_path / "results", tmp_path / "report"
+    for folder in (build, results, out):
+        folder.mkdir()
+    assert surrogacy(["report", "--build", str(build), "--results", str(results), "--out", str(out)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"surrogacy report: error: {out}: a folder; expected the name of a file to write (a new or "
+                     "existing file)"]
+    assert not any(out.iterdir())
+
+
 @pytest.fixture(scope="module")
 def pipeline_report(beam_roms, tmp_path_factory):
     """The report of the default beams' build and a small ASB study and one discrepancy loop, with a run log."""

@@ -1,7 +1,10 @@
 """The exploration on disk, with real components started as a user starts them: a study killed with SIGKILL
 resumes without losing or repeating a chunk, a dask.distributed LocalCluster and an external `dask scheduler`
 with two `dask worker` processes write the same rows as the serial run, another Parquet reader than pyarrow
-reads the same values and metadata, and a folder of another study is refused.
+reads the same values and metadata, and a folder of another study is refused. The analysis refuses a folder that
+is not the whole exploration of the current inputs (a chunk deleted, cut short or added, a measurement edited), a
+truncated chunk is recomputed and named, a full disk names the chunk, and the ``surrogacy study`` command refuses
+a folder of another dataset and a measurement out of range before any work.
 
 The study: two friction models on the ASB configurations C1-C3 (reduced models and measured backbones in
 ../shared/data; the tests skip, naming the path, where they are absent) at 8 levels, 8 chunks of 30 designs per
@@ -31,8 +34,8 @@ from experiment.backbone_files import read_asb_backbone
 from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from reduction.superelement import asb_data_folder
-from study.exploration import (Exploration, Sample, StudyError, chunk_path, explore, finished_chunks, manifest,
-                               read_exploration)
+from study.exploration import (Exploration, Sample, StudyError, check_explored, chunk_path, explore, finished_chunks,
+                               manifest, read_exploration)
 from study.structures import asb_superelement, structure
 
 CONFIGURATIONS = ("C1", "C2", "C3")
@@ -430,3 +433,168 @@ def test_restart_stale_discards_only_another_studys_chunks(exploration, serial_f
     assert finished_chunks(other, folder) == all_chunks(other)
     explore(exploration, folder, progress=False, restart_stale=True)
     assert_same_study(folder, serial_folder, exploration)
+
+
+def test_truncated_chunk_is_recomputed_naming_it(exploration, serial_folder, tmp_path, capsys):
+    """A chunk file cut short (a disk that filled up, a copy that stopped) is refused by the analysis' check and
+    its readers, naming it, then removed and recomputed by the next exploration, which names it on stderr; the
+    study is then the serial one."""
+    folder = tmp_path / "truncated"
+    shutil.copytree(serial_folder, folder)
+    path = chunk_path(folder, MODELS[1], 3)
+    path.write_bytes(path.read_bytes()[:1000])
+    with pytest.raises(StudyError, match=re.escape(f"{path}: not a readable Parquet chunk")):
+        check_explored(exploration, folder)
+    with pytest.raises(StudyError, match=re.escape(f"{path}: not a readable chunk of the study")):
+        read_exploration(folder, MODELS[1])
+    explore(exploration, folder, progress=False)
+    assert f"{path}: not a readable Parquet chunk (truncated?): removed, recomputing" in capsys.readouterr().err
+    assert_same_study(folder, serial_folder, exploration)
+    check_explored(exploration, folder)
+
+
+@pytest.mark.parametrize("change", ["deleted chunk", "extra chunk", "other inputs"])
+def test_analysis_refuses_a_folder_that_is_not_this_studys_exploration(exploration, serial_folder, tmp_path, change):
+    """``check_explored``, the analysis' check: a deleted chunk, a chunk beyond the sample, or an exploration of
+    other inputs (another zeta_0 case) is refused naming the file; the serial folder itself passes."""
+    check_explored(exploration, serial_folder)
+    folder = tmp_path / "changed"
+    shutil.copytree(serial_folder, folder)
+    analysed = exploration
+    if change == "deleted chunk":
+        named = chunk_path(folder, MODELS[0], 5)
+        named.unlink()
+    elif change == "extra chunk":
+        named = chunk_path(folder, MODELS[0], SAMPLE.n_chunks)
+        shutil.copy(chunk_path(folder, MODELS[0], 0), named)
+    else:
+        named = folder / "exploration.json"
+        analysed = replace(exploration, damping_cases={**DAMPING_CASES, "high": (1e-3,) * 3})
+    with pytest.raises(StudyError, match=re.escape(str(named))):
+        check_explored(analysed, folder)
+
+
+def asb_study_arguments(out: Path, *steps: str) -> list[str]:
+    """``surrogacy study`` on the ASB with Jenkins and 4 designs in 2 chunks (a few seconds)."""
+    return ["study", "--out", str(out), "--data", str(asb_data_folder().parent),
+            "--reference", str(REPOSITORY.parent / "shared" / "reference"), "--set", "study.dataset=asb",
+            "--set", 'study.models=["jenkins"]', "--set", "sample.n_designs=4", "--set", "sample.chunk_size=2",
+            "--steps", *steps]
+
+
+@pytest.fixture(scope="module")
+def asb_cli_study(exploration, tmp_path_factory) -> Path:
+    """A tiny ASB study's measurements and exploration, written by the ``surrogacy study`` command."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path_factory.mktemp("asb_cli") / "study"
+    assert surrogacy(asb_study_arguments(folder, "measurements", "explore")) == 0
+    return folder
+
+
+def scale_frequencies(path: Path, factor: float) -> None:
+    """Multiply the natural_frequency column of a backbone CSV by ``factor``."""
+    lines = path.read_text().splitlines()
+    for index, line in enumerate(lines):
+        if line[:1].isdigit():
+            cells = line.split(",")
+            cells[1] = repr(float(cells[1]) * factor)
+            lines[index] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("change, named, expected", [
+    ("deleted chunk", "designs/jenkins/chunk-000001.parquet", "missing (1 of the 2 chunks of jenkins)"),
+    ("truncated chunk", "designs/jenkins/chunk-000001.parquet", "not a readable Parquet chunk"),
+    ("edited measurement", "designs/exploration.json", "explored for other inputs"),
+], ids=["deleted chunk", "truncated chunk", "edited measurement"])
+def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, tmp_path, capsys, change, named,
+                                                                 expected):
+    """``surrogacy study --steps analyse`` after a chunk was deleted or cut short, or after a measurement was
+    edited (frequencies x 1.05): exit 2, one line naming the file, what differs and what to run; no analysis
+    written. ``--steps explore analyse`` then recomputes the deleted or truncated chunk (a few seconds each)."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    chunk = folder / "designs" / "jenkins" / "chunk-000001.parquet"
+    if change == "deleted chunk":
+        chunk.unlink()
+    elif change == "truncated chunk":
+        chunk.write_bytes(chunk.read_bytes()[:500])
+    else:
+        scale_frequencies(folder / "measurements" / "ASB_C1.csv", 1.05)
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "analyse")) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{folder / named}: {expected}" in lines[0] and "--steps explore analyse" in lines[0]
+    assert not (folder / "analysis").exists()
+    if change != "edited measurement":
+        assert surrogacy(asb_study_arguments(folder, "explore")) == 0
+        assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
+
+
+def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_path, capsys):
+    """A beams study into an ASB study's folder: exit 2 at once, one line naming the file that records the ASB
+    dataset, and the folder untouched (no virtual experiment run, no measurement file added)."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    before = file_identities(folder)
+    capsys.readouterr()
+    started = time.perf_counter()
+    assert surrogacy(["study", "--out", str(folder), "--rom", str(tmp_path / "rom"), "--steps", "measurements"]) == 2
+    assert time.perf_counter() - started < 5.0
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"surrogacy study: error: {folder / 'study.json'}: a study of the 'asb' dataset; expected "
+                     "'beams' here (give the beams study another --out)"]
+    assert file_identities(folder) == before
+
+
+def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_path, capsys, monkeypatch):
+    """The disk fills up while a chunk is written (pyarrow's OSError names no file): exit 2, one line naming the
+    chunk and the errno, no temporary left, and the next run computes the chunk."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    chunk = folder / "designs" / "jenkins" / "chunk-000001.parquet"
+    chunk.unlink()
+
+    def full_disk(table, where, **options):
+        Path(where).write_bytes(b"PAR1")
+        raise OSError(28, "Error writing bytes to file. Detail: [errno 28] No space left on device")
+
+    monkeypatch.setattr(exploration_module.pq, "write_table", full_disk)
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if "%|" not in line and line.strip()]
+    assert len(lines) == 1 and f"{chunk}: [Errno 28] Error writing bytes" in lines[0], lines
+    assert not list(folder.rglob(".partial-*")) and not chunk.exists()
+    monkeypatch.undo()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 0
+    assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
+
+
+def test_negative_damping_in_a_measurement_is_refused_by_the_study(asb_cli_study, tmp_path, capsys):
+    """A measurement file with a negative damping ratio (it was accepted): the explore step ends with exit 2 and
+    one line naming the file and the field, and writes no chunk."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    shutil.rmtree(folder / "designs")
+    measurement = folder / "measurements" / "ASB_C2.csv"
+    lines = measurement.read_text().splitlines()
+    row = next(index for index, line in enumerate(lines) if line[:1].isdigit())
+    cells = lines[row].split(",")
+    cells[4] = "-0.0003"
+    lines[row] = ",".join(cells)
+    measurement.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert surrogacy(asb_study_arguments(folder, "explore")) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"surrogacy study: error: {measurement}: field damping_ratio: 1 value(s) out of range, the first -0.0003 "
+        "(expected non-negative ratios (fraction of critical) at every point)"]
+    assert not list((folder / "designs").rglob("*.parquet"))

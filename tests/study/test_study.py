@@ -6,10 +6,12 @@ project's own beams (labelled virtual), explored with a Latin hypercube sample t
 - a constructed asymmetric case: structure B is structure A measured over the lower half of A's levels only, so
   every design A accepts B accepts (B's L-infinity is over a subset of the same points): A's acceptance region
   lies inside B's and SC_AB = 1, SC_BA = n_A / n_B exactly;
-- bad input: a measured curve with NaNs, too few points, non-increasing amplitude; unknown friction model;
-  bounds with min > max (Table 3 limits), with the file and field named and nothing written.
+- bad input: a measured curve with NaNs, too few points, non-increasing amplitude, a negative damping ratio or a
+  non-positive frequency; unknown friction model; bounds with min > max (Table 3 limits), with the file and field
+  named and nothing written.
 """
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -115,6 +117,19 @@ def test_bad_measured_curves_are_refused_naming_file_and_field(tmp_path, amplitu
     path = tmp_path / "X.csv"
     write_backbone(backbone_with(amplitude, frequency, np.full(len(amplitude), 1e-3)), path)
     with pytest.raises(StructureError, match=f"{path}.*{field}"):
+        measured_levels(read_backbone(path), 3, str(path))
+
+
+@pytest.mark.parametrize("frequency, damping, field", [
+    ([100.0, 99.5, 99.0, 98.0], [1e-3, -2e-4, 1e-3, 1e-3], "damping_ratio"),
+    ([100.0, 99.5, 0.0, 98.0], [1e-3, 1e-3, 1e-3, 1e-3], "natural_frequency"),
+])
+def test_out_of_range_measured_values_are_refused_naming_file_and_field(tmp_path, frequency, damping, field):
+    """A negative damping ratio or a non-positive frequency in a measurement file is refused, naming the file,
+    the field and the first value out of range."""
+    path = tmp_path / "X.csv"
+    write_backbone(backbone_with([1e-6, 2e-6, 3e-6, 4e-6], frequency, damping), path)
+    with pytest.raises(StructureError, match=re.escape(f"{path}: field {field}: 1 value(s) out of range")):
         measured_levels(read_backbone(path), 3, str(path))
 
 
