@@ -7,7 +7,7 @@ Folder layout under the study's ``out``::
                                      <beam>_experiment.json beside them
     designs/exploration.json         study key, sample, structures and the mode chosen on each
     designs/<model>/chunk-<c>.parquet
-    analysis/surrogacy_<model>.csv, .md, surrogacy_bounds_<model>.png, fronts_<model>.csv, nsga2_<model>.csv,
+    analysis/surrogacy_<model>.csv, .md, surrogacy_bounds_<model>.png, fronts_<model>.csv (sample and NSGA-II),
              pareto_<model>.png, responses_<model>.png, anova.csv, anova.md, prestress.md, prestress.png
     report.md
 """
@@ -183,7 +183,7 @@ class Fronts(NamedTuple):
 
 def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: str, errors) -> Fronts:
     """The sample's front on each structure and an NSGA-II run seeded from it (paper Fig. 6), written to
-    fronts_<model>.csv and nsga2_<model>.csv."""
+    fronts_<model>.csv (the column source: "sample" or "nsga2")."""
     settings, case = parameters["pareto"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
     limits = parameter_limits(model, explored.n_groups)
     names = parameter_names(model, explored.n_groups)
