@@ -2,7 +2,8 @@
 (start one with ``dask scheduler`` and workers with ``dask worker tcp://host:8786``). The rows are the same
 floats as a serial run.
 
-    python examples/dask_cluster_study.py ../shared/data [--scheduler tcp://host:8786]
+    python examples/dask_cluster_study.py --rom build/rom [--scheduler tcp://host:8786]
+    python examples/dask_cluster_study.py --data ../shared/data [--scheduler tcp://host:8786]
 """
 
 import argparse
@@ -12,22 +13,22 @@ from pathlib import Path
 from distributed import Client, LocalCluster
 
 sys.path.insert(0, str(Path(__file__).parent))
-from own_superelement_study import run_study  # noqa: E402
+from own_superelement_study import add_source_arguments, run_study, structures_from  # noqa: E402
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("data", type=Path)
+    add_source_arguments(parser)
     parser.add_argument("--scheduler", help="scheduler address (default: a LocalCluster of two workers)")
     parser.add_argument("--out", type=Path, default=Path("results/example-dask-study"))
-    parser.add_argument("--designs", type=int, default=2000)
     arguments = parser.parse_args(argv)
     if arguments.scheduler:
         client = Client(arguments.scheduler)
     else:
         client = Client(LocalCluster(n_workers=2, threads_per_worker=1, processes=True))
     with client:
-        return run_study(arguments.data, ["C1", "C2", "C3"], arguments.designs, arguments.out, client)
+        return run_study(structures_from(arguments), arguments.designs, arguments.out, client)
+
 
 if __name__ == "__main__":
     main()

@@ -1,28 +1,43 @@
 """The discrepancy loop on your own ring-down: which effects does a one-mode joint model need to follow it?
 
     python examples/discrepancy_on_ringdown.py ../shared/data/chen2022-brb-hammer/HammerImpact.mat --mode-hz 80.5
+    python examples/discrepancy_on_ringdown.py
+
+Without a file it writes a virtual ring-down (labelled virtual in the file) of a jointed beam whose joint slips
+with microslip (an Iwan element), which the loop is to find, and runs on that.
 
 Any ring-down the measured-data stage reads works (CSV with ``name [unit]`` headers, MATLAB .mat, UFF 58); give
 the mode's frequency, and the model's nominal low-amplitude frequency and linear damping when you have them.
 """
 
 import argparse
+import tempfile
 from pathlib import Path
 
+from discrepancy.loop import discrepancy_loop, measurement_from_backbone
+from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
 from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.ringdown_files import read_ringdown
-from discrepancy.loop import discrepancy_loop, measurement_from_backbone
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("ringdown", type=Path)
-    parser.add_argument("--mode-hz", type=float, required=True)
+    parser.add_argument("ringdown", type=Path, nargs="?", help="ring-down file (default: a virtual one, written here)")
+    parser.add_argument("--mode-hz", type=float, help="the mode's frequency guess, Hz (needed with a file)")
     parser.add_argument("--nominal-frequency-hz", type=float)
     parser.add_argument("--nominal-damping", type=float)
     arguments = parser.parse_args(argv)
+    provenance = "measured"
+    if arguments.ringdown is None:  # the virtual beam's nominal frequency and damping are known: give them
+        provenance, arguments.ringdown = "virtual", Path(tempfile.mkdtemp()) / "virtual_ringdown.csv"
+        write_undeclared_ringdown(arguments.ringdown, ("microslip",))
+        arguments.mode_hz = arguments.nominal_frequency_hz = REFERENCE_FREQUENCY_HZ
+        arguments.nominal_damping = REFERENCE_DAMPING
+        print(f"virtual ring-down (microslip put in): {arguments.ringdown}")
+    elif arguments.mode_hz is None:
+        parser.error("a ring-down file needs --mode-hz")
     measured = mode_backbone(ringdown_backbone(read_ringdown(arguments.ringdown), arguments.mode_hz),
-                             arguments.ringdown.stem, "measured")
+                             arguments.ringdown.stem, provenance)
     measurement = measurement_from_backbone(measured, source=str(arguments.ringdown))
     verdict = discrepancy_loop(measurement, arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
                                arguments.nominal_damping or float(measurement.damping[0]))
