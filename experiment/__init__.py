@@ -20,6 +20,8 @@ Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
     write_backbone, read_backbone
                              the documented backbone CSV
     read_asb_backbone        measured ASB backbone (.mat) -> ModeBackbone
+Settings (:mod:`experiment.backbone`)
+    checked_settings, check_nyquist   the band, grid and time scales refused before any signal is read
 Command (:mod:`experiment.commands`)
     surrogacy freevib FILE --mode-hz F
 """

@@ -2,7 +2,7 @@
 (docs/design.md section 3).
 
 - ``elasticity``: ``Material``, ``solid_mesh``, ``stiffness_matrix``, ``mass_matrix``, ``rigid_body_modes``.
-- ``bolts``: ``Bolt``, shank stiffness, stress stiffness and mass joined by washer couplings
+- ``bolts``: ``Bolt``, ``BOLT_PRELOAD``, shank stiffness, stress stiffness and mass joined by washer couplings
   (``bolts_stiffness``, ``preload_forces``, ``bolts_mass``).
 - ``coupling``: distributing (RBE3-like) couplings: ``nodal_areas``, ``rigid_average``, ``coupling_matrix``.
 - ``contact``: ``frictionless_contact`` -> ``ContactSolution``, the preload solve.
@@ -13,5 +13,6 @@
 - ``prestress``: ``prestressed_beam`` -> ``PrestressedBeam``, the whole stage for one beam in memory.
 - ``render``: ``render_fe`` (contact pressure, first bending).
 - ``convergence``, ``calibration``, ``calculix``: mesh convergence, geometry calibration, a CalculiX cross-check.
-- ``commands``: ``make_fe``, ``read_csr``, ``beam_inputs``; ``surrogacy fe``, ``fe-convergence``, ``calibrate``.
+- ``fe_files``: ``make_fe`` (one beam's result files, cached), ``read_csr``, ``beam_inputs``, ``FeInputError``.
+- ``commands``: ``surrogacy fe``, ``fe-convergence``, ``calibrate``.
 """

@@ -6,5 +6,7 @@
 - ``config``: ``resolve`` and ``configuration`` (defaults, ``--config`` TOML, ``--set``), ``add_config_arguments``,
   ``ConfigError``.
 - ``render``: ``tetrahedral_grid``, ``triangle_surface`` (off-screen PyVista).
-- ``cli``: the ``surrogacy`` console script, ``main``.
+- ``cli``: the ``surrogacy`` console script, ``main``; it collects every package's ``commands`` module.
+- ``demo``: the demo's plan (``plan``: every stage's arguments, or why it is skipped) and runner (``run_steps``);
+  ``commands``: ``surrogacy demo``.
 """

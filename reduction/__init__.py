@@ -7,7 +7,9 @@
   ``preload_vector``.
 - ``sensors``: ``accelerometer_points``, ``point_recovery``.
 - ``superelement``: ``Superelement``, ``save_superelement``, ``load_superelement``, ``read_asb_superelement``,
-  ``tied_modes``, ``stuck_joint_modes``.
+  ``ASB_CONFIGURATIONS``, ``tied_modes``, ``stuck_joint_modes``, ``beam_superelement`` (a beam's superelement as
+  the study uses it), ``target_mode`` (the mode a measurement saw), ``StructureError``.
 - ``render``: ``render_mode``.
-- ``commands``: ``make_rom``, ``ReductionParameters``; ``surrogacy rom``.
+- ``rom_files``: ``make_rom`` (one beam's result files, cached), ``ReductionParameters``, ``fe_inputs``.
+- ``commands``: ``surrogacy rom``.
 """

@@ -2,8 +2,8 @@
 surrogate) be trusted in another (the real one)? ``surrogacy study`` runs it step by step (:mod:`study.commands`,
 :mod:`study.workflow`).
 
-Measurements to fit (:mod:`study.datasets`, :mod:`virtual_experiment.hammer_test`, :mod:`study.structures`)
-    virtual_experiments         the beams' virtual hammer tests of one reference joint (labelled virtual)
+Measurements to fit (:mod:`study.datasets`, :mod:`study.structures`; the beams' from :mod:`virtual_experiment`)
+    DATASETS, DATASET_MODELS    the beams (virtual experiments) and the ASB (measured), their friction models
     write_asb_measurements      the ASB's measured backbones in the backbone CSV format
     structure, Structure        superelement, target mode chosen from the measured frequency, levels to fit
 Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.exploration`)
@@ -16,6 +16,8 @@ Answers (:mod:`study.surrogacy`, :mod:`study.pareto`, :mod:`study.anova`, :mod:`
     non_dominated, nsga2_front  Pareto fronts of the sample and of NSGA-II seeded from it (Fig. 6)
     surrogacy_anova             Table 6's four-way ANOVA (statsmodels)
     compare                     the SBRB with and without prestress (Fig. 12)
-Files (:mod:`study.analysis`, :mod:`study.figures`, :mod:`study.report`)
+Files (:mod:`study.parameters`, :mod:`study.workflow`, :mod:`study.analysis`, :mod:`study.figures`, :mod:`study.report`)
+    defaults                    the configuration's sections ([study], [sample], [acceptance], [pareto])
+    run_steps                   measurements, explore, analyse, report on files
     analysis tables and figures, report.md
 """
