@@ -20,11 +20,11 @@ from pathlib import Path
 from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
 
-STEPS = ("beams", "fe", "rom", "freevib", "study-asb", "study-beams", "discrepancy", "discrepancy-modal-asb", "report")
+STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "study-beams", "discrepancy", "discrepancy-modal-asb", "report")
 DEMO_STEPS = tuple(step for step in STEPS if step != "discrepancy-modal-asb")
 """The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more)."""
 BESIDE = ("study-asb",)
-"""Steps started in the background, beside the steps before the beams' study."""
+"""Steps started in the background, beside the steps after them until the beams' study."""
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,10 @@ def plan(options: DemoOptions) -> list[Step]:
     build, results = options.build, options.results
     backbones = options.data / "asb-backbones"
     table1 = options.reference / "paper_table1_low_amplitude.csv"
-    steps = [Step("beams", (("beams", "--out", str(build / "beams")),)),
+    steps = [Step("study-asb", (("study", "--out", str(results / "study-asb"), "--data", str(options.data),
+                                 "--set", "study.dataset=asb", *study_options(options)),))
+             if backbones.is_dir() else Step("study-asb", skipped=f"{backbones} not found"),
+             Step("beams", (("beams", "--out", str(build / "beams")),)),
              Step("fe", (("fe", "--beams", str(build / "beams"), "--out", str(build / "fe")),)),
              Step("rom", (("rom", "--beams", str(build / "beams"), "--fe", str(build / "fe"), "--out",
                            str(build / "rom")),))]
@@ -81,11 +84,6 @@ def plan(options: DemoOptions) -> list[Step]:
                                        "--per-channel", "--out", str(results / "freevib")),)))
     else:
         steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
-    if backbones.is_dir():
-        steps.append(Step("study-asb", (("study", "--out", str(results / "study-asb"), "--data", str(options.data),
-                                         "--set", "study.dataset=asb", *study_options(options)),)))
-    else:
-        steps.append(Step("study-asb", skipped=f"{backbones} not found"))
     if table1.is_file():
         steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
                                            *study_options(options)),)))
