@@ -1,5 +1,5 @@
-"""The model-discrepancy loop (docs/design.md section 7): from a measured backbone and a model that does not fit it, find
-which missing effect explains the residual, add it, refit, and report the error before and after; answer
+"""The model-discrepancy loop (docs/design.md section 8): from a measured backbone and a model that does not fit it,
+find which missing effect explains the residual, add it, refit, and report the error before and after; answer
 "unexplained" rather than guess.
 
 Model. The one-mode joint model of ``nonlinear.modal_joint`` (a linear mode plus a Jenkins element, the

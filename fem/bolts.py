@@ -1,4 +1,5 @@
-"""Bolts: an elastic shank joined to the washer footprints by distributing (RBE3-like) couplings (docs/design.md section 3).
+"""Bolts: an elastic shank joined to the washer footprints by distributing (RBE3-like) couplings (docs/design.md
+section 3).
 
 Each washer footprint has a reference point on the bolt axis. Its six DOFs (translation t, rotation theta) are
 the area-weighted least-squares rigid motion of the footprint nodes, minimising

@@ -1,4 +1,5 @@
-"""Calibration of the LBRB and SBRB geometry to the measured first-bending ratios (docs/design.md section 2; paper Table 1).
+"""Calibration of the LBRB and SBRB geometry to the measured first-bending ratios (docs/design.md section 2; paper
+Table 1).
 
 No drawings of the LBRB and SBRB are public. Their free parameters (``LBRB.body_length``, ``SBRB.spring_height``)
 are found so that, with the same joint as the BRB, their first out-of-plane bending frequencies relative to the

@@ -1,4 +1,5 @@
-"""Prestressed modes of a bolted beam: preload with frictionless contact, stress stiffness, tied modes (docs/design.md section 3).
+"""Prestressed modes of a bolted beam: preload with frictionless contact, stress stiffness, tied modes
+(docs/design.md section 3).
 
 Steps, for one beam mesh:
 

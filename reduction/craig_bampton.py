@@ -1,4 +1,5 @@
-"""Hurty/Craig-Bampton superelement of the two unjoined halves, the patch virtual nodes as boundary (docs/design.md section 4).
+"""Hurty/Craig-Bampton superelement of the two unjoined halves, the patch virtual nodes as boundary (docs/design.md
+section 4).
 
 Boundary: the 60 virtual-node DOFs u_b = T u of the ten interface patches (paper 4.1), T (60, n_dof) the
 area-weighted least-squares rigid motion of each patch about its centroid (``fem.springs.patch_couplings``,

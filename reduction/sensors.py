@@ -1,4 +1,5 @@
-"""Sensor points of the beams and the recovery of displacements at arbitrary points of the mesh (docs/design.md section 4).
+"""Sensor points of the beams and the recovery of displacements at arbitrary points of the mesh (docs/design.md
+section 4).
 
 Accelerometers (paper Fig. 2: ten accelerometers along the beam, read normal to the top face). No drawing with
 their exact positions is public; we place five on the top face of each body (outside the lap, which carries the

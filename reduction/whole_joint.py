@@ -1,6 +1,7 @@
 """The whole-joint superelement of one beam: patch virtual nodes, Hurty/Craig-Bampton, sensors (paper 4.1).
 
-What the superelement holds (docs/design.md section 4: two free halves, 12 zero-energy modes until joint elements connect them):
+What the superelement holds (docs/design.md section 4: two free halves, 12 zero-energy modes until joint elements
+connect them):
 - both halves' solid stiffness and mass, and the bolt, nut and washer mass (28.64 g per bolt, half on each
   washer footprint, ``fem.bolts.bolts_mass``): the total mass, centre of mass and inertia are the full model's;
 - not the bolt shanks' stiffness. In the whole-joint model the patch elements represent the whole joint: the

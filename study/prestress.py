@@ -6,8 +6,8 @@ preloaded shanks' string term), without it K. The free halves' K_A + K_bolt is i
 beam_superelement``), so the comparison is made where the prestress is balanced: on the assembled model
 K_total = K_halves + P^T diag(k) P (P the relative patch translations, k a design's stuck joint tangents), by a
 dense generalised eigen-solve with (M) for each design, the target mode by MAC with the tied first bending.
-(A dense solve of this kind is off by up to 0.4 % for the stiffest Table 3 joints, docs/design.md section 5.1: adequate for a
-question about tens of Hz, and independent of the condensation the study uses.)
+(A dense solve of this kind is off by up to 0.4 % for the stiffest Table 3 joints, docs/design.md section 5.1:
+adequate for a question about tens of Hz, and independent of the condensation the study uses.)
 
 The paper reports that without prestress the SBRB cannot be tuned below about 25 Hz of frequency error. The
 lowest L-infinity frequency error of a design is at least its error at the lowest measured level, which is its

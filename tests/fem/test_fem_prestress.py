@@ -31,8 +31,8 @@ def test_six_rigid_modes_with_and_without_prestress(brb):
 
 def test_prestress_lowers_the_first_bending_frequency_slightly(brb):
     """The clamp's through-thickness compression softens the lap: the first out-of-plane bending frequency drops,
-    by less than the 0.04 % CalculiX found for stuck contact (docs/design.md section 3.1), and by more than the eigen-solver's
-    round-off (the rigid modes' 1e-3 Hz on 200 Hz is an eigenvalue error near 1e-11 relative)."""
+    by less than the 0.04 % CalculiX found for stuck contact (docs/design.md section 3.1), and by more than the
+    eigen-solver's round-off (the rigid modes' 1e-3 Hz on 200 Hz is an eigenvalue error near 1e-11 relative)."""
     change = brb.prestressed_frequencies[6] / brb.frequencies[6] - 1
     assert -4e-4 < change < -1e-7
     tied, prestressed = brb.shapes[:, 6], brb.prestressed_shapes[:, 6]

@@ -1,5 +1,6 @@
-"""The Hurty/Craig-Bampton superelement of the three beams with whole-joint patches (docs/design.md section 4), coarse meshes
-(about 40 s: per beam, assembly, reduction and two full-model eigen-solves); default meshes in a slow test."""
+"""The Hurty/Craig-Bampton superelement of the three beams with whole-joint patches (docs/design.md section 4),
+coarse meshes (about 40 s: per beam, assembly, reduction and two full-model eigen-solves); default meshes in a
+slow test."""
 
 from __future__ import annotations
 
