@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import importlib
 import json
 import resource
@@ -37,9 +38,9 @@ INTERRUPTED = threading.Event()  # set by the first Ctrl-C, even where Python sw
 
 
 def interrupt(signal_number, frame) -> None:
-    """Ctrl-C: remember it, then raise KeyboardInterrupt as Python's own handler does. Python prints and ignores
-    an exception raised while it runs a weakref callback or ``__del__`` (an import's module-lock callback, for
-    one); the remembered Ctrl-C still ends the command with 130 once control is back in it."""
+    """Ctrl-C: remember it, then raise KeyboardInterrupt as Python's own handler does. Python ignores an exception
+    raised while it runs a weakref callback or ``__del__`` (a finalizer, an import's module-lock callback);
+    ``redeliver_swallowed`` then sends the signal again, so the command still stops at once with 130."""
     INTERRUPTED.set()
     raise KeyboardInterrupt
 
@@ -57,6 +58,20 @@ def terminate(signal_number, frame) -> None:
     """SIGTERM as a clean exit: the stage's ``finally`` blocks run (temporary files removed) before it ends."""
     TERMINATED.set()
     raise SystemExit(128 + signal_number)
+
+
+def redeliver_swallowed(unraisable, fallback=sys.__unraisablehook__) -> None:
+    """``sys.unraisablehook`` while a command runs: the KeyboardInterrupt or SystemExit of ``interrupt`` or
+    ``terminate``, raised inside a finalizer and ignored there by Python, is not printed; its signal is sent to the
+    main thread again 10 ms later, when the finalizer has returned, so the command ends as if it had come then.
+    Any other unraisable exception goes to ``fallback``, the hook in place before (Python's own prints it)."""
+    swallowed = {KeyboardInterrupt: (INTERRUPTED, signal.SIGINT), SystemExit: (TERMINATED, signal.SIGTERM)}
+    event, signal_number = swallowed.get(unraisable.exc_type, (None, None))
+    if event is None or not event.is_set():
+        fallback(unraisable)
+        return
+    main_thread = threading.main_thread().ident
+    threading.Timer(0.01, signal.pthread_kill, args=(main_thread, signal_number)).start()
 
 
 def peak_memory_mb() -> float:
@@ -115,9 +130,12 @@ def stage_signals():
     TERMINATED.clear()
     previous = {number: signal.signal(number, handler)
                 for number, handler in ((signal.SIGINT, interrupt), (signal.SIGTERM, terminate))}
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = functools.partial(redeliver_swallowed, fallback=previous_hook)
     try:
         yield
     finally:
+        sys.unraisablehook = previous_hook
         for number, handler in previous.items():
             signal.signal(number, handler)
 

@@ -4,8 +4,9 @@ interruption gives the files of an uninterrupted run without recomputing the bea
 run into a folder another run is writing is refused with one line naming the folder (exit 2), touching nothing.
 
 The kill tests run ``surrogacy`` as real processes on coarse beams and signal them at points found by watching the
-output folder: while the first beam is computed (2 s after the stage took its folder's lock), while its files are
-written (a ``.partial-*`` temporary exists) and once its sidecar is in place (the second beam then computing).
+output folder: while the first beam is computed (half a second after the stage took its folder's lock), while its
+files are written (a ``.partial-*`` temporary exists) and once its sidecar is in place (the second beam then
+computing).
 """
 
 import argparse
@@ -16,6 +17,7 @@ import os
 import re
 import shutil
 import signal
+import sys
 import time
 
 import pytest
@@ -71,7 +73,8 @@ def interrupt_at(point: str, process, out) -> None:
     """Wait until the run started into ``out`` reaches ``point`` (module docstring)."""
     if point == "computing":
         wait_for(lambda: (out / LOCK).exists(), process, "the stage's lock")
-        time.sleep(2.0)
+        time.sleep(0.5)
+        assert not partial_files(out), "the run was writing its first beam half a second after taking its lock"
     elif point == "writing":
         wait_for(lambda: partial_files(out), process, "a temporary file")
     else:
@@ -190,30 +193,39 @@ def test_ctrl_c_while_the_stages_load_is_a_clean_exit(tmp_path):
     assert_clean_ctrl_c(process.wait(timeout=60), tmp_path / "beams.log")
 
 
-class CtrlCInFinaliser:
-    """An object whose finaliser receives Ctrl-C: Python prints the KeyboardInterrupt raised there as "Exception
-    ignored" and goes on, as it does in its import machinery's callbacks."""
+class SignalInFinaliser:
+    """An object whose finaliser receives a signal: Python ignores the exception that the handler raises there (a
+    KeyboardInterrupt or SystemExit), as it does in its import machinery's callbacks."""
+
+    def __init__(self, signal_number: int):
+        self.signal_number = signal_number
 
     def __del__(self):
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), self.signal_number)
         time.sleep(0.1)  # the handler runs here, inside the finaliser
 
 
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")  # the swallowed interrupt itself
-def test_ctrl_c_that_python_swallows_still_ends_the_stage_with_130(capsys):
-    """A Ctrl-C whose KeyboardInterrupt Python swallows (raised in a finaliser) still gives exit 130 and the
-    interrupted line once the stage's code returns; SIGINT's previous handler is back afterwards."""
+@pytest.mark.parametrize("signal_number, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)],
+                         ids=["ctrl-c", "sigterm"])
+def test_a_signal_that_python_swallows_still_stops_the_stage_at_once(signal_number, status, capsys):
+    """Ctrl-C or SIGTERM whose exception Python swallows (raised in a finaliser) is delivered again once the
+    finaliser has returned: the stage stops within a second instead of running on to its end, exit 130 (with the
+    interrupted line) or 143, nothing printed about the finaliser; the previous handlers and hook are back after."""
     def stage(arguments):
-        CtrlCInFinaliser()  # made and finalised at once
+        SignalInFinaliser(signal_number)  # made and finalised at once
+        time.sleep(5.0)  # the rest of the stage's work
         arguments.reached_the_end = True
 
-    arguments = argparse.Namespace(command="beams", run=stage)
-    before = signal.getsignal(signal.SIGINT)
+    arguments = argparse.Namespace(command="beams", run=stage, reached_the_end=False)
+    before = signal.getsignal(signal_number), sys.unraisablehook
+    started = time.monotonic()
     with stage_signals():
-        status = run(arguments)
-    assert arguments.reached_the_end  # the interrupt was indeed swallowed, not raised in the stage
-    assert status == 130 and INTERRUPTED in capsys.readouterr().err
-    assert signal.getsignal(signal.SIGINT) is before
+        assert exit_status(arguments) == status
+    assert not arguments.reached_the_end and time.monotonic() - started < 1.0
+    error = capsys.readouterr().err
+    assert "Exception ignored" not in error and "Traceback" not in error
+    assert (INTERRUPTED in error) == (signal_number == signal.SIGINT)
+    assert (signal.getsignal(signal_number), sys.unraisablehook) == before
 
 
 def stage_whose_extension_mangles(signal_number):
