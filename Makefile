@@ -50,6 +50,7 @@ $(STEPS): $(STAMP)
 fe: beams
 rom: fe
 study-beams: rom
+discrepancy: freevib
 study: study-asb study-beams
 
 # The paper's scale: 5,000,000 designs per friction model in chunks of 5,000 on a LocalCluster (or SCHEDULER=address),

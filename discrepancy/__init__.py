@@ -3,13 +3,13 @@ explains the residual; the effect added, the model refitted, the errors before a
 a guess. ``surrogacy discrepancy`` runs it (:mod:`discrepancy.commands`).
 
 The loop and the one-mode route (:mod:`discrepancy.loop`)
-    Measurement, measurement_from_backbone   the measured levels (frequency, damping, their uncertainties)
     EFFECTS, model_backbone, fit             the effect library, the one-mode joint model, weighted least squares
     discrepancy_loop, select_effects         forward selection by BIC, stepwise swap and drop; Verdict
 The superelement route (:mod:`discrepancy.superelement_route`)
     from_study, structure_discrepancy_loop   a study's structure and Pareto designs as the reference model
 Files (:mod:`discrepancy.files`)
-    read_measured_backbone, write_verdict    the measurement in, discrepancy.md/.png/.json out
+    write_verdict                            discrepancy.md/.png/.json (the measurement is read by
+                                             ``experiment.measured_files``, binned by ``study.structures``)
 Data with known content for tests (:mod:`discrepancy.virtual_data`, labelled virtual)
     undeclared_backbone, undeclared_ringdown and their writers
 """

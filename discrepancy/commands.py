@@ -3,8 +3,8 @@ errors before and after.
 
 Two models:
 
-``surrogacy discrepancy FILE``: a backbone CSV, an ASB measured backbone (.mat with Q, W, Z) or a ring-down (.csv,
-.mat, .uff with ``--mode-hz``), with the one-mode joint model (``discrepancy.loop``) for measurements with no
+``surrogacy discrepancy FILE``: a backbone CSV (a ring-down is processed into one by ``surrogacy freevib``) or an
+ASB measured backbone (.mat with Q, W, Z), with the one-mode joint model (``discrepancy.loop``) for measurements with no
 finite-element model behind them, at the nominal low-amplitude frequency and linear damping of the structure's
 model (``--nominal-frequency-hz``, ``--nominal-damping``; default: the measurement's own values at its lowest
 amplitude, so that only the amplitude dependence is questioned).
@@ -25,29 +25,32 @@ import argparse
 from functools import partial
 from pathlib import Path
 
-from discrepancy.files import read_measured_backbone, write_verdict
-from discrepancy.loop import discrepancy_loop, measurement_from_backbone
+from discrepancy.files import write_verdict
+from discrepancy.loop import discrepancy_loop
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
+from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
 from pipeline.files import stage_folder
+from study.structures import N_LEVELS, measured_levels
 
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the loop on one measured backbone (FILE, one-mode model) or on a study's structure (its superelement
     and the study's fits) and write its report."""
     if (arguments.file is None) == (arguments.study is None):
-        raise ValueError("give either FILE (a measured backbone or ring-down) or --study FOLDER --structure NAME")
+        raise ValueError("give either FILE (a measured backbone) or --study FOLDER --structure NAME")
     if arguments.study is not None:
         if arguments.structure is None:
             raise ValueError("--study needs --structure NAME (e.g. 'ASB C1' or 'LBRB')")
         loaded = from_study(arguments.study, arguments.structure)
-        measurement, source = loaded.measurement, f"{arguments.structure} of {arguments.study} ({loaded.provenance})"
-        record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": loaded.provenance,
+        measurement = loaded.measurement
+        source = f"{arguments.structure} of {arguments.study} ({measurement.provenance})"
+        record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": measurement.provenance,
                   "borrowed_damping": loaded.borrowed_damping,
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
         loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping)
     else:
-        measured = read_measured_backbone(arguments.file, arguments.mode_hz)
-        measurement = measurement_from_backbone(measured, arguments.levels, str(arguments.file))
+        measured = read_mode_backbone(arguments.file)
+        measurement = measured_levels(measured, arguments.levels, str(arguments.file))
         frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
         damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
         source = f"{arguments.file} ({measured.provenance})"
@@ -66,14 +69,12 @@ def register(subparsers) -> None:
     command = subparsers.add_parser(
         "discrepancy", help="what the model of a measured mode lacks: effects found, errors before and after",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    command.add_argument("file", type=Path, nargs="?",
-                         help="backbone CSV, ASB backbone .mat, or ring-down (with --mode-hz)")
+    command.add_argument("file", type=Path, nargs="?", help=f"a measured backbone: {known_formats(BACKBONE)}")
     command.add_argument("--study", type=Path, help="a surrogacy study's folder: the loop on a structure's "
                                                     "superelement from the study's Pareto designs (with --structure)")
     command.add_argument("--structure", help="the study's structure, e.g. 'ASB C1' or 'LBRB'")
-    command.add_argument("--mode-hz", type=float, help="the mode's frequency guess: FILE is a ring-down")
     command.add_argument("--nominal-frequency-hz", type=float, help="the model's low-amplitude frequency, Hz")
     command.add_argument("--nominal-damping", type=float, help="the model's linear damping ratio")
-    command.add_argument("--levels", type=int, default=20, help="amplitude levels the measurement is binned to")
+    command.add_argument("--levels", type=int, default=N_LEVELS, help="amplitude levels the measurement is binned to")
     command.add_argument("--out", type=Path, default=Path("results/discrepancy"), help="output folder")
     command.set_defaults(run=run)

@@ -1,5 +1,5 @@
-"""The discrepancy loop's files: the measured backbone it reads (backbone CSV, ASB .mat backbone or ring-down) and
-what it writes for a verdict: ``discrepancy.md`` (the effect found at each step, the evidence, the errors before
+"""The discrepancy loop's files: what it writes for a verdict (the backbone it reads is any backbone format of
+``experiment.measured_files``): ``discrepancy.md`` (the effect found at each step, the evidence, the errors before
 and after), ``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same
 numbers and the fitted parameters)."""
 
@@ -10,24 +10,8 @@ from pathlib import Path
 from matplotlib.ticker import NullFormatter
 
 from discrepancy.loop import Verdict, residual_features
-from experiment.backbone import mode_backbone, ringdown_backbone
-from experiment.backbone_files import NotABackboneError, read_asb_backbone, read_backbone
-from experiment.ringdown_files import read_ringdown
 from pipeline.files import atomic_path, write_json
 from study.figures import plt, save
-
-
-def read_measured_backbone(path: Path, mode_hz: float | None):
-    """A backbone from a backbone CSV, an ASB .mat backbone (Q, W, Z) or a ring-down file (needs mode_hz). A file
-    that is not a backbone, read without mode_hz, raises a ValueError asking for --mode-hz."""
-    path = Path(path)
-    if mode_hz is not None:
-        return mode_backbone(ringdown_backbone(read_ringdown(path), mode_hz), path.stem, "measured")
-    try:
-        return read_asb_backbone(path) if path.suffix.lower() == ".mat" else read_backbone(path)
-    except NotABackboneError as error:
-        raise ValueError(f"{error}; not a backbone: for a ring-down give --mode-hz F, the frequency (Hz) of the "
-                         "mode to analyse") from None
 
 
 def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:

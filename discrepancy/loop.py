@@ -36,15 +36,12 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit, logit
 
-from experiment.backbone import ModeBackbone
 from nonlinear.modal_joint import modal_joint_backbone
-from study.structures import N_LEVELS, measured_levels
+from study.structures import Measurement
 
 EVIDENCE = 10.0  # BIC decrease an effect must bring to be added
 AT_NOISE = 1.5  # chi^2 per degree of freedom at which the residual is the measurement's noise
 UNEXPLAINED = 3.0  # chi^2 per degree of freedom above which a remaining residual is reported unexplained
-FREQUENCY_FLOOR = 1e-4  # relative floor of the frequency uncertainty
-DAMPING_FLOOR = 2e-2  # relative floor of the damping uncertainty
 UNDEFINED_MISFIT = 1e8  # residual given to a point where the model is undefined (the optimiser moves away)
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
@@ -59,49 +56,6 @@ EFFECTS = {
     "cubic_stiffening": (("cubic", "log", 1e-4),),
 }
 BASE = (("kappa", "unit", 0.3), ("slip_force", "log", None))
-
-
-class DiscrepancyError(ValueError):
-    """A backbone the loop cannot work on; the message names the source and the field."""
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """A measured backbone for the loop: amplitude (n,) m kg^0.5 increasing, frequency_hz (n,), damping (n,),
-    their standard uncertainties (n,) (NaN: unknown, the floors apply), and where it came from."""
-
-    amplitude: np.ndarray
-    frequency_hz: np.ndarray
-    damping: np.ndarray
-    frequency_uncertainty_hz: np.ndarray
-    damping_uncertainty: np.ndarray
-    source: str = "backbone"
-
-    def __post_init__(self):
-        for name in ("amplitude", "frequency_hz", "damping"):
-            values = np.asarray(getattr(self, name), dtype=float)
-            if not np.all(np.isfinite(values)):
-                raise DiscrepancyError(f"{self.source}: field {name}: NaN or infinite values")
-        if len(self.amplitude) < 3 or np.any(np.diff(self.amplitude) <= 0) or self.amplitude[0] <= 0:
-            raise DiscrepancyError(f"{self.source}: field amplitude: expected at least 3 positive, increasing "
-                                   f"amplitudes; got {len(self.amplitude)}")
-
-    @property
-    def sigma_frequency(self) -> np.ndarray:
-        return np.fmax(np.nan_to_num(self.frequency_uncertainty_hz, nan=0.0), FREQUENCY_FLOOR * self.frequency_hz)
-
-    @property
-    def sigma_damping(self) -> np.ndarray:
-        return np.fmax(np.nan_to_num(self.damping_uncertainty, nan=0.0), DAMPING_FLOOR * np.abs(self.damping))
-
-
-def measurement_from_backbone(measured: ModeBackbone, n_levels: int = N_LEVELS, source: str = "backbone"
-                              ) -> Measurement:
-    """A backbone (measured or virtual) at up to ``n_levels`` levels with the uncertainty of each
-    (``study.structures.measured_levels``: the study's levels, so the loop sees what the study fitted)."""
-    target = measured_levels(measured, n_levels, source)
-    return Measurement(target.amplitude, target.frequency_hz, target.damping, target.frequency_uncertainty_hz,
-                       target.damping_uncertainty, source)
 
 
 def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nominal_damping: float):

@@ -40,9 +40,10 @@ from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.config import resolve
 from study.parameters import defaults
 from study.datasets import DEFAULT_DAMPING_CASE
-from discrepancy.loop import (EFFECTS, Fit, Measurement, Verdict, _to_parameters, _to_vector, bic, outside_joint,
+from discrepancy.loop import (EFFECTS, Fit, Verdict, _to_parameters, _to_vector, bic, outside_joint,
                                select_effects, weighted_misfit)
 from study.exploration import read_exploration
+from study.structures import Measurement
 from study.workflow import Paths, exploration
 
 FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_MODELS.items()
@@ -159,14 +160,12 @@ def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borro
 
 
 class StudyStructure(NamedTuple):
-    """What the loop needs from a study folder for one structure: its measurement at the study's levels, the
-    candidates of each friction model the study explored, the borrowed zeta_0, and where they come from."""
+    """What the loop needs from a study folder for one structure: its measurement at the study's levels (with its
+    provenance and source), the candidates of each friction model the study explored, the borrowed zeta_0."""
 
     measurement: Measurement
     candidates: dict
     borrowed_damping: float
-    provenance: str
-    source: str
 
 
 def from_study(folder: Path, name: str) -> StudyStructure:
@@ -186,9 +185,7 @@ def from_study(folder: Path, name: str) -> StudyStructure:
     index = explored.names.index(name)
     structure = explored.structures[index]
     borrowed = explored.damping_cases[DEFAULT_DAMPING_CASE[parameters["study"].dataset]][index]
-    target = structure.target
-    measurement = Measurement(target.amplitude, target.frequency_hz, target.damping, target.frequency_uncertainty_hz,
-                              target.damping_uncertainty, target.source)
+    measurement = structure.measurement
     candidates = {}
     for model in (m for m in FRICTION_EFFECTS if m in explored.models):
         fronts_path = paths.analysis / f"fronts_{model}.csv"
@@ -202,5 +199,6 @@ def from_study(folder: Path, name: str) -> StudyStructure:
         designs = np.vstack([frame.loc[sample["design"], names].to_numpy(),
                              fronts.loc[fronts["source"] == "nsga2", names].to_numpy()])
         labels = [f"sample {d}" for d in sample["design"]] + [f"nsga2 {i}" for i in range(len(designs) - len(sample))]
-        candidates[model] = evaluate_candidates(structure.space, model, designs, labels, target.amplitude, borrowed)
-    return StudyStructure(measurement, candidates, borrowed, target.provenance, target.source)
+        candidates[model] = evaluate_candidates(structure.space, model, designs, labels, measurement.amplitude,
+                                                borrowed)
+    return StudyStructure(measurement, candidates, borrowed)

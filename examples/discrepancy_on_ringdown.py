@@ -14,10 +14,11 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from discrepancy.loop import discrepancy_loop, measurement_from_backbone
+from discrepancy.loop import discrepancy_loop
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
 from experiment.backbone import mode_backbone, ringdown_backbone
-from experiment.ringdown_files import read_ringdown
+from experiment.measured_files import read_ringdown
+from study.structures import measured_levels
 
 
 def main(argv=None):
@@ -38,7 +39,7 @@ def main(argv=None):
         parser.error("a ring-down file needs --mode-hz")
     measured = mode_backbone(ringdown_backbone(read_ringdown(arguments.ringdown), arguments.mode_hz),
                              arguments.ringdown.stem, provenance)
-    measurement = measurement_from_backbone(measured, source=str(arguments.ringdown))
+    measurement = measured_levels(measured, path=str(arguments.ringdown))
     verdict = discrepancy_loop(measurement, arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
                                arguments.nominal_damping or float(measurement.damping[0]))
     for step in verdict.steps:

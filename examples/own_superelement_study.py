@@ -57,7 +57,7 @@ def run_study(structures: list, designs: int, out: Path, client=None):
     chosen on each and the surrogacy matrix."""
     for structure_ in structures:
         print(structure_.mode_choice)
-    damping = {"measured": [float(s.target.damping[0]) for s in structures]}
+    damping = {"measured": [float(s.measurement.damping[0]) for s in structures]}
     exploration = Exploration(tuple(structures), (MODEL,), Sample(n_designs=designs, chunk_size=500), damping)
     explore(exploration, out, client=client)
     errors = model_errors(out, MODEL, exploration.names, "measured")

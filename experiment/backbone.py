@@ -312,7 +312,8 @@ class ModeBackbone:
     structure: name of the structure (e.g. "ASB C1", "BRB"). low_amplitude_frequency_hz: the mode's natural
     frequency at the lowest amplitude with data, Hz. amplitude_unit: unit of ``backbone.amplitude`` (a
     mass-normalised modal amplitude is in m kg^0.5). provenance: one of :data:`PROVENANCES`. source: what it
-    was obtained from (file, or model and design). backbone: the points with their spread.
+    was obtained from (file, or model and design). backbone: the points with their spread. settings: how the
+    backbone was estimated (e.g. the band and windows of :func:`ringdown_backbone`; empty where not recorded).
     """
 
     structure: str
@@ -321,13 +322,16 @@ class ModeBackbone:
     provenance: str
     source: str
     backbone: Backbone = field(repr=False)
+    settings: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         if self.provenance not in PROVENANCES:
             raise ValueError(f"provenance '{self.provenance}' is not one of {PROVENANCES}")
 
 
-def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str) -> ModeBackbone:
-    """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study."""
+def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None
+                  ) -> ModeBackbone:
+    """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study, with the
+    ``settings`` it was estimated with."""
     return ModeBackbone(structure, float(low_amplitude_reference(measured.hilbert.natural_frequency_hz)),
-                        measured.amplitude_unit, provenance, measured.source, measured.hilbert)
+                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}))

@@ -11,6 +11,7 @@ Comment lines ``# key: value`` first, in this order::
     # amplitude_unit: <unit of the amplitude column, e.g. m kg^0.5 for a mass-normalised modal amplitude>
     # provenance: <measured | virtual>
     # source: <file (and hash) or model and design it was obtained from>
+    # settings: <optional: the estimation's settings as one JSON object, e.g. those of surrogacy freevib>
 
 then one header row of :data:`BACKBONE_COLUMNS` (``name [unit]``, comma separated) and one row per amplitude,
 in increasing amplitude:
@@ -33,6 +34,7 @@ per estimate, without spread.
 from __future__ import annotations
 
 import csv
+import json
 import re
 from pathlib import Path
 
@@ -64,14 +66,9 @@ ASB_MODAL_AMPLITUDE_UNIT = "m kg^0.5"
 """Unit of a mass-normalised modal amplitude q (u = phi q with phi^T M phi = 1)."""
 
 
-class NotABackboneError(ValueError):
-    """A file that is not a backbone at all (another kind of file: a ring-down, a table), as opposed to a
-    backbone file with a malformed field."""
-
-
-def file_error(path, field: str, problem: str, kind: type[ValueError] = ValueError) -> ValueError:
-    """A ValueError (or ``kind``) naming the file, the field and the problem."""
-    return kind(f"{path}: field '{field}': {problem}")
+def file_error(path, field: str, problem: str) -> ValueError:
+    """A ValueError naming the file, the field and the problem."""
+    return ValueError(f"{path}: field '{field}': {problem}")
 
 
 def backbone_header(amplitude_unit: str) -> list[str]:
@@ -85,20 +82,21 @@ def write_backbone(mode: ModeBackbone, destination: Path) -> None:
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         stream.write(f"# {BACKBONE_TITLE}\n")
         stream.writelines(f"# {key}: {values.get(key, getattr(mode, key))}\n" for key in BACKBONE_KEYS)
+        if mode.settings:
+            stream.write(f"# settings: {json.dumps(mode.settings, sort_keys=True)}\n")
         writer = csv.writer(stream)
         writer.writerow(backbone_header(mode.amplitude_unit))
         writer.writerows(zip(*(getattr(mode.backbone, field).tolist() for _, _, field in BACKBONE_COLUMNS)))
 
 
 def read_backbone(path: Path) -> ModeBackbone:
-    """Read a backbone CSV (format in the module docstring); a malformed file raises a ValueError naming it, a file
-    without the backbone title line a NotABackboneError."""
+    """Read a backbone CSV (format in the module docstring); a malformed file raises a ValueError naming it."""
     path = Path(path)
     with open(path, newline="") as stream:
         lines = stream.read().splitlines()
     comments = [line[1:].strip() for line in lines if line.startswith("#")]
     if not comments or comments[0] != BACKBONE_TITLE:
-        raise file_error(path, "title", f"first line must read '# {BACKBONE_TITLE}'", NotABackboneError)
+        raise file_error(path, "title", f"first line must read '# {BACKBONE_TITLE}'")
     header = dict(comment.partition(": ")[::2] for comment in comments[1:])
     missing = [key for key in BACKBONE_KEYS if key not in header]
     if missing:
@@ -114,8 +112,12 @@ def read_backbone(path: Path) -> ModeBackbone:
         raise file_error(path, "rows", f"not a table of {len(BACKBONE_COLUMNS)} numbers per row: {error}") from error
     columns = dict(zip((field for _, _, field in BACKBONE_COLUMNS), table.T))
     columns["n_records"] = columns["n_records"].astype(int)
+    try:
+        settings = json.loads(header.get("settings", "{}"))
+    except json.JSONDecodeError as error:
+        raise file_error(path, "settings", f"not one JSON object: {error}") from error
     return ModeBackbone(header["structure"], float(header["low_amplitude_frequency_hz"]), header["amplitude_unit"],
-                        header["provenance"], header["source"], Backbone(**columns))
+                        header["provenance"], header["source"], Backbone(**columns), settings)
 
 
 def read_asb_backbone(path: Path) -> ModeBackbone:
@@ -129,7 +131,7 @@ def read_asb_backbone(path: Path) -> ModeBackbone:
     contents = scipy.io.loadmat(path)
     missing = [name for name in "QWZ" if name not in contents]
     if missing:
-        raise file_error(path, ", ".join(missing), "missing (expected vectors Q, W, Z)", NotABackboneError)
+        raise file_error(path, ", ".join(missing), "missing (expected vectors Q, W, Z)")
     complex_valued = [name for name in "QWZ" if np.iscomplexobj(contents[name])]
     if complex_valued:
         raise file_error(path, ", ".join(complex_valued), "complex values; expected real vectors")
@@ -144,6 +146,12 @@ def read_asb_backbone(path: Path) -> ModeBackbone:
     return ModeBackbone(f"ASB {configuration[1]}" if configuration else path.stem,
                         float(low_amplitude_reference(backbone.natural_frequency_hz)), ASB_MODAL_AMPLITUDE_UNIT,
                         "measured", str(path), backbone)
+
+
+def freevib_stem(ringdown: Path, mode_hz: float) -> str:
+    """The stem of the files ``surrogacy freevib`` writes for the mode near ``mode_hz`` (Hz) of the ring-down file
+    ``ringdown``: ``<stem>_mode_<F>Hz``; its backbone CSV is ``<stem>_mode_<F>Hz_backbone.csv``."""
+    return f"{Path(ringdown).stem}_mode_{mode_hz:g}Hz"
 
 
 FREEVIB_COLUMNS = (

@@ -1,7 +1,8 @@
 """Subcommands of the experiment stage for the ``surrogacy`` console script.
 
 ``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
-measured ring-down (paper section 3.1, Fig. 3), written as a CSV with units, a PNG plot and a JSON sidecar with
+measured ring-down (paper section 3.1, Fig. 3), written as the backbone CSV that the study, the discrepancy loop
+and the report read (the settings recorded in it), a table of both estimators, a PNG plot and a JSON sidecar with
 the resolved settings.
 """
 
@@ -11,10 +12,12 @@ import argparse
 import inspect
 from pathlib import Path
 
-from experiment.backbone import BackboneSettingError, check_nyquist, checked_settings, ringdown_backbone
-from experiment.backbone_files import plot_backbone, write_freevib_table
+from experiment.backbone import (BackboneSettingError, check_nyquist, checked_settings, mode_backbone,
+                                 ringdown_backbone)
+from experiment.backbone_files import freevib_stem, plot_backbone, write_backbone, write_freevib_table
 from experiment.hilbert import freevib
-from experiment.ringdown_files import read_mode_shapes, read_ringdown
+from experiment.measured_files import RING_DOWN, known_formats, read_ringdown
+from experiment.ringdown_files import read_mode_shapes
 from pipeline.files import check_output_folder, sha256_file, write_json
 
 
@@ -58,15 +61,20 @@ def run_freevib(arguments: argparse.Namespace) -> None:
         grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
         trim_periods=arguments.trim_periods, feldman=arguments.feldman)
     out = Path(arguments.out)
-    stem = f"{source.stem}_mode_{arguments.mode_hz:g}Hz"
+    stem = freevib_stem(source, arguments.mode_hz)
+    settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
+                if key not in ("run", "run_log", "command", "file", "out")}
+    source_sha256 = sha256_file(source)
+    write_backbone(mode_backbone(backbone, source.stem, "measured", settings | {"source_sha256": source_sha256}),
+                   out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
-    settings = {key: value for key, value in vars(arguments).items() if key not in ("run", "run_log")}
     write_json(out / f"{stem}.json", {
-        "source": str(source), "source_sha256": sha256_file(source), "settings": settings,
+        "source": str(source), "source_sha256": source_sha256, "settings": settings,
         "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
         "mode_shape": {name: float(value) for name, value in backbone.shape.items()}})
-    print(f"wrote {out / stem}.csv, .png, .json ({len(backbone.records)} records)")
+    print(f"wrote {out / stem}_backbone.csv (the backbone the study and the discrepancy loop read), "
+          f"{stem}.csv (both estimators), .png, .json ({len(backbone.records)} records)")
 
 
 def register(subparsers) -> None:
@@ -74,8 +82,9 @@ def register(subparsers) -> None:
     defaults = keyword_defaults(freevib) | keyword_defaults(ringdown_backbone)
     command = subparsers.add_parser(
         "freevib", help="amplitude-dependent frequency and damping from a ring-down (Hilbert / FreeVib)",
-        description=run_freevib.__doc__ + " Writes <stem>_mode_<F>Hz.csv (with units), .png and .json to --out.")
-    command.add_argument("file", help="ring-down file: .csv, .mat or .uff/.unv (dataset 58)")
+        description=run_freevib.__doc__ + " Writes <stem>_mode_<F>Hz_backbone.csv (the backbone CSV), "
+                    "<stem>_mode_<F>Hz.csv (both estimators, with units), .png and .json to --out.")
+    command.add_argument("file", help=f"ring-down file: {known_formats(RING_DOWN)}")
     command.add_argument("--mode-hz", type=float, required=True, help="guess of the mode's natural frequency, Hz")
     command.add_argument("--band", type=float, nargs=2, metavar=("LOW", "HIGH"),
                          help="band-pass edges, Hz (default 0.7 and 1.3 times --mode-hz)")

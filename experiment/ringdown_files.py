@@ -277,23 +277,6 @@ def read_uff58(path: Path) -> list[RingDown]:
     return result
 
 
-READERS = {".csv": read_csv, ".mat": read_mat, ".uff": read_uff58, ".unv": read_uff58}
-"""File suffix -> reader."""
-
-
-def read_ringdown(path: Path) -> list[RingDown]:
-    """Ring-down hits from a file, the reader chosen by suffix (.csv, .mat, .uff/.unv)."""
-    path = Path(path)
-    if path.is_dir():
-        raise RingDownError(path, "file", f"a folder; expected a ring-down file ({', '.join(sorted(READERS))})")
-    if not path.is_file():
-        raise RingDownError(path, "file", "does not exist")
-    reader = READERS.get(path.suffix.lower())
-    if reader is None:
-        raise RingDownError(path, "file", f"unknown suffix '{path.suffix}' (known: {sorted(READERS)})")
-    return reader(path)
-
-
 def common_layout(ring_downs: list[RingDown]) -> RingDown:
     """The first hit, after checking that every hit has its channels, quantity and sample times (the layout a
     .mat struct with one column per hit needs)."""

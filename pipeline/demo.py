@@ -17,6 +17,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from experiment.backbone_files import freevib_stem
 from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
 
@@ -90,9 +91,9 @@ def plan(options: DemoOptions) -> list[Step]:
     else:
         steps.append(Step("study-beams", skipped=f"{table1} not found (the paper's Table 1)"))
     loops = []
-    if options.ringdown.is_file():
-        loops.append(("discrepancy", str(options.ringdown), "--mode-hz", f"{options.mode_hz:g}", "--out",
-                      str(results / "discrepancy" / "chen2022")))
+    if options.ringdown.is_file():  # the backbone freevib made of it
+        backbone = results / "freevib" / f"{freevib_stem(options.ringdown, options.mode_hz)}_backbone.csv"
+        loops.append(("discrepancy", str(backbone), "--out", str(results / "discrepancy" / "chen2022")))
     studied = {"study-beams": BEAM_NAMES, "study-asb": tuple(f"ASB {c}" for c in ASB_CONFIGURATIONS)}
     ran = {step.name for step in steps if not step.skipped}
     loops += [("discrepancy", "--study", str(results / study), "--structure", structure, "--out",

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiment.backbone_files import read_backbone
+from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder
 from study.figures import plt, save
@@ -128,12 +128,12 @@ def plot_backbones(destination: Path, groups: dict) -> None:
 def backbone_section(results: Path, out: Path) -> list[str]:
     """The backbones the studies fit (virtual beams, measured ASB) in one figure, the Chen ring-down's FreeVib
     backbone, and the virtual experiments' low-amplitude frequencies against paper Table 1."""
-    groups = {}
-    for title, folder in (("beams: VIRTUAL experiments", "study-beams"), ("ASB: measured", "study-asb")):
-        files = sorted((results / folder / "measurements").glob("*.csv"))
-        backbones = [read_backbone(path) for path in files if path.name != "low_amplitude.csv"]
-        if backbones:
-            groups[title] = backbones
+    sources = {"beams: VIRTUAL experiments": sorted((results / "study-beams" / "measurements").glob("*.csv")),
+               "ASB: measured": sorted((results / "study-asb" / "measurements").glob("*.csv")),
+               "ring-down (surrogacy freevib)": sorted((results / "freevib").glob("*_backbone.csv"))}
+    groups = {title: [read_mode_backbone(path) for path in files if path.name != "low_amplitude.csv"]
+              for title, files in sources.items()}
+    groups = {title: backbones for title, backbones in groups.items() if backbones}
     lines = ["## 4. Backbones to fit (paper Fig. 3)", ""]
     if groups:
         plot_backbones(out / "report_backbones.png", groups)
@@ -149,8 +149,14 @@ def backbone_section(results: Path, out: Path) -> list[str]:
                   f"{row['difference_percent']:+.2f} |" for row in np.atleast_1d(table)]
         lines.append("")
     figures = sorted((results / "freevib").glob("*.png"))
-    lines += ["Measured ring-down (Chen 2022 BRB hammer test), FreeVib backbone per channel:", ""]
+    lines += ["Measured ring-down (Chen 2022 BRB hammer test), both FreeVib estimators:", ""]
     lines += [_image(path, path.stem, out) for path in figures] or ["_freevib not run_"]
+    for mode in groups.get("ring-down (surrogacy freevib)", []):
+        settings = mode.settings
+        lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 7), estimated "
+                      f"once by surrogacy freevib around {settings.get('mode_hz', float('nan')):g} Hz"
+                      f"{', each channel a record' if settings.get('per_channel') else ''}; its settings are recorded "
+                      "in the backbone file."]
     return lines
 
 

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from experiment.backbone_files import read_asb_backbone, read_backbone, write_backbone
+from experiment.backbone_files import write_backbone
+from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import models_for
 from nonlinear.joint import BRB_PATCH_GROUPS
@@ -44,7 +45,7 @@ def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
         source = Path(data_folder) / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
         if not source.exists():
             raise StructureError(f"{source}: missing (the ASB measurements live in ../shared/data)")
-        measured = read_asb_backbone(source)
+        measured = read_mode_backbone(source)
         paths.append(measurement_path(folder, measured.structure))
         write_backbone(measured, paths[-1])
     return paths
@@ -65,7 +66,7 @@ def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_
         path = measurement_path(measurements, name)
         if not path.exists():
             raise StructureError(f"{path}: missing measurement of {name} (run the measurements step first)")
-        measured = read_backbone(path)
+        measured = read_mode_backbone(path)
         if dataset == "beams":
             superelement = beam_superelement(Path(rom_folder) / f"{name}.npz")
         else:
@@ -80,4 +81,4 @@ def damping_cases(dataset: str, structures: list[Structure], table1: dict | None
     (``virtual_experiment.reference_joint.read_low_amplitude_measurements``), for the beams."""
     if dataset == "beams":
         return {beam: [table1[beam].damping] * len(structures) for beam in BEAM_NAMES}
-    return {"measured": [float(s.target.damping[0]) for s in structures]}
+    return {"measured": [float(s.measurement.damping[0]) for s in structures]}

@@ -5,7 +5,7 @@ levels q_i (amplitude control, ``nonlinear.qsma_vectorised``), and
 
     e_f = max_i |f_i - f_m,i|   (Hz)            e_zeta = max_i |zeta_J,i + zeta_0 - zeta_m,i|   (-)
 
-with f_m, zeta_m the measurement at the levels (``study.structures.Target``) and zeta_0 the linear damping of
+with f_m, zeta_m the measurement at the levels (``study.structures.Measurement``) and zeta_0 the linear damping of
 the structure's other mechanisms (paper Eq. 25). zeta_0 enters only as an offset, so the damping error is
 formed for several zeta_0 at once from one QSMA solve. The curves never leave the chunk being evaluated: only
 the two errors per design, the convergence flag and its reason are kept (the 30-level curves of the paper's
@@ -58,13 +58,13 @@ def design_errors(structure: Structure, model: str, designs, linear_damping, spl
     """QSMA of ``designs`` (n, n_parameters) on ``structure`` at its levels and their errors for each zeta_0 in
     ``linear_damping`` (n_cases,). split: ``nonlinear.condensation.modal_split(structure.space)``, once per
     structure."""
-    target = structure.target
-    result = qsma_designs(structure.space, model, designs, amplitudes=target.amplitude, linear_damping=0.0,
+    measurement = structure.measurement
+    result = qsma_designs(structure.space, model, designs, amplitudes=measurement.amplitude, linear_damping=0.0,
                           split=split, stuck_group=stuck_group)
     converged = result.converged.all(axis=1)
     with np.errstate(invalid="ignore"):
         frequency_error, damping_error = curve_errors(result.frequency / (2.0 * np.pi), result.damping,
-                                                      target.frequency_hz, target.damping, linear_damping)
+                                                      measurement.frequency_hz, measurement.damping, linear_damping)
     frequency_error[~converged] = np.nan
     damping_error[~converged] = np.nan
     first_failure = np.argmin(result.converged, axis=1)

@@ -110,8 +110,9 @@ class Exploration:
     def key(self) -> str:
         """Hash of everything a chunk's rows depend on."""
         return sha256_json({
-            "structures": [{"name": s.name, "amplitude": s.target.amplitude.tolist(),
-                            "frequency_hz": s.target.frequency_hz.tolist(), "damping": s.target.damping.tolist(),
+            "structures": [{"name": s.name, "amplitude": s.measurement.amplitude.tolist(),
+                            "frequency_hz": s.measurement.frequency_hz.tolist(),
+                            "damping": s.measurement.damping.tolist(),
                             "eigenvalues": s.space.eigenvalues.tolist(), "reference": s.space.reference.tolist()}
                            for s in self.structures],
             "sample": self.sample.__dict__, "damping_cases": {k: list(v) for k, v in self.damping_cases.items()}})
@@ -312,8 +313,9 @@ def _results(exploration: Exploration, pending: list, client):
 def _write_manifest(exploration: Exploration, folder: Path) -> None:
     write_json(folder / "exploration.json", {
         "study_key": exploration.key(), "sample": exploration.sample.__dict__, "models": list(exploration.models),
-        "structures": [{"name": s.name, "mode_choice": s.mode_choice, "provenance": s.target.provenance,
-                        "source": s.target.source, "levels": len(s.target.amplitude)} for s in exploration.structures],
+        "structures": [{"name": s.name, "mode_choice": s.mode_choice, "provenance": s.measurement.provenance,
+                        "source": s.measurement.source, "levels": len(s.measurement.amplitude)}
+                       for s in exploration.structures],
         "damping_cases": {case: list(map(float, values)) for case, values in exploration.damping_cases.items()},
         "columns": "see study.exploration module docstring"})
 

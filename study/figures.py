@@ -53,12 +53,12 @@ def plot_responses(destination: Path, model: str, curves) -> None:
     (k, d), zeta_0)."""
     figure, axes = plt.subplots(2, len(curves), figsize=(4.2 * len(curves), 6.0), squeeze=False)
     for column, (structure, indices, designs, zeta0) in enumerate(curves):
-        target = structure.target
-        label = f"{target.provenance} measurement"
-        axes[0, column].semilogx(target.amplitude, target.frequency_hz, "ko", ms=3, label=label)
-        axes[1, column].semilogx(target.amplitude, target.damping, "ko", ms=3, label=label)
+        measurement = structure.measurement
+        label = f"{measurement.provenance} measurement"
+        axes[0, column].semilogx(measurement.amplitude, measurement.frequency_hz, "ko", ms=3, label=label)
+        axes[1, column].semilogx(measurement.amplitude, measurement.damping, "ko", ms=3, label=label)
         if len(designs):
-            amplitude = np.geomspace(target.amplitude[0], target.amplitude[-1], 40)
+            amplitude = np.geomspace(measurement.amplitude[0], measurement.amplitude[-1], 40)
             result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=zeta0)
             for k, index in enumerate(indices):
                 axes[0, column].semilogx(amplitude, result.frequency[k] / (2 * np.pi), label=f"design {index}")

@@ -30,24 +30,48 @@ N_LEVELS = 20  # modal amplitudes per structure at which designs are evaluated
 MIN_POINTS = 3  # a measured backbone needs at least this many amplitudes
 
 
-@dataclass(frozen=True)
-class Target:
-    """The measured backbone at the study's levels.
+FREQUENCY_FLOOR = 1e-4  # relative floor of a level's frequency uncertainty in fits (1e-4 f)
+DAMPING_FLOOR = 2e-2  # relative floor of a level's damping uncertainty in fits (2 % of zeta)
 
-    amplitude: (n_levels,) modal amplitudes q (m kg^0.5), increasing; frequency_hz: (n_levels,) measured natural
-    frequency (Hz); damping: (n_levels,) measured damping ratio; low_amplitude_frequency_hz: the measurement's;
-    provenance: "measured" or "virtual"; source: where the backbone came from; frequency_uncertainty_hz,
-    damping_uncertainty: (n_levels,) standard uncertainty of each level's median (NaN where unknown).
+
+@dataclass(frozen=True)
+class Measurement:
+    """A measured (or virtual) backbone at the levels where models are compared with it: the one record of a
+    measurement that the study and the discrepancy loop read (made by :func:`measured_levels`).
+
+    amplitude: (n,) modal amplitudes q (m kg^0.5), positive and increasing, n >= MIN_POINTS; frequency_hz: (n,)
+    natural frequency (Hz); damping: (n,) damping ratio; frequency_uncertainty_hz, damping_uncertainty: (n,)
+    standard uncertainty of each level's median (NaN where unknown); low_amplitude_frequency_hz: the measurement's
+    natural frequency at its lowest amplitude with data; provenance: "measured" or "virtual"; source: where the
+    backbone came from. A record that breaks these raises StructureError naming the source and the field.
     """
 
     amplitude: np.ndarray
     frequency_hz: np.ndarray
     damping: np.ndarray
+    frequency_uncertainty_hz: np.ndarray
+    damping_uncertainty: np.ndarray
     low_amplitude_frequency_hz: float
     provenance: str
     source: str
-    frequency_uncertainty_hz: np.ndarray | None = None
-    damping_uncertainty: np.ndarray | None = None
+
+    def __post_init__(self):
+        for name in ("amplitude", "frequency_hz", "damping"):
+            if not np.all(np.isfinite(np.asarray(getattr(self, name), dtype=float))):
+                raise StructureError(f"{self.source}: field {name}: NaN or infinite values")
+        if len(self.amplitude) < MIN_POINTS or np.any(np.diff(self.amplitude) <= 0) or self.amplitude[0] <= 0:
+            raise StructureError(f"{self.source}: field amplitude: expected at least {MIN_POINTS} positive, "
+                                 f"increasing amplitudes; got {len(self.amplitude)}")
+
+    @property
+    def sigma_frequency(self) -> np.ndarray:
+        """(n,) Hz: the standard uncertainty a fit divides the frequency residual by, at least FREQUENCY_FLOOR f."""
+        return np.fmax(np.nan_to_num(self.frequency_uncertainty_hz, nan=0.0), FREQUENCY_FLOOR * self.frequency_hz)
+
+    @property
+    def sigma_damping(self) -> np.ndarray:
+        """(n,): the standard uncertainty a fit divides the damping residual by, at least DAMPING_FLOOR zeta."""
+        return np.fmax(np.nan_to_num(self.damping_uncertainty, nan=0.0), DAMPING_FLOOR * np.abs(self.damping))
 
 
 @dataclass(frozen=True)
@@ -57,12 +81,12 @@ class Structure:
 
     name: str
     space: JointSpace
-    target: Target
+    measurement: Measurement
     linear_damping: float
     mode_choice: str
 
 
-def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Target:
+def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Measurement:
     """The measured backbone's medians in up to ``n_levels`` log-spaced amplitude bins (module docstring).
     Raises StructureError naming ``path`` and the field for NaN values, a non-positive frequency, a negative
     damping ratio, fewer than MIN_POINTS amplitudes (or filled bins), a non-positive or non-increasing amplitude."""
@@ -96,8 +120,8 @@ def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str 
     levels, frequency, damping = (np.array([np.median(values[bins == i]) for i in filled]) for values in columns.values())
     uncertainties = (median_uncertainty(columns[name], stated, bins, filled) for name, stated in (
         ("natural_frequency", backbone.natural_frequency_uncertainty_hz), ("damping_ratio", backbone.damping_ratio_uncertainty)))
-    return Target(levels, frequency, damping, float(measured.low_amplitude_frequency_hz), measured.provenance,
-                  measured.source, *uncertainties)
+    return Measurement(levels, frequency, damping, *uncertainties, float(measured.low_amplitude_frequency_hz),
+                       measured.provenance, measured.source)
 
 
 def median_uncertainty(values, stated, bins, filled) -> np.ndarray:
@@ -128,9 +152,9 @@ def asb_superelement(path: Path) -> Superelement:
 def structure(name: str, superelement: Superelement, measured: ModeBackbone, linear_damping: float,
               n_levels: int = N_LEVELS, measurement_path: str = "backbone") -> Structure:
     """A structure: the target mode chosen from the measurement, the joint space tracking it, the levels."""
-    target = measured_levels(measured, n_levels, measurement_path)
-    _, shape, choice = target_mode(superelement, target.low_amplitude_frequency_hz)
-    return Structure(name, joint_space(superelement, reference_mode=shape), target, float(linear_damping), choice)
+    measurement = measured_levels(measured, n_levels, measurement_path)
+    _, shape, choice = target_mode(superelement, measurement.low_amplitude_frequency_hz)
+    return Structure(name, joint_space(superelement, reference_mode=shape), measurement, float(linear_damping), choice)
 
 
 def qsma_measurement(space: JointSpace, name: str, model: str, design, amplitudes, linear_damping: float

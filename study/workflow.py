@@ -169,7 +169,7 @@ def analyse(paths: Paths, parameters: dict) -> None:
             designs = read_exploration(paths.designs, prestress.MODEL,
                                        parameter_names(prestress.MODEL, explored.n_groups))
             comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs.to_numpy()[:prestress.DESIGNS],
-                                           sbrb.target.low_amplitude_frequency_hz)
+                                           sbrb.measurement.low_amplitude_frequency_hz)
             prestress.write_comparison(comparison, out / "prestress.md", out / "prestress.png")
 
 

@@ -10,12 +10,14 @@ random Table 3 designs, as a study's Pareto set would hold it.
 - a ripple outside the library: "unexplained".
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from nonlinear.condensation import joint_space
 from nonlinear.joint import from_unit, parameter_limits
-from discrepancy.loop import measurement_from_backbone
+from study.structures import measured_levels
 from discrepancy.superelement_route import evaluate_candidates, structure_discrepancy_loop
 from reduction.superelement import beam_superelement
 from study.structures import qsma_measurement
@@ -56,16 +58,13 @@ def candidates_with(space, true_model: str, models):
 def measured(space, true_model: str, linear_damping=ZETA0, on_backbone=None, seed=0):
     """The true design's backbone, an effect put on it, and noise at the measurement's uncertainty floors."""
     backbone = qsma_measurement(space, "BRB", true_model, TRUTH[true_model], LEVELS, linear_damping)
-    measurement = measurement_from_backbone(backbone, len(LEVELS), source="virtual BRB, undeclared effects")
+    measurement = measured_levels(backbone, len(LEVELS), path="virtual BRB, undeclared effects")
     frequency, damping = measurement.frequency_hz, measurement.damping
     if on_backbone is not None:
         frequency, damping = on_backbone(measurement.amplitude / measurement.amplitude[-1], frequency, damping)
     rng = np.random.default_rng(seed)
-    return measurement.__class__(measurement.amplitude,
-                                 frequency + rng.normal(0, 1, frequency.size) * measurement.sigma_frequency,
-                                 damping + rng.normal(0, 1, damping.size) * measurement.sigma_damping,
-                                 measurement.frequency_uncertainty_hz, measurement.damping_uncertainty,
-                                 measurement.source)
+    return replace(measurement, frequency_hz=frequency + rng.normal(0, 1, frequency.size) * measurement.sigma_frequency,
+                   damping=damping + rng.normal(0, 1, damping.size) * measurement.sigma_damping)
 
 
 CASES = {

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from experiment.backbone import ringdown_backbone
-from experiment.ringdown_files import read_ringdown
+from experiment.measured_files import read_ringdown
 from locations import SHARED
 
 DATA = SHARED / "data" / "chen2022-brb-hammer" / "HammerImpact.mat"

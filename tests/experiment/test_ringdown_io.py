@@ -7,6 +7,7 @@ ValueError naming the file, the field and the problem, and the command prints it
 """
 
 import csv
+import math
 
 import numpy as np
 import pyuff
@@ -15,7 +16,8 @@ import scipy.io
 
 from experiment.backbone import ringdown_backbone
 from experiment.ringdown import RingDown, RingDownError
-from experiment.ringdown_files import (STANDARD_GRAVITY, read_ringdown, write_ringdown_csv, write_ringdown_mat,
+from experiment.measured_files import MeasuredFileError, read_ringdown
+from experiment.ringdown_files import (STANDARD_GRAVITY, write_ringdown_csv, write_ringdown_mat,
                                        write_ringdown_uff58)
 from pipeline.cli import main
 
@@ -225,7 +227,7 @@ def bad_ring_down(tmp_path, time, kind: str):
                                 "root": acceleration_decay(time) * (1 + 0.1j)})
         return path, "root", "complex values; expected real samples"
     (tmp_path / "folder.csv").mkdir()
-    return tmp_path / "folder.csv", "file", "a folder; expected a ring-down file"
+    return tmp_path / "folder.csv", "file", "a folder; expected a measured file: backbone CSV (.csv)"
 
 
 BAD_RING_DOWNS = ["all channels zero", "header only", "complex channel", "a folder"]
@@ -236,7 +238,7 @@ def test_ring_down_that_cannot_be_analysed_is_named_for_what_it_is(tmp_path, tim
     """Channels that are all zero were reported as "no decay", a header without samples as a header count
     mismatch (with numpy's warning), a complex channel was dropped without a word, a folder "does not exist"."""
     path, field, problem = bad_ring_down(tmp_path, time, kind)
-    with pytest.raises(RingDownError) as error:
+    with pytest.raises((RingDownError, MeasuredFileError)) as error:  # the registry names a file of no format
         ringdown_backbone(read_ringdown(path), FREQUENCY_HZ)
     assert_names(error, path, field, problem)
 
@@ -248,3 +250,17 @@ def test_command_names_a_ring_down_that_cannot_be_analysed_on_one_line(tmp_path,
     message = capsys.readouterr().err.strip()
     assert "\n" not in message and f"{path}: field '{field}': {problem}" in message
     assert not (tmp_path / "out").exists()
+
+
+def test_freevib_refuses_a_ring_down_without_a_decay(tmp_path, capsys):
+    """A steady sine (no free decay) given to ``surrogacy freevib``: exit 2, one line naming the file and the
+    missing decay, nothing written."""
+    time = np.arange(0, 2.0, 1 / 4096).tolist()
+    path = tmp_path / "steady.csv"
+    path.write_text("time [s],sensor [m]\n" + "\n".join(f"{t!r},{1e-5 * math.sin(2 * math.pi * 169 * t)!r}"
+                                                        for t in time) + "\n")
+    out = tmp_path / "out"
+    assert main(["freevib", str(path), "--mode-hz", "169", "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert str(path) in error and "deca" in error
+    assert not out.exists()

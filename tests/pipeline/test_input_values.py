@@ -95,7 +95,7 @@ def test_fe_refuses_a_hand_edited_sidecar(coarse_beams, tmp_path, capsys):
 
 def test_ring_down_csv_with_a_byte_order_mark_reads(tmp_path):
     """Excel's "CSV UTF-8" starts with a byte-order mark: read as the same file without it."""
-    from experiment.ringdown_files import read_ringdown
+    from experiment.measured_files import read_ringdown
 
     text = "time [s],acc1 [m/s^2]\n" + "\n".join(f"{k / 1000},{np.sin(k / 10)}" for k in range(100)) + "\n"
     (tmp_path / "plain.csv").write_text(text)

@@ -16,7 +16,8 @@ from locations import REPOSITORY
 from nonlinear.friction_models import MODEL_NAMES
 
 ROOT = REPOSITORY
-FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files")
+FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files",
+                "experiment.measured_files")
 """Modules that read or write files of measured data."""
 PACKAGES = ("pipeline", "geometry", "fem", "reduction", "experiment", "nonlinear", "virtual_experiment", "study",
             "discrepancy", "report")
@@ -49,6 +50,20 @@ def within(name: str, prefix: str) -> bool:
 def test_experiment_does_not_import_the_joint_model():
     offending = {module: sorted(name for name in names if within(name, "nonlinear"))
                  for module, names in imported_modules("experiment").items()}
+    assert not any(offending.values()), offending
+
+
+FORMAT_READERS = ("experiment.backbone_files.read_backbone", "experiment.backbone_files.read_asb_backbone",
+                  "experiment.ringdown_files.read_csv", "experiment.ringdown_files.read_mat",
+                  "experiment.ringdown_files.read_uff58")
+"""The readers of single formats: outside experiment/, a measured file is read through the registry
+(``experiment.measured_files``), which chooses the format."""
+
+
+def test_measured_files_are_read_through_the_registry_alone():
+    offending = {f"{package}/{module}": sorted(names & set(FORMAT_READERS))
+                 for package in PACKAGES if package != "experiment"
+                 for module, names in imported_modules(package).items()}
     assert not any(offending.values()), offending
 
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from reduction.superelement import load_superelement, stuck_joint_modes
-from discrepancy.loop import discrepancy_loop, measurement_from_backbone
+from discrepancy.loop import discrepancy_loop
+from study.structures import measured_levels
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, undeclared_backbone
 from virtual_experiment.reference_joint import beam_space, reference_joint
 from nonlinear.qsma_vectorised import qsma_designs
@@ -49,7 +50,7 @@ def test_reference_joint_and_its_backbone(beam_roms):
 def test_discrepancy_verdict_on_a_fixed_seed():
     """Microslip and a structure-specific damping put in (seed 3): the verdict names both. A change in the
     fit, the criterion or the library that loses one fails here."""
-    measurement = measurement_from_backbone(undeclared_backbone(("microslip", "linear_damping"), seed=3))
+    measurement = measured_levels(undeclared_backbone(("microslip", "linear_damping"), seed=3))
     verdict = discrepancy_loop(measurement, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
     assert sorted(verdict.effects) == ["linear_damping", "microslip"]
 

@@ -27,7 +27,7 @@ from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
 from study.analysis import model_errors
 from reduction.superelement import StructureError, beam_superelement, target_mode
-from study.structures import measured_levels, qsma_measurement, structure
+from study.structures import Measurement, measured_levels, qsma_measurement, structure
 from study.surrogacy import surrogacy_matrix
 
 MODEL = "iwan4"
@@ -50,9 +50,10 @@ def beams(beam_roms):
         measured = qsma_measurement(space, beam, MODEL, TRUE_DESIGN, levels, ZETA0)
         structures.append(structure(beam, superelement, measured, 0.0, N_LEVELS))
     brb = structures[0]
-    low = replace(brb.target, amplitude=brb.target.amplitude[:N_LEVELS // 2],
-                  frequency_hz=brb.target.frequency_hz[:N_LEVELS // 2], damping=brb.target.damping[:N_LEVELS // 2])
-    return structures, replace(brb, name="BRB low", target=low)
+    half = slice(N_LEVELS // 2)
+    low = replace(brb.measurement, **{name: getattr(brb.measurement, name)[half] for name in (
+        "amplitude", "frequency_hz", "damping", "frequency_uncertainty_hz", "damping_uncertainty")})
+    return structures, replace(brb, name="BRB low", measurement=low)
 
 
 def test_truth_lies_in_every_acceptance_region(beams):
@@ -60,10 +61,10 @@ def test_truth_lies_in_every_acceptance_region(beams):
     for structure_ in structures:
         errors = design_errors(structure_, MODEL, TRUE_DESIGN[None, :], [ZETA0])
         assert errors.converged[0]
-        assert errors.frequency_error_hz[0] < 1e-9 * structure_.target.frequency_hz[0]
+        assert errors.frequency_error_hz[0] < 1e-9 * structure_.measurement.frequency_hz[0]
         assert errors.damping_error[0, 0] < 1e-9
         # the measured target mode is the first bending, chosen from the measured frequency
-        assert target_mode(structure_.space.superelement, structure_.target.low_amplitude_frequency_hz)[0] == 0
+        assert target_mode(structure_.space.superelement, structure_.measurement.low_amplitude_frequency_hz)[0] == 0
 
 
 def test_surrogacy_of_the_known_truth_and_the_nested_regions(beams, tmp_path):
@@ -131,6 +132,20 @@ def test_out_of_range_measured_values_are_refused_naming_file_and_field(tmp_path
     write_backbone(backbone_with([1e-6, 2e-6, 3e-6, 4e-6], frequency, damping), path)
     with pytest.raises(StructureError, match=re.escape(f"{path}: field {field}: 1 value(s) out of range")):
         measured_levels(read_backbone(path), 3, str(path))
+
+
+@pytest.mark.parametrize("amplitude, frequency, field", [
+    ([1e-6, 2e-6, 3e-6], [100.0, np.nan, 99.0], "frequency_hz"),
+    ([1e-6], [100.0], "amplitude"),
+    ([1e-6, 3e-6, 2e-6], [100.0, 99.5, 99.0], "amplitude"),
+])
+def test_a_measurement_record_that_breaks_its_invariants_is_refused(amplitude, frequency, field):
+    """The record the study and the loop read, made directly (not by ``measured_levels``): NaN values or fewer
+    than three increasing amplitudes are refused naming its source and the field."""
+    unknown = np.full(len(amplitude), np.nan)
+    with pytest.raises(StructureError, match=f"ring.csv: field {field}"):
+        Measurement(np.array(amplitude), np.array(frequency), np.full(len(amplitude), 1e-3), unknown, unknown,
+                    100.0, "measured", "ring.csv")
 
 
 def test_unknown_model_and_inverted_bounds_are_refused(beams, tmp_path):

@@ -1,0 +1,117 @@
+"""The registry of measured-data files: every format a measurement may come in, chosen by suffix and content.
+
+A measured file is either a ring-down (hits of a free decay, :class:`~experiment.ringdown.RingDown`) or a backbone
+of one mode (:class:`~experiment.backbone.ModeBackbone`). Each format of :data:`MEASURED_FORMATS` names its kind,
+the suffixes it comes with, how its content is recognised where two formats share a suffix, and its reader; the
+first format whose suffix and content match a file reads it. A file no format matches, or one of the wrong kind
+for the step, raises one :class:`MeasuredFileError` that names the file and lists the formats.
+
+Layouts: ring-down files in :mod:`experiment.ringdown_files`, backbone files in :mod:`experiment.backbone_files`
+(docs/formats.md has both).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import scipy.io
+
+from experiment.backbone import ModeBackbone
+from experiment.backbone_files import BACKBONE_TITLE, read_asb_backbone, read_backbone
+from experiment.ringdown import RingDown
+from experiment.ringdown_files import read_csv, read_mat, read_uff58
+
+RING_DOWN = "ring-down"
+BACKBONE = "backbone"
+
+
+class MeasuredFileError(ValueError):
+    """A file that is not a measurement in any known format, or not of the kind the step reads: names the file,
+    the field and the problem."""
+
+    def __init__(self, path: Path, field: str, problem: str):
+        super().__init__(f"{path}: field '{field}': {problem}")
+
+
+def starts_with_backbone_title(path: Path) -> bool:
+    """A backbone CSV opens with its title comment (:data:`~experiment.backbone_files.BACKBONE_TITLE`)."""
+    with open(path, encoding="utf-8-sig", errors="replace") as stream:
+        return stream.readline().strip() == f"# {BACKBONE_TITLE}"
+
+
+def holds_asb_backbone_vectors(path: Path) -> bool:
+    """An ASB backbone .mat holds the vectors Q, W and Z (read from the file's index, without loading it); a file
+    MATLAB's reader cannot index is left to the ring-down reader, which names the problem."""
+    try:
+        return {"Q", "W", "Z"} <= {name for name, _, _ in scipy.io.whosmat(path)}
+    except (ValueError, OSError, scipy.io.matlab.MatReadError):
+        return False
+
+
+@dataclass(frozen=True)
+class MeasuredFormat:
+    """One format of measured file: its name, kind (:data:`RING_DOWN` or :data:`BACKBONE`), suffixes (lower case),
+    the content test that tells it from another format with the same suffix, and the reader (path -> list of
+    RingDown, or ModeBackbone)."""
+
+    name: str
+    kind: str
+    suffixes: tuple[str, ...]
+    recognises: Callable[[Path], bool]
+    read: Callable[[Path], list[RingDown] | ModeBackbone]
+
+    @property
+    def description(self) -> str:
+        return f"{self.name} ({', '.join(self.suffixes)})"
+
+
+MEASURED_FORMATS = (
+    MeasuredFormat("backbone CSV", BACKBONE, (".csv",), starts_with_backbone_title, read_backbone),
+    MeasuredFormat("ring-down CSV", RING_DOWN, (".csv",), lambda path: True, read_csv),
+    MeasuredFormat("ASB backbone .mat (Q, W, Z)", BACKBONE, (".mat",), holds_asb_backbone_vectors, read_asb_backbone),
+    MeasuredFormat("ring-down .mat", RING_DOWN, (".mat",), lambda path: True, read_mat),
+    MeasuredFormat("ring-down UFF 58", RING_DOWN, (".uff", ".unv"), lambda path: True, read_uff58),
+)
+"""Every format a measurement is read from, in the order they are tried."""
+
+
+def known_formats(kind: str | None = None) -> str:
+    """The formats (of ``kind``, or all) as one line for an error message."""
+    return "; ".join(entry.description for entry in MEASURED_FORMATS if kind in (None, entry.kind))
+
+
+def measured_format(path: Path) -> MeasuredFormat:
+    """The format of the measured file ``path``: the first of :data:`MEASURED_FORMATS` whose suffix and content
+    match. Raises MeasuredFileError for a missing file, a folder, or a file no format matches."""
+    path = Path(path)
+    if path.is_dir():
+        raise MeasuredFileError(path, "file", f"a folder; expected a measured file: {known_formats()}")
+    if not path.is_file():
+        raise MeasuredFileError(path, "file", "does not exist")
+    for entry in MEASURED_FORMATS:
+        if path.suffix.lower() in entry.suffixes and entry.recognises(path):
+            return entry
+    raise MeasuredFileError(path, "file", f"unknown suffix '{path.suffix}'; known formats: {known_formats()}")
+
+
+def read_of_kind(path: Path, kind: str, instead: str):
+    """The content of the measured file ``path``, which must be of ``kind``; ``instead`` says what to do with a
+    file of the other kind. Raises MeasuredFileError naming the file and its format otherwise."""
+    entry = measured_format(path)
+    if entry.kind != kind:
+        raise MeasuredFileError(path, "file",
+                                f"format {entry.name}; expected a {kind}: {known_formats(kind)}. {instead}")
+    return entry.read(Path(path))
+
+
+def read_ringdown(path: Path) -> list[RingDown]:
+    """Ring-down hits from a file in any ring-down format of the registry (one RingDown per hit)."""
+    return read_of_kind(path, RING_DOWN, "A backbone is read by the study and the discrepancy loop as it is.")
+
+
+def read_mode_backbone(path: Path) -> ModeBackbone:
+    """One mode's backbone from a file in any backbone format of the registry."""
+    return read_of_kind(path, BACKBONE, "Process a ring-down into a backbone CSV first: surrogacy freevib FILE "
+                                        "--mode-hz F writes <stem>_mode_<F>Hz_backbone.csv.")
