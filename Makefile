@@ -29,7 +29,7 @@ $(foreach name,RINGDOWN ASB_DATA REFERENCE,$(if $(filter command line environmen
 SURROGACY := $(BIN)/surrogacy --run-log $(RUN_LOG)
 DEMO := $(SURROGACY) demo --data $(ASB_DATA) --reference $(REFERENCE) --ringdown $(RINGDOWN) --mode-hz $(MODE_HZ) \
   --designs $(STUDY_DESIGNS) --chunk $(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
-STEPS := study-asb beams fe rom freevib study-beams discrepancy discrepancy-modal-asb report
+STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb report
 
 .PHONY: demo test test-slow $(STEPS) study study-full fe-convergence calibrate bench clean system-packages
 
@@ -50,6 +50,7 @@ $(STEPS): $(STAMP)
 fe: beams
 rom: fe
 study-beams: rom
+fit-asb: study-asb
 discrepancy: freevib
 study: study-asb study-beams
 

@@ -26,25 +26,19 @@ The loop itself (forward selection by BIC, stepwise swap and drop, "unexplained"
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-import pandas as pd
 from scipy.optimize import least_squares
 
 from nonlinear.friction_models import FRICTION_MODELS
-from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
-from pipeline.config import resolve
-from study.parameters import defaults
 from study.datasets import DEFAULT_DAMPING_CASE
 from discrepancy.loop import (EFFECTS, Fit, Verdict, _to_parameters, _to_vector, bic, outside_joint,
                                select_effects, weighted_misfit)
-from study.exploration import read_exploration
 from study.structures import Measurement
-from study.workflow import Paths, exploration
+from study.workflow import front_designs, read_study
 
 FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_MODELS.items()
                     if model.discrepancy_effects is not None}
@@ -171,15 +165,7 @@ class StudyStructure(NamedTuple):
 def from_study(folder: Path, name: str) -> StudyStructure:
     """Read a study's results (``surrogacy study`` output ``folder``: study.json, measurements/, designs/,
     analysis/fronts_<model>.csv) for the structure ``name`` and evaluate its Pareto designs."""
-    folder = Path(folder)
-    record_path = folder / "study.json"
-    if not record_path.exists():
-        raise ValueError(f"{record_path}: missing (not a study folder: run surrogacy study first)")
-    record = json.loads(record_path.read_text())
-    parameters = resolve(defaults(), record["configuration"], source=str(record_path))
-    inputs = record["inputs"]
-    paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]), Path(inputs["reference"]))
-    explored = exploration(paths, parameters)
+    paths, parameters, explored = read_study(folder)
     if name not in explored.names:
         raise ValueError(f"{folder}: structure {name!r} not in the study; expected one of {explored.names}")
     index = explored.names.index(name)
@@ -188,17 +174,7 @@ def from_study(folder: Path, name: str) -> StudyStructure:
     measurement = structure.measurement
     candidates = {}
     for model in (m for m in FRICTION_EFFECTS if m in explored.models):
-        fronts_path = paths.analysis / f"fronts_{model}.csv"
-        if not fronts_path.exists():
-            raise ValueError(f"{fronts_path}: missing (run the study's analyse step first)")
-        fronts = pd.read_csv(fronts_path)
-        fronts = fronts[fronts["structure"] == name]
-        names = parameter_names(model, explored.n_groups)
-        sample = fronts[fronts["source"] == "sample"]
-        frame = read_exploration(paths.designs, model, ["design", *names]).set_index("design")
-        designs = np.vstack([frame.loc[sample["design"], names].to_numpy(),
-                             fronts.loc[fronts["source"] == "nsga2", names].to_numpy()])
-        labels = [f"sample {d}" for d in sample["design"]] + [f"nsga2 {i}" for i in range(len(designs) - len(sample))]
-        candidates[model] = evaluate_candidates(structure.space, model, designs, labels, measurement.amplitude,
-                                                borrowed)
+        front = front_designs(paths, model, explored.n_groups, name)
+        candidates[model] = evaluate_candidates(structure.space, model, front.designs, front.labels,
+                                                measurement.amplitude, borrowed)
     return StudyStructure(measurement, candidates, borrowed)

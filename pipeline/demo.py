@@ -4,8 +4,9 @@ their data is absent.
 
 Order. The ASB study needs nothing of ours but the installed tool (its superelements are ABAQUS's), while the
 geometry, FE and reduction stages compute on one core: it runs beside them (its progress in
-``results/study-asb.log``) and compiles the QSMA kernel into numba's cache for the beams' study as well. Then the
-beams' study, the discrepancy loops and the report. A failed stage stops the demo with its exit status; Ctrl-C
+``results/study-asb.log``) and compiles the QSMA kernel into numba's cache for the beams' study as well. Its
+calibration (``surrogacy fit``) then runs beside the beams' study and the discrepancy loops, and the report waits
+for it. A failed stage stops the demo with its exit status; Ctrl-C
 stops every stage still running (each exits 130, finished results kept).
 """
 
@@ -21,11 +22,13 @@ from experiment.backbone_files import freevib_stem
 from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
 
-STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "study-beams", "discrepancy", "discrepancy-modal-asb", "report")
+STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "fit-asb", "study-beams", "discrepancy", "discrepancy-modal-asb",
+         "report")
 DEMO_STEPS = tuple(step for step in STEPS if step != "discrepancy-modal-asb")
 """The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more)."""
-BESIDE = ("study-asb",)
-"""Steps started in the background, beside the steps after them until the beams' study."""
+BESIDE = {"study-asb": "fit-asb", "fit-asb": "report"}
+"""Steps run in the background -> the step that waits for them: the ASB study beside beams, fe and rom (which
+compute on one core), its calibration beside the beams' study and the discrepancy loops."""
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,8 @@ def plan(options: DemoOptions) -> list[Step]:
                                        "--per-channel", "--out", str(results / "freevib")),)))
     else:
         steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
+    steps.append(Step("fit-asb", (("fit", "--study", str(results / "study-asb"), "--out", str(results / "fit-asb")),))
+                 if backbones.is_dir() else Step("fit-asb", skipped=f"{backbones} not found"))
     if table1.is_file():
         steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
                                            *study_options(options)),)))
@@ -117,13 +122,16 @@ def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:
 
 
 def run_steps(steps: list[Step], options: DemoOptions) -> None:
-    """Run the steps in order, ``BESIDE`` ones in the background until the beams' study needs the processor.
+    """Run the steps in order, ``BESIDE`` ones in the background until the step named there (or the end).
     The runs log to ``options.run_log``; a background run writes its output to ``<options.results>/<step>.log``.
     Raises ``subprocess.CalledProcessError`` with the exit status of the first run that fails; every run still
     going is stopped (SIGTERM) first."""
     background: list[tuple[str, subprocess.Popen, Path]] = []
     try:
         for step in steps:
+            due = [entry for entry in background if BESIDE[entry[0]] == step.name]
+            background = [entry for entry in background if entry not in due]
+            wait_for(due)
             if step.skipped:
                 print(f"{step.name}: {step.skipped}, skipped", flush=True)
                 continue
@@ -135,8 +143,6 @@ def run_steps(steps: list[Step], options: DemoOptions) -> None:
                     background.append((step.name, subprocess.Popen(
                         command(step.runs[0], options.run_log), stdout=stream, stderr=subprocess.STDOUT), log))
                 continue
-            if step.name == "study-beams":
-                wait_for(background)
             for run in step.runs:
                 print("surrogacy " + shlex.join(run), flush=True)
                 subprocess.run(command(run, options.run_log), check=True)
@@ -156,5 +162,5 @@ def wait_for(background: list) -> None:
         lines = log.read_text(errors="replace").splitlines()
         if status != 0:
             print("\n".join(lines[-5:]), file=sys.stderr)
-            raise subprocess.CalledProcessError(status, f"surrogacy study ({name}, log {log})")
+            raise subprocess.CalledProcessError(status, f"{name} (its log: {log})")
         print(f"{name}: {lines[-1] if lines else 'done'}", flush=True)

@@ -4,7 +4,8 @@ back from the files the stages wrote, so it states only what a run produced.
 Sections, in the order the data flows: the three meshes (geometry), contact pressure under the bolt preload and
 the tied first bending (fem), the superelements (reduction), the backbones to fit (paper Fig. 3: the beams'
 virtual experiments, the ASB's measured backbones, the Chen 2022 measured ring-down), each dataset's surrogacy
-study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the discrepancy
+study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the calibration
+(fitted designs against the study's fronts), the discrepancy
 loop's before/after table, and the provenance (commit, versions, seeds, configuration, per-stage wall times and
 peak memory from the ``surrogacy --run-log`` file). A stage whose files are missing is named as not run, never
 filled in.
@@ -153,7 +154,8 @@ def backbone_section(results: Path, out: Path) -> list[str]:
     lines += [_image(path, path.stem, out) for path in figures] or ["_freevib not run_"]
     for mode in groups.get("ring-down (surrogacy freevib)", []):
         settings = mode.settings
-        lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 7), estimated "
+        lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 8), "
+                      "estimated "
                       f"once by surrogacy freevib around {settings.get('mode_hz', float('nan')):g} Hz"
                       f"{', each channel a record' if settings.get('per_channel') else ''}; its settings are recorded "
                       "in the backbone file."]
@@ -169,11 +171,23 @@ def embedded_study(report: Path, out: Path, number: int) -> list[str]:
     return text.replace("## Surrogacy study:", f"## {number}. Surrogacy study:", 1).splitlines()
 
 
+def calibration_section(results: Path, out: Path) -> list[str]:
+    """Each calibration's table (``surrogacy fit``: results/fit-<dataset>/calibration.md) and its figures of the
+    best compromise against the measurement."""
+    lines = ["## 7. Calibration: joint designs fitted to the measured backbones", ""]
+    tables = sorted(results.glob("fit-*/calibration.md"))
+    for table in tables:
+        body = table.read_text().splitlines()[1:]  # without its own title
+        lines += [f"Calibration of {table.parent.name.removeprefix('fit-')} ({_relative(table, out)}):", *body, ""]
+        lines += [_image(path, path.stem, out) for path in sorted(table.parent.glob("fits_*.png"))]
+    return lines + ([] if tables else ["_calibration not run_"])
+
+
 def discrepancy_section(results: Path, out: Path) -> list[str]:
     """Per measurement: the effects the discrepancy loop found (or "unexplained") and the errors of the reference
     model (before) and of the final model (after)."""
     verdicts = sorted((results / "discrepancy").glob("*/discrepancy.json"))
-    lines = ["## 7. Discrepancy loop: what the one-mode joint model lacks", ""]
+    lines = ["## 8. Discrepancy loop: what the one-mode joint model lacks", ""]
     if not verdicts:
         return lines + ["_discrepancy not run_"]
     lines += ["Reference model: the one-mode joint model (a linear mode and a Jenkins element) on a measurement "
@@ -227,7 +241,7 @@ def timings_table(run_log: Path | None) -> list[str]:
 
 def provenance_section(folders: Folders) -> list[str]:
     """Commit, package versions, seeds and configurations of every stage, and the per-stage timings."""
-    lines = ["## 8. Provenance", "", f"Code: commit {git_commit()}.", "", "| stage | versions | seed |",
+    lines = ["## 9. Provenance", "", f"Code: commit {git_commit()}.", "", "| stage | versions | seed |",
              "|---|---|---|"]
     for stage, sidecar in (("geometry", folders.build / "beams" / "BRB.json"), ("fem", folders.build / "fe" / "BRB.json"),
                            ("reduction", folders.build / "rom" / "BRB.json")):
@@ -261,7 +275,7 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
              "The beams' \"measurements\" in this report are **VIRTUAL** (simulated ring-downs of a reference joint, "
              "labelled virtual wherever they appear); the ASB backbones and the Chen 2022 ring-down are measured.",
              "", "Contents: 1 geometry, 2 finite elements, 3 superelements, 4 backbones, 5-6 surrogacy studies "
-             "(Table 5, Figs. 6, 9-12, Table 6), 7 discrepancy loop, 8 provenance.", ""]
+             "(Table 5, Figs. 6, 9-12, Table 6), 7 calibration, 8 discrepancy loop, 9 provenance.", ""]
     lines += geometry_section(folders.build, out) + [""]
     lines += fe_section(folders.build, out) + [""]
     lines += reduction_section(folders.build, out) + [""]
@@ -270,6 +284,7 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
         study_report = folders.results / folder / "report.md"
         lines += (embedded_study(study_report, out, number) if study_report.exists()
                   else [f"## {number}. Surrogacy study: {dataset}", "", "_study not run_"]) + [""]
+    lines += calibration_section(folders.results, out) + [""]
     lines += discrepancy_section(folders.results, out) + [""]
     lines += provenance_section(folders)
     with atomic_path(destination) as temporary:

@@ -47,10 +47,10 @@ def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance
     save(figure, destination)
 
 
-def plot_responses(destination: Path, model: str, curves) -> None:
+def plot_responses(destination: Path, model: str, curves, title: str | None = None) -> None:
     """Frequency and damping against modal amplitude: the measurement (labelled virtual where it is) and the
     QSMA backbones of representative designs. curves: per structure (Structure, design indices, designs
-    (k, d), zeta_0)."""
+    (k, d), zeta_0); title: the figure's (default: the study's representative Pareto designs)."""
     figure, axes = plt.subplots(2, len(curves), figsize=(4.2 * len(curves), 6.0), squeeze=False)
     for column, (structure, indices, designs, zeta0) in enumerate(curves):
         measurement = structure.measurement
@@ -68,6 +68,6 @@ def plot_responses(destination: Path, model: str, curves) -> None:
         axes[0, column].set(title=structure.name, ylabel="natural frequency (Hz)")
         axes[1, column].set(xlabel="modal amplitude (m kg^0.5)", ylabel="damping ratio (-)")
         axes[0, column].legend(fontsize=7)
-    figure.suptitle(f"{model}: representative Pareto designs against the measurement")
+    figure.suptitle(title or f"{model}: representative Pareto designs against the measurement")
     figure.tight_layout()
     save(figure, destination)

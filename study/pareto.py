@@ -48,11 +48,13 @@ def non_dominated(errors) -> np.ndarray:
 
 class ParetoDesigns(NamedTuple):
     """Non-dominated designs: designs (m, d) in the optimiser's box; errors (m, 2) (e_f Hz, e_zeta -), sorted by
-    increasing first error; evaluations: number of distinct designs evaluated (seeds included)."""
+    increasing first error; evaluations: number of distinct designs evaluated (seeds included); generations: the
+    NSGA-II generations run, the initial one included."""
 
     designs: np.ndarray
     errors: np.ndarray
     evaluations: int
+    generations: int
 
 
 class _PenalisedErrors(Problem):
@@ -71,7 +73,7 @@ class _PenalisedErrors(Problem):
 
 
 def nsga2_front(objective: Callable[[np.ndarray], np.ndarray], initial, *, lower=0.0, upper=1.0,
-                generations: int = 100, population: int = 100, seed: int = 0) -> ParetoDesigns:
+                generations: int = 100, population: int = 100, seed: int = 0, termination=None) -> ParetoDesigns:
     """Pareto front of objective by NSGA-II (pymoo), seeded with designs of a sample (paper Fig. 6).
 
     objective: (m, d) designs -> (m, 2) errors (e_f Hz, e_zeta -), NaN rows for failed designs (NSGA-II sees
@@ -81,7 +83,8 @@ def nsga2_front(objective: Callable[[np.ndarray], np.ndarray], initial, *, lower
     NSGA-II's survival keeps ``population`` of them. lower, upper: (d,) or scalar bounds of the box
     (the unit cube by default; the caller maps it to physical parameters). generations: number of NSGA-II
     generations including the initial one; population: its size; seed: of pymoo's random generator (same seed,
-    same result).
+    same result). termination: a pymoo termination criterion in place of the fixed ``generations`` (e.g.
+    ``DefaultMultiObjectiveTermination``, which stops when the front no longer moves).
 
     Returns the non-dominated designs of everything evaluated (seeds included), so that no returned design is
     dominated by a seed.
@@ -92,10 +95,10 @@ def nsga2_front(objective: Callable[[np.ndarray], np.ndarray], initial, *, lower
     fill = np.random.default_rng(seed).uniform(lower, upper, (max(population - len(initial), 0), lower.size))
     problem = _PenalisedErrors(objective, lower, upper)
     algorithm = NSGA2(pop_size=population, sampling=np.vstack([initial, fill]))
-    minimize(problem, algorithm, termination=("n_gen", generations), seed=seed)
+    result = minimize(problem, algorithm, termination=termination or ("n_gen", generations), seed=seed)
     designs, evaluated = np.unique(np.vstack([designs for designs, _ in problem.archive]), axis=0,
                                    return_index=True)
     errors = np.vstack([errors for _, errors in problem.archive])[evaluated]
     front = np.flatnonzero(non_dominated(errors))
     front = front[np.lexsort((errors[front, 1], errors[front, 0]))]
-    return ParetoDesigns(designs[front], errors[front], len(designs))
+    return ParetoDesigns(designs[front], errors[front], len(designs), int(result.algorithm.n_gen))

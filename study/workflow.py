@@ -14,6 +14,7 @@ Folder layout under the study's ``out``::
 
 from __future__ import annotations
 
+import json
 from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
@@ -25,6 +26,7 @@ import pandas as pd
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
+from pipeline.config import resolve
 from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
@@ -33,6 +35,7 @@ from study.datasets import (ASB_CONFIGURATIONS, DEFAULT_DAMPING_CASE, dataset_st
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, StudyError, check_explored, explore, read_exploration
+from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
 from virtual_experiment.hammer_test import virtual_experiments
@@ -117,6 +120,56 @@ def exploration(paths: Paths, parameters: dict) -> Exploration:
     table1 = read_low_amplitude_measurements(paths.reference / TABLE1) if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
                        damping_cases(study.dataset, structures, table1))
+
+
+class StudyFolder(NamedTuple):
+    """A finished study as its readers need it: the folders, the resolved configuration and the exploration."""
+
+    paths: Paths
+    parameters: dict
+    exploration: Exploration
+
+
+def read_study(folder: Path) -> StudyFolder:
+    """A study's folder (``surrogacy study`` output: study.json, measurements/): its configuration resolved and its
+    structures rebuilt from the measurement files. Raises ValueError naming study.json where it is missing."""
+    folder = Path(folder)
+    record_path = folder / "study.json"
+    if not record_path.exists():
+        raise ValueError(f"{record_path}: missing (not a study folder: run surrogacy study first)")
+    record = json.loads(record_path.read_text())
+    parameters = resolve(defaults(), record["configuration"], source=str(record_path))
+    inputs = record["inputs"]
+    paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]), Path(inputs["reference"]))
+    return StudyFolder(paths, parameters, exploration(paths, parameters))
+
+
+class FrontDesigns(NamedTuple):
+    """A structure's Pareto designs in a finished study: designs (k, d) in physical units, a label each ("sample
+    <design>" or "nsga2 <i>"), and their errors (k, 2) (e_f Hz, e_zeta -) as the study computed them."""
+
+    designs: np.ndarray
+    labels: list[str]
+    errors: np.ndarray
+
+
+def front_designs(paths: Paths, model: str, n_groups: int, structure: str) -> FrontDesigns:
+    """The designs of ``analysis/fronts_<model>.csv`` for ``structure``: the sample's front (parameters read back
+    from the exploration's chunks) and NSGA-II's. Raises ValueError where the analyse step has not run."""
+    fronts_path = paths.analysis / f"fronts_{model}.csv"
+    if not fronts_path.exists():
+        raise ValueError(f"{fronts_path}: missing (run the study's analyse step first)")
+    fronts = pd.read_csv(fronts_path)
+    fronts = fronts[fronts["structure"] == structure]
+    names = parameter_names(model, n_groups)
+    sample = fronts[fronts["source"] == "sample"]
+    frame = read_exploration(paths.designs, model, ["design", *names]).set_index("design")
+    designs = np.vstack([frame.loc[sample["design"], names].to_numpy(),
+                         fronts.loc[fronts["source"] == "nsga2", names].to_numpy()])
+    labels = [f"sample {d}" for d in sample["design"]] + [f"nsga2 {i}" for i in range(len(designs) - len(sample))]
+    errors = np.vstack([sample[["frequency_error_hz", "damping_error"]].to_numpy(),
+                        fronts.loc[fronts["source"] == "nsga2", ["frequency_error_hz", "damping_error"]].to_numpy()])
+    return FrontDesigns(designs, labels, errors)
 
 
 def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: bool = False) -> list[Path]:

@@ -25,6 +25,7 @@ def by_name(steps) -> dict:
 def test_without_data_only_the_project_s_own_stages_run(tmp_path):
     steps = by_name(demo.plan(options(tmp_path)))
     assert list(steps) == list(demo.STEPS) and demo.STEPS[0] in demo.BESIDE  # started first, beside the others
+    assert steps["fit-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found"
     assert [name for name, step in steps.items() if not step.skipped] == ["beams", "fe", "rom", "report"]
     assert steps["freevib"].skipped == f"{tmp_path / 'hits.mat'} not found"
     assert steps["study-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found"
@@ -46,6 +47,8 @@ def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_pa
     assert steps["study-asb"].runs == (("study", "--out", str(tmp_path / "results" / "study-asb"), "--data",
                                         str(tmp_path / "data"), "--set", "study.dataset=asb", *shared),)
     assert steps["study-beams"].runs[0][-len(shared):] == shared
+    assert steps["fit-asb"].runs == (("fit", "--study", str(tmp_path / "results" / "study-asb"), "--out",
+                                      str(tmp_path / "results" / "fit-asb")),)
     loops = steps["discrepancy"].runs
     assert steps["freevib"].runs == (("freevib", str(tmp_path / "hits.mat"), "--mode-hz", "80.5", "--per-channel",
                                       "--out", str(tmp_path / "results" / "freevib")),)
@@ -62,18 +65,25 @@ def fake_commands(monkeypatch, scripts: dict):
     monkeypatch.setattr(demo, "command", lambda run, run_log: [sys.executable, "-c", scripts[run[0]]])
 
 
-def test_the_background_study_runs_beside_the_first_stages_and_is_waited_for(tmp_path, monkeypatch, capsys):
-    marker = tmp_path / "asb-started"
+def test_the_background_steps_run_beside_the_others_and_are_waited_for(tmp_path, monkeypatch, capsys):
+    """The ASB study runs beside beams and is finished before its calibration starts; the calibration runs beside
+    the beams' study and is finished before the report."""
+    started, studied, fitted = (tmp_path / name for name in ("asb-started", "asb-done", "fit-done"))
     fake_commands(monkeypatch, {
-        "study-asb": f"import time, pathlib; pathlib.Path({str(marker)!r}).touch(); time.sleep(0.5); print('done')",
-        "beams": f"import pathlib, time\nfor _ in range(100):\n    if pathlib.Path({str(marker)!r}).exists(): break\n"
+        "study-asb": f"import time, pathlib; pathlib.Path({str(started)!r}).touch(); time.sleep(0.5); "
+                     f"pathlib.Path({str(studied)!r}).touch(); print('done')",
+        "beams": f"import pathlib, time\nfor _ in range(100):\n    if pathlib.Path({str(started)!r}).exists(): break\n"
                  "    time.sleep(0.05)\nelse: raise SystemExit(4)",
-        "study-beams": f"import pathlib; assert pathlib.Path({str(marker)!r}).exists()"})
+        "fit-asb": f"import time, pathlib; assert pathlib.Path({str(studied)!r}).exists(); time.sleep(0.5); "
+                   f"pathlib.Path({str(fitted)!r}).touch(); print('fitted')",
+        "study-beams": f"import pathlib; assert not pathlib.Path({str(fitted)!r}).exists()",  # the fit is beside it
+        "report": f"import pathlib; assert pathlib.Path({str(fitted)!r}).exists()"})
     steps = [demo.Step("study-asb", (("study-asb",),)), demo.Step("beams", (("beams",),)),
-             demo.Step("freevib", skipped="no ring-down"), demo.Step("study-beams", (("study-beams",),))]
+             demo.Step("freevib", skipped="no ring-down"), demo.Step("fit-asb", (("fit-asb",),)),
+             demo.Step("study-beams", (("study-beams",),)), demo.Step("report", (("report",),))]
     demo.run_steps(steps, options(tmp_path))
     out = capsys.readouterr().out
-    assert "freevib: no ring-down, skipped" in out and "study-asb: done" in out
+    assert "freevib: no ring-down, skipped" in out and "study-asb: done" in out and "fit-asb: fitted" in out
     assert (tmp_path / "results" / "study-asb.log").read_text() == "done\n"
 
 

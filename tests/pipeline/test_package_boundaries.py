@@ -20,7 +20,7 @@ FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experi
                 "experiment.measured_files")
 """Modules that read or write files of measured data."""
 PACKAGES = ("pipeline", "geometry", "fem", "reduction", "experiment", "nonlinear", "virtual_experiment", "study",
-            "discrepancy", "report")
+            "calibration", "discrepancy", "report")
 """The project's packages, in the order the data flows (a package imports only packages before it)."""
 
 

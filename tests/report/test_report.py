@@ -96,7 +96,7 @@ def test_report_shows_every_figure_the_stages_wrote_and_names_stages_not_run(pip
     assert "_freevib not run_" in text  # this run had no ring-down stage: said, not filled in
     assert "## 5. Surrogacy study: beams\n\n_study not run_" in text
     for section in ("## 1. Geometry", "## 2. Finite elements", "## 3. Superelements", "## 4. Backbones",
-                    "## 6. Surrogacy study: asb", "## 7. Discrepancy loop", "## 8. Provenance"):
+                    "## 6. Surrogacy study: asb", "## 7. Calibration", "## 8. Discrepancy loop", "## 9. Provenance"):
         assert section in text
 
 

@@ -1,0 +1,15 @@
+"""The calibration stage (docs/design.md section 11): each friction model of a finished study fitted to each
+structure's measured backbone, with zeta_0 fitted beside the joint. ``surrogacy fit`` runs it
+(:mod:`calibration.commands`).
+
+What is fitted (:mod:`calibration.objectives`)
+    FitSpace, fit_space, physical      the unit box: Table 3 parameters and zeta_0
+    model_curves, linf_errors, plain_errors, normalised_residuals
+                                       QSMA at the measured levels against the measurement
+The local phase (:mod:`calibration.local_fit`)
+    local_fit, jacobian, uncertainty   weighted least squares, central-difference Jacobian, covariance
+The whole calibration (:mod:`calibration.calibrate`)
+    calibrate, Calibration             NSGA-II to a front that stops moving, polishes along it, best compromise
+Files (:mod:`calibration.files`)
+    calibration_record, read_calibration, write_fronts, plot_fits, write_markdown
+"""

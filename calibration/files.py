@@ -1,0 +1,122 @@
+"""The calibration stage's files (``surrogacy fit``), written to its output folder:
+
+    <model>/<structure>.json   one calibration (``calibration.calibrate``): its inputs' key, the best compromise
+                               (parameters with uncertainty, zeta_0, chi^2, plain errors, undetermined parameters),
+                               the global phase's cost, the calibrated front and the study's fronts' best points
+                               and hypervolumes; written once, so that a rerun skips what is finished
+    front_<model>.csv          every structure's calibrated front: structure, source (global or polished w=...),
+                               the design's parameters (N, N/m, -), zeta_0, frequency_error_hz, damping_error
+    fits_<model>.png           the measurement and the best compromise's backbone, per structure
+    calibration.md             the tables of every model and structure
+
+Hypervolume. Both fronts of a structure (the study's sample and NSGA-II fronts together, and the calibrated one)
+are measured in errors divided by a common reference point, 1.1 times the largest error of either front in each
+objective; the hypervolume (pymoo's ``HV``) is then a fraction of the unit square, larger is better.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from pymoo.indicators.hv import HV
+
+from calibration.calibrate import Calibration
+from calibration.objectives import physical
+from pipeline.files import atomic_path
+from study import figures
+
+
+def hypervolumes(study_errors: np.ndarray, calibrated_errors: np.ndarray) -> tuple[float, float]:
+    """Hypervolumes of the study's and the calibrated front (errors (k, 2) each) at their common reference point
+    (module docstring)."""
+    reference = 1.1 * np.nanmax(np.vstack([study_errors, calibrated_errors]), axis=0)
+    indicator = HV(ref_point=np.ones(2))
+    return tuple(float(indicator(np.asarray(errors) / reference)) for errors in (study_errors, calibrated_errors))
+
+
+def calibration_record(calibration: Calibration, key: str, study_front: dict) -> dict:
+    """The JSON record of one calibration; study_front: "sample" and "nsga2" -> errors (k, 2) of the study."""
+    space, best = calibration.space, calibration.best
+    study_errors = np.vstack(list(study_front.values()))
+    study_hv, calibrated_hv = hypervolumes(study_errors, calibration.front_errors)
+    uncertainty = calibration.best_uncertainty
+    values = [*best.design.tolist(), best.zeta0]
+    return {
+        "key": key, "structure": calibration.structure, "model": space.model,
+        "best": {"parameters": dict(zip(space.names, values)),
+                 "uncertainty": {name: {"value": None if np.isnan(value) else float(value), "kind": kind}
+                                 for name, value, kind in zip(space.names, uncertainty.physical, uncertainty.kind)},
+                 "undetermined": list(uncertainty.undetermined), "chi_squared": best.chi_squared,
+                 "reduced_chi_squared": uncertainty.reduced_chi_squared, "converged": best.converged,
+                 "message": best.message, "errors": calibration.best_errors},
+        "local_fits": {"count": len(calibration.fits), "converged": sum(fit.converged for fit in calibration.fits),
+                       "evaluations": sum(fit.evaluations for fit in calibration.fits)},
+        "global": {"evaluations": calibration.global_evaluations, "generations": calibration.global_generations},
+        "front": {"unit": calibration.front_unit.tolist(), "errors": calibration.front_errors.tolist(),
+                  "source": list(calibration.front_source)},
+        "study": {name: {"frequency_error_hz": float(np.nanmin(errors[:, 0])),
+                         "damping_error": float(np.nanmin(errors[:, 1]))} for name, errors in study_front.items()},
+        "hypervolume": {"study": study_hv, "calibrated": calibrated_hv},
+    }
+
+
+def read_calibration(path: Path, key: str) -> dict | None:
+    """The record at ``path`` if it holds ``key`` (the same inputs), else None (missing, unreadable or stale)."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return record if record.get("key") == key else None
+
+
+def write_fronts(path: Path, records: list[dict], space_of) -> None:
+    """front_<model>.csv of the model's records; space_of(record) -> its FitSpace."""
+    rows = []
+    for record in records:
+        space = space_of(record)
+        designs, zeta0 = physical(space, np.array(record["front"]["unit"]))
+        for design, z, (f, d), source in zip(designs, zeta0, record["front"]["errors"], record["front"]["source"]):
+            rows.append({"structure": record["structure"], "source": source, **dict(zip(space.names, [*design, z])),
+                         "frequency_error_hz": f, "damping_error": d})
+    with atomic_path(path) as temporary:
+        pd.DataFrame(rows).to_csv(temporary, index=False)
+
+
+def plot_fits(path: Path, model: str, curves: list) -> None:
+    """fits_<model>.png: per structure the measurement and the best compromise (``study.figures.plot_responses``;
+    curves: (Structure, labels, designs (1, d), zeta_0))."""
+    figures.plot_responses(path, model, curves,
+                           f"{model}: the calibration's best compromise against the measurement")
+
+
+def markdown(records: list[dict]) -> str:
+    """calibration.md: one table row per model and structure."""
+    lines = ["# Calibration (surrogacy fit)", "",
+             "Best L-infinity errors of the study's fronts (sample and NSGA-II) and of the calibrated front, their "
+             "hypervolumes at a common reference point (larger is better), and the best compromise (least squares "
+             "of frequency and damping at equal weight) with its fitted zeta_0 and the parameters the data leave "
+             "undetermined.", "",
+             "| model | structure | study e_f (Hz) | calibrated e_f (Hz) | study e_zeta | calibrated e_zeta | "
+             "HV study | HV calibrated | best: max rel. f | best: max rel. zeta | zeta_0 | reduced chi^2 | undetermined | "
+             "global generations |", "|---" * 14 + "|"]
+    for record in records:
+        study = record["study"]
+        front = np.array(record["front"]["errors"])
+        best = record["best"]
+        lines.append(
+            f"| {record['model']} | {record['structure']} | "
+            f"{min(s['frequency_error_hz'] for s in study.values()):.4f} | {front[:, 0].min():.4f} | "
+            f"{min(s['damping_error'] for s in study.values()):.3g} | {front[:, 1].min():.3g} | "
+            f"{record['hypervolume']['study']:.3f} | {record['hypervolume']['calibrated']:.3f} | "
+            f"{best['errors']['frequency_max_relative']:.2e} | {best['errors']['damping_max_relative']:.3f} | "
+            f"{best['parameters']['zeta_0']:.3g} | {best['reduced_chi_squared']:.3g} | "
+            f"{', '.join(best['undetermined']) or 'none'} | {record['global']['generations']} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_markdown(path: Path, records: list[dict]) -> None:
+    with atomic_path(path) as temporary:
+        temporary.write_text(markdown(records))

@@ -1,0 +1,137 @@
+"""The local phase of a calibration: weighted least squares from a point of the global front, and the
+uncertainty of the parameters at the optimum.
+
+Residual. For a weight w in (0, 1) between frequency and damping,
+
+    r(u) = [sqrt(2 w) (f(u) - f_m) / sigma_f,  sqrt(2 (1 - w)) (zeta(u) - zeta_m) / sigma_zeta]   (2 n_levels,)
+
+so that w = 1/2 is the plain chi^2 of both quantities (``calibration.objectives``). A point where QSMA does not
+converge gets the residual ``UNDEFINED_RESIDUAL`` at every level: the trust region then shrinks away from it.
+
+Method. scipy.optimize.least_squares, trust-region reflective in the unit box [0, 1]^(d+1) (log where Table 3
+samples in log), the Jacobian by central differences of step ``STEP`` through one vectorised QSMA call of
+2 (d + 1) designs (one-sided at a bound). A fit is converged when least_squares stops on its tolerances
+(status 1-4), not on its evaluation budget (status 0).
+
+Uncertainty. At the optimum u*, with J the Jacobian of the plain residual (w = 1/2), m residuals and p = d + 1
+coordinates, the covariance of the unit coordinates is C = s^2 (J^T J)^+ with s^2 = chi^2 / (m - p) the reduced
+chi^2 (the measurement's uncertainties are floors and estimates: their scale is taken from the fit, as
+scipy.optimize.curve_fit does with absolute_sigma=False). A coordinate whose standard deviation exceeds
+``UNDETERMINED`` of its unit range is not determined by the data (paper Table 4's "no clustering", quantified).
+A log coordinate's uncertainty is a factor exp(sigma_u (ln hi - ln lo)) on the value; a linear one's
+sigma_u (hi - lo).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from calibration.objectives import FitSpace, model_curves, normalised_residuals, physical
+from nonlinear.condensation import ModalSplit
+from study.structures import Structure
+
+STEP = 1e-4
+"""Finite-difference step in unit coordinates: Table 3 ranges span decades, so 1e-4 of a range moves a frequency
+by about 1e-4 Hz, four orders above QSMA's accuracy (1e-8 relative)."""
+UNDEFINED_RESIDUAL = 1e6
+"""Residual at every level of a point where QSMA does not converge."""
+UNDETERMINED = 0.25
+"""Standard deviation of a unit coordinate above which the data leave the parameter undetermined."""
+
+
+def residual_rows(structure: Structure, space: FitSpace, unit, weight: float,
+                  split: ModalSplit | None = None) -> np.ndarray:
+    """Weighted residuals (n, 2 levels) of unit points (n, d + 1) (module docstring)."""
+    curves = model_curves(structure, space, unit, split)
+    frequency, damping = normalised_residuals(structure.measurement, curves)
+    rows = np.hstack([np.sqrt(2.0 * weight) * frequency, np.sqrt(2.0 * (1.0 - weight)) * damping])
+    rows[~curves.converged] = UNDEFINED_RESIDUAL
+    return rows
+
+
+def difference_points(unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 2 (d + 1) points of a central difference around ``unit`` (kept inside [0, 1]) and each coordinate's
+    step between its pair (2 STEP, or STEP at a bound)."""
+    p = unit.size
+    upper = np.minimum(unit + STEP, 1.0)
+    lower = np.maximum(unit - STEP, 0.0)
+    points = np.repeat(unit[None, :], 2 * p, axis=0)
+    points[np.arange(p), np.arange(p)] = upper
+    points[p + np.arange(p), np.arange(p)] = lower
+    return points, upper - lower
+
+
+def jacobian(structure: Structure, space: FitSpace, unit, weight: float, split: ModalSplit | None = None
+             ) -> np.ndarray:
+    """(2 levels, d + 1): d r / d u by central differences (one QSMA call of 2 (d + 1) designs)."""
+    unit = np.asarray(unit, dtype=float)
+    points, steps = difference_points(unit)
+    rows = residual_rows(structure, space, points, weight, split)
+    p = unit.size
+    return ((rows[:p] - rows[p:]) / steps[:, None]).T
+
+
+class LocalFit(NamedTuple):
+    """One weighted least-squares fit: the weight, the unit optimum (d + 1,), its design (d,) and zeta_0, the
+    weighted chi^2, least_squares' status, message and evaluations, and whether it converged (status 1-4)."""
+
+    weight: float
+    unit: np.ndarray
+    design: np.ndarray
+    zeta0: float
+    chi_squared: float
+    status: int
+    message: str
+    evaluations: int
+    converged: bool
+
+
+def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5, split: ModalSplit | None = None,
+              max_evaluations: int = 400) -> LocalFit:
+    """Weighted least squares from the unit point ``start`` (d + 1,) (module docstring)."""
+    solution = least_squares(
+        lambda u: residual_rows(structure, space, u[None, :], weight, split)[0], np.clip(start, 0.0, 1.0),
+        jac=lambda u: jacobian(structure, space, u, weight, split), bounds=(0.0, 1.0), method="trf",
+        x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
+    design, zeta0 = physical(space, solution.x)
+    return LocalFit(weight, solution.x, design[0], float(zeta0[0]), float(2.0 * solution.cost), int(solution.status),
+                    str(solution.message), int(solution.nfev), bool(solution.status > 0))
+
+
+class Uncertainty(NamedTuple):
+    """Parameter uncertainty at an optimum: the unit coordinates' standard deviations (d + 1,), the reduced chi^2
+    (s^2), the physical uncertainty of each coordinate (a factor for log coordinates, an absolute value for
+    linear ones, with ``kind`` "factor" or "absolute"; NaN where undetermined), and the names of the undetermined
+    coordinates."""
+
+    unit_std: np.ndarray
+    reduced_chi_squared: float
+    physical: np.ndarray
+    kind: tuple[str, ...]
+    undetermined: tuple[str, ...]
+
+
+def uncertainty(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None) -> Uncertainty:
+    """The covariance of the unit coordinates at the optimum ``unit`` from the plain residual's Jacobian
+    (module docstring)."""
+    unit = np.asarray(unit, dtype=float)
+    residual = residual_rows(structure, space, unit[None, :], 0.5, split)[0]
+    matrix = jacobian(structure, space, unit, 0.5, split)
+    dof = max(residual.size - unit.size, 1)
+    reduced = float(residual @ residual / dof)
+    covariance = reduced * np.linalg.pinv(matrix.T @ matrix, hermitian=True)
+    unit_std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    logarithmic = np.append(space.logarithmic, True)
+    lower = np.append(space.lower, space.zeta0_bounds[0])
+    upper = np.append(space.upper, space.zeta0_bounds[1])
+    span = np.where(logarithmic, np.log(np.where(logarithmic, upper, 1.0)) - np.log(np.where(logarithmic, lower, 1.0)),
+                    upper - lower)  # of each unit coordinate, on its sampling scale
+    determined = unit_std <= UNDETERMINED
+    bounded = np.where(determined, unit_std, 0.0) * span
+    physical_std = np.where(determined, np.where(logarithmic, np.exp(bounded), bounded), np.nan)
+    undetermined = tuple(name for name, ok in zip(space.names, determined) if not ok)
+    return Uncertainty(unit_std, reduced, physical_std, tuple("factor" if log else "absolute" for log in logarithmic),
+                       undetermined)

@@ -1,0 +1,118 @@
+"""What a calibration varies and what it compares: the unit box of a friction model's joint parameters and the
+structure's linear damping zeta_0, and the model's backbone against the measurement at its levels.
+
+Box. The first d coordinates are the model's Table 3 parameters mapped to [0, 1] as the study samples them
+(``nonlinear.joint.from_unit``: in log where Table 3 is logarithmic). The last is zeta_0, the damping of the
+structure outside the joint, in log between ``ZETA0_FLOOR`` and ``ZETA0_CEILING`` times the smallest measured
+damping ratio: zeta_0 is fitted, not taken from the lowest measured point, which already holds the joint's own
+microslip damping (adding the joint's damping to that counts it twice).
+
+Backbone. QSMA (``nonlinear.qsma_vectorised.qsma_designs``, amplitude control at the measured levels, the joint
+alone) gives omega_j(q) and zeta_j(q); the model's frequency is omega_j / 2 pi and its damping zeta_j + zeta_0
+(paper Eqs. 22-25 with the linear damping added as in the study).
+
+Errors. The L-infinity errors of paper Eqs. 26-27, e_f = max |f - f_m| (Hz) and e_zeta = max |zeta - zeta_m|, are
+the objectives of the global search (the study's, so fronts compare). The residuals of the local fit are the same
+differences divided by the measurement's standard uncertainty at each level
+(``study.structures.Measurement.sigma_frequency``, ``sigma_damping``).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from nonlinear.condensation import ModalSplit
+from nonlinear.joint import from_unit, parameter_limits, parameter_names
+from nonlinear.qsma_vectorised import qsma_designs
+from study.structures import Measurement, Structure
+
+ZETA0_FLOOR = 1e-6
+"""Lower bound of zeta_0 (-): no damping outside the joint, to the precision that matters."""
+ZETA0_CEILING = 1.5
+"""Upper bound of zeta_0 as a multiple of the smallest measured damping ratio (the joint's damping is not
+negative; the half above it leaves room for the scatter of the lowest level)."""
+
+
+class FitSpace(NamedTuple):
+    """The calibration box of one friction model on one structure: the design's Table 3 limits (lower, upper,
+    logarithmic, each (d,)), zeta_0's bounds (-) and the names of the d + 1 coordinates."""
+
+    model: str
+    lower: np.ndarray
+    upper: np.ndarray
+    logarithmic: np.ndarray
+    zeta0_bounds: tuple[float, float]
+    names: tuple[str, ...]
+
+    @property
+    def dimension(self) -> int:
+        return len(self.names)
+
+
+def fit_space(model: str, n_groups: int, measurement: Measurement) -> FitSpace:
+    """The box of ``model`` with ``n_groups`` parameter groups for the structure that made ``measurement``."""
+    lower, upper, logarithmic = parameter_limits(model, n_groups)
+    ceiling = ZETA0_CEILING * float(np.min(measurement.damping))
+    return FitSpace(model, lower, upper, logarithmic, (ZETA0_FLOOR, max(ceiling, 10.0 * ZETA0_FLOOR)),
+                    (*parameter_names(model, n_groups), "zeta_0"))
+
+
+def physical(space: FitSpace, unit) -> tuple[np.ndarray, np.ndarray]:
+    """Designs (n, d) in physical units (N, N/m, -) and zeta_0 (n,) of unit points (n, d + 1)."""
+    unit = np.atleast_2d(np.asarray(unit, dtype=float))
+    low, high = np.log(space.zeta0_bounds)
+    designs = from_unit(unit[:, :-1], space.lower, space.upper, space.logarithmic)
+    return designs, np.exp(low + unit[:, -1] * (high - low))
+
+
+def unit_zeta0(space: FitSpace, zeta0) -> np.ndarray:
+    """The last unit coordinate of zeta_0 values (clipped to the box)."""
+    low, high = np.log(space.zeta0_bounds)
+    return np.clip((np.log(np.maximum(zeta0, space.zeta0_bounds[0])) - low) / (high - low), 0.0, 1.0)
+
+
+class Curves(NamedTuple):
+    """Model backbones at the measured levels: frequency_hz and damping (n, levels); converged (n,): QSMA
+    converged at every level (rows that did not are NaN)."""
+
+    frequency_hz: np.ndarray
+    damping: np.ndarray
+    converged: np.ndarray
+
+
+def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None) -> Curves:
+    """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring)."""
+    designs, zeta0 = physical(space, unit)
+    result = qsma_designs(structure.space, space.model, designs, amplitudes=structure.measurement.amplitude,
+                          linear_damping=0.0, split=split)
+    converged = result.converged.all(axis=1)
+    frequency = np.where(converged[:, None], result.frequency / (2.0 * np.pi), np.nan)
+    damping = np.where(converged[:, None], result.damping + zeta0[:, None], np.nan)
+    return Curves(frequency, damping, converged)
+
+
+def linf_errors(measurement: Measurement, curves: Curves) -> np.ndarray:
+    """(n, 2): e_f (Hz) and e_zeta (-), paper Eqs. 26-27; NaN rows where QSMA did not converge."""
+    return np.column_stack([np.max(np.abs(curves.frequency_hz - measurement.frequency_hz), axis=1),
+                            np.max(np.abs(curves.damping - measurement.damping), axis=1)])
+
+
+def plain_errors(measurement: Measurement, curves: Curves) -> dict:
+    """Relative errors of one backbone (the first row of ``curves``): max and RMS of |f - f_m| / f_m and of
+    |zeta - zeta_m| / zeta_m over the levels, and the L-infinity errors in Hz and in damping ratio."""
+    frequency = np.abs(curves.frequency_hz[0] - measurement.frequency_hz) / measurement.frequency_hz
+    damping = np.abs(curves.damping[0] - measurement.damping) / measurement.damping
+    return {"frequency_max_relative": float(np.max(frequency)),
+            "frequency_rms_relative": float(np.sqrt(np.mean(frequency ** 2))),
+            "damping_max_relative": float(np.max(damping)),
+            "damping_rms_relative": float(np.sqrt(np.mean(damping ** 2))),
+            "frequency_linf_hz": float(np.max(np.abs(curves.frequency_hz[0] - measurement.frequency_hz))),
+            "damping_linf": float(np.max(np.abs(curves.damping[0] - measurement.damping)))}
+
+
+def normalised_residuals(measurement: Measurement, curves: Curves) -> tuple[np.ndarray, np.ndarray]:
+    """(n, levels) each: (f - f_m) / sigma_f and (zeta - zeta_m) / sigma_zeta (module docstring)."""
+    return ((curves.frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency,
+            (curves.damping - measurement.damping) / measurement.sigma_damping)
