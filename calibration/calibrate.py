@@ -8,7 +8,8 @@ moving: pymoo's ``DefaultMultiObjectiveTermination`` (its default tolerances: th
 by less than 0.25 % over 30 generations), at most ``MAX_GENERATIONS`` (a run that reaches the cap says so).
 
 Local phase. For each weight of ``WEIGHTS`` between frequency (w -> 1) and damping (w -> 0), the ``STARTS`` points
-of the global front with the lowest weighted chi^2 are polished by ``calibration.local_fit.local_fit``.
+of the global front and the seeds with the lowest weighted chi^2 are polished by ``calibration.local_fit.local_fit``
+(the chi^2 optimum need not lie near the L-infinity front).
 
 Result. The calibrated front is the non-dominated set, in the two L-infinity errors, of the global front and every
 polished point. The best compromise is the polished point of w = 1/2 (the plain chi^2 of frequency and damping)
@@ -31,9 +32,9 @@ from study.structures import Structure
 WEIGHTS = (0.1, 0.3, 0.5, 0.7, 0.9)
 """Weights w of the frequency residuals in the local phase (1 - w for damping)."""
 STARTS = 3
-"""Points of the global front each weight is polished from."""
+"""Points (of the global front and the seeds) each weight is polished from."""
 POPULATION = 64
-MAX_GENERATIONS = 400
+MAX_GENERATIONS = 800
 ZETA0_SEEDS = 4
 """Values of zeta_0 (spread over its unit range) each seed design is paired with, besides the study's."""
 
@@ -85,9 +86,10 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
     termination = DefaultMultiObjectiveTermination(n_max_gen=max_generations)
     found = nsga2_front(objective, seeds, population=POPULATION, seed=seed, termination=termination)
     fits = []
+    starts = np.vstack([found.designs, seeds])
     for weight in WEIGHTS:
-        chi_squared = np.sum(residual_rows(structure, space, found.designs, weight, split) ** 2, axis=1)
-        fits += [local_fit(structure, space, found.designs[start], weight, split)
+        chi_squared = np.sum(residual_rows(structure, space, starts, weight, split) ** 2, axis=1)
+        fits += [local_fit(structure, space, starts[start], weight, split)
                  for start in np.argsort(chi_squared)[:STARTS]]
     polished = np.array([fit.unit for fit in fits])
     candidates = np.vstack([found.designs, polished])
