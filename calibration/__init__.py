@@ -10,6 +10,7 @@ The local phase (:mod:`calibration.local_fit`)
     local_fit, jacobian, uncertainty   weighted least squares, central-difference Jacobian, covariance
 The whole calibration (:mod:`calibration.calibrate`)
     calibrate, Calibration             NSGA-II to a front that stops moving, polishes along it, best compromise
-Files (:mod:`calibration.files`)
+Files (:mod:`calibration.files`, :mod:`calibration.workflow`)
     calibration_record, read_calibration, write_fronts, plot_fits, write_markdown
+    calibrate_study                    a study's folder in, the calibration's folder out, resumable
 """

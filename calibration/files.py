@@ -100,8 +100,8 @@ def markdown(records: list[dict]) -> str:
              "of frequency and damping at equal weight) with its fitted zeta_0 and the parameters the data leave "
              "undetermined.", "",
              "| model | structure | study e_f (Hz) | calibrated e_f (Hz) | study e_zeta | calibrated e_zeta | "
-             "HV study | HV calibrated | best: max rel. f | best: max rel. zeta | zeta_0 | reduced chi^2 | undetermined | "
-             "global generations |", "|---" * 14 + "|"]
+             "HV study | HV calibrated | best: max rel. f | best: max rel. zeta | zeta_0 | reduced chi^2 | "
+             "undetermined | global generations |", "|---" * 14 + "|"]
     for record in records:
         study = record["study"]
         front = np.array(record["front"]["errors"])

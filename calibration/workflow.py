@@ -1,0 +1,80 @@
+"""The calibration stage on files: a finished study's folder in, ``calibration.files``'s folder out; each
+(model, structure) calibrated once and written at once, so that an interrupted run resumes where it stopped and a
+rerun with the same inputs repeats nothing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tqdm import tqdm
+
+from calibration.calibrate import MAX_GENERATIONS, calibrate
+from calibration.files import calibration_record, plot_fits, read_calibration, write_fronts, write_markdown
+from calibration.objectives import fit_space
+from nonlinear.joint import parameter_limits, parameter_names, to_unit
+from pipeline.cache import package_versions
+from pipeline.files import sha256_file, sha256_json, stage_folder, write_json
+from study.datasets import DEFAULT_DAMPING_CASE
+from study.structures import Structure
+from study.workflow import Paths, front_designs, read_study
+
+VERSIONS = package_versions("numpy", "scipy", "numba", "pymoo")
+
+
+def calibration_key(paths: Paths, model: str, structure: Structure, seed: int, max_generations: int) -> str:
+    """What a calibration's result depends on: the study's fronts file, the measurement's levels, the seed, the
+    generation cap and the versions (SHA-256 of their JSON)."""
+    measurement = structure.measurement
+    return sha256_json({"fronts": sha256_file(paths.analysis / f"fronts_{model}.csv"),
+                        "measurement": {"amplitude": measurement.amplitude.tolist(),
+                                        "frequency_hz": measurement.frequency_hz.tolist(),
+                                        "damping": measurement.damping.tolist()},
+                        "seed": seed, "max_generations": max_generations, "versions": VERSIONS})
+
+
+def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
+                    max_generations: int = MAX_GENERATIONS) -> Path:
+    """Calibrate ``models`` (default: the study's) on ``structures`` (default: the study's) of the study in
+    ``study``, seeded with its Pareto designs and its zeta_0; write ``out`` (``calibration.files``) and return it.
+    Raises ValueError for a model or structure the study does not hold, a cap below one, or a study without its
+    analysis, before the output folder is touched."""
+    paths, parameters, explored = read_study(study)
+    models = list(models or explored.models)
+    structures = list(structures or explored.names)
+    unknown = [m for m in models if m not in explored.models] + [s for s in structures if s not in explored.names]
+    if unknown:
+        raise ValueError(f"{study}: {unknown} not in the study (models {list(explored.models)}, "
+                         f"structures {list(explored.names)})")
+    if max_generations < 1:
+        raise ValueError(f"option --max-generations = {max_generations}: expected at least 1")
+    case = DEFAULT_DAMPING_CASE[parameters["study"].dataset]  # the study's zeta_0, paired with its seeds
+    chosen = [(model, explored.names.index(name)) for model in models for name in structures]
+    fronts = {(model, index): front_designs(paths, model, explored.n_groups, explored.names[index])
+              for model, index in chosen}  # every input read before the output folder is touched
+    with stage_folder(out) as out:
+        records = {model: [] for model in models}
+        for model, index in tqdm(chosen, desc="calibrations", unit="fit"):
+            structure, front = explored.structures[index], fronts[model, index]
+            key = calibration_key(paths, model, structure, seed, max_generations)
+            path = out / model / f"{structure.name.replace(' ', '_')}.json"
+            record = read_calibration(path, key)
+            if record is None:
+                result = calibrate(structure, model, explored.n_groups,
+                                   to_unit(front.designs, *parameter_limits(model, explored.n_groups)),
+                                   explored.damping_cases[case][index], seed + index, max_generations)
+                sources = {name: front.errors[[label.startswith(name) for label in front.labels]]
+                           for name in ("sample", "nsga2")}
+                record = calibration_record(result, key, {k: v for k, v in sources.items() if len(v)})
+                path.parent.mkdir(parents=True, exist_ok=True)
+                write_json(path, record)
+            records[model].append(record)
+        structure_of = dict(zip(explored.names, explored.structures))
+        for model, model_records in records.items():
+            names = parameter_names(model, explored.n_groups)
+            write_fronts(out / f"front_{model}.csv", model_records, lambda record: fit_space(
+                model, explored.n_groups, structure_of[record["structure"]].measurement))
+            plot_fits(out / f"fits_{model}.png", model, [
+                (structure_of[r["structure"]], ["best compromise"], [[r["best"]["parameters"][n] for n in names]],
+                 r["best"]["parameters"]["zeta_0"]) for r in model_records])
+        write_markdown(out / "calibration.md", [r for model_records in records.values() for r in model_records])
+    return out
