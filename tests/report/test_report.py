@@ -60,6 +60,8 @@ def pipeline_report(beam_roms, tmp_path_factory):
                       "--set", "pareto.generations=3", "--set", "pareto.population=16"]) == 0
     assert surrogacy(["--run-log", str(log), "discrepancy", str(ASB_C1), "--out",
                       str(results / "discrepancy" / "ASB_C1")]) == 0
+    assert surrogacy(["--run-log", str(log), "fit", "--study", str(results / "study-asb"), "--structures", "ASB C1",
+                      "--max-generations", "5", "--out", str(results / "fit-asb")]) == 0
     assert surrogacy(["--run-log", str(log), "report", "--build", str(beam_roms.parent), "--results", str(results),
                       "--out", str(results / "report.md")]) == 0
     return results / "report.md", beam_roms.parent, results
@@ -79,6 +81,8 @@ def test_report_numbers_are_the_stages_own(pipeline_report):
     assert ", ".join(verdict["effects"]) in text
     surrogacy_table = (results / "study-asb" / "analysis" / "surrogacy_jenkins.md").read_text().strip()
     assert surrogacy_table.splitlines()[-1] in text  # Table 5's layout with the paper's values, embedded
+    calibration_table = (results / "fit-asb" / "calibration.md").read_text().strip()
+    assert calibration_table.splitlines()[-1] in text and "| jenkins | ASB C1 |" in text  # the calibration's row
     study = json.loads((results / "study-asb" / "study.json").read_text())
     assert f"| study (asb) | {json.dumps(study['versions'])} | {study['seed']} |" in text
 
