@@ -20,10 +20,13 @@ from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, MACROSLIP, NOT_CONVERGED, 
 NO_STUCK_MODE = "no stuck mode found below the modal split's cutoff"
 UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma_kernel.FORCE_ACCEPT:g} of the "
               "forces (deep macroslip)")
-# Reason codes 0 to 5 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
-# mechanism) and their texts, an object array: indexing it with the codes gives the reason strings without
-# copying them.
-REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED], dtype=object)
+FLAT_ENERGY = ("flat energy: every element along a joint mechanism slides and the Newton step from the point is "
+               f"above {qsma_kernel.STEP_ACCEPT:g} of the joint motion (no resolved equilibrium there)")
+# Reason codes 0 to 6 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
+# mechanism, flat energy) and their texts, an object array: indexing it with the codes gives the reason strings
+# without copying them.
+REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED, FLAT_ENERGY],
+                   dtype=object)
 
 
 def kernel_array(values: np.ndarray) -> np.ndarray:
@@ -65,6 +68,7 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     if not amplitude_control:
         code[status == qsma_kernel.UNRESTRAINED] = 2
     code[status == qsma_kernel.UNBALANCED] = 5
+    code[status == qsma_kernel.FLAT] = 6
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
     converged &= code == 0
