@@ -43,7 +43,13 @@ INLINE = "always"
 # UNBALANCED: the condensed residual vanishes but the slip forces do not balance the load on a mechanism.
 # FLAT: the residual vanishes on a point where every element along a joint mechanism slides beyond macroslip (the
 # energy flat along it, to alpha's coupling), but the Newton step from the point does not: no equilibrium there.
-CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT = 0, 1, 2, 3, 4
+# JUMPED: converged, where the loading path jumps (an element with a stiction drop changed between micro- and
+# macroslip since the last converged level): the level was followed there in SUBSTEPS from that level's equilibrium.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED = 0, 1, 2, 3, 4, 5
+# Geometric substeps of the level from the last converged one where the loading path jumps (stiction): each starts
+# from the equilibrium of the one before, so a fold met on the way is left by descent from the last equilibrium
+# before it, as the load grows.
+SUBSTEPS = 16
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 REFINED_ERROR = 1e-6  # below this the residual's error is measured against the terms C g is summed from
@@ -588,6 +594,16 @@ def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _regime_changed(x, previous, table):
+    """Whether an element with a stiction drop (table: ``_law_table``) is on the other side of macroslip, |x| = 1,
+    at x than at the previous level's equilibrium: its force jumped, and so may the loading path."""
+    for i in range(x.size):
+        if table[i, STICTION] > 0.0 and (abs(x[i]) > 1.0) != (abs(previous[i]) > 1.0):
+            return True
+    return False
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
     """alpha = lambda_1 q - b^T g under amplitude control (stuck_force = lambda_1 q), else the level itself, and
     the magnitude of its terms (for its round-off)."""
@@ -642,6 +658,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         _law_table(r[d], s[d], chi[d], theta[d], table)
+        stiction = False
+        for i in range(m):
+            stiction = stiction or table[i, STICTION] > 0.0
         for i in range(m):
             stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
         mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
@@ -683,14 +702,33 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
             code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                              compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
                                              mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
-            if code != CONVERGED and previous >= 0:
+            if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
+                # The loading path: from the last converged level's equilibrium in substeps, each from the last.
+                jumped = code == CONVERGED
+                for k in range(1, SUBSTEPS + 1):
+                    substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
+                        k / SUBSTEPS)
+                    for i in range(m):
+                        if k == 1:
+                            x[i] = solutions[d, previous, i]
+                        linear[i] = linear_per_level[d, i] * substep
+                    code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
+                                                     active, compliance_pinv, pinv_formed, stiffness_scaled,
+                                                     mechanisms, mechanism_load[d], joint_shape[d],
+                                                     eigenvalue[d] * substep if amplitude_control else substep,
+                                                     amplitude_control)
+                    if code != CONVERGED:
+                        break
+                if code == CONVERGED and (jumped or _regime_changed(x, solutions[d, previous], table)):
+                    code = JUMPED
+            elif code != CONVERGED and previous >= 0:
                 for i in range(m):
                     x[i] = linear[i] / phi[d, i]
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                                  compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
                                                  mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             status[d, level] = code
-            if code != CONVERGED:
+            if code != CONVERGED and code != JUMPED:
                 earliest, before = -1, -1
                 continue
             earliest, before, previous = before, previous, level
