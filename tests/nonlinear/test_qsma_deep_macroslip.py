@@ -345,7 +345,7 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
     numpy with the elements' own laws, balances the slip forces on the joint's mechanisms within FORCE_ACCEPT, and
     is a resolved equilibrium (the Newton step from it within 1e-6 of the motion). It is the loading path's
     equilibrium: the kernel following the load from the stuck state in eight substeps between levels gives it
-    within 1e-10 in omega and 1e-8 in zeta (no dependence on the level grid), and so does the oracle following
+    within 1e-8 in omega and 1e-6 in zeta (no dependence on the level grid), and so does the oracle following
     the same steps (1e-6, 1e-5) where it converged; where the oracle is elsewhere (its hybrid method is no descent
     method: from the same start it reaches another of the equilibria past some jumps), the 40-digit solve started
     from the kernel's level stays there (a stable equilibrium, full equations within 1e-20) and gives its omega
@@ -372,8 +372,8 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
         path = at_levels(qsma_designs(space, "iwan5", design[None, :], amplitudes=fine,
                                       linear_damping=LINEAR_DAMPING), 8)
         both = converged & path.converged[0]
-        np.testing.assert_allclose(result.frequency[0, both], path.frequency[0, both], rtol=1e-10)
-        np.testing.assert_allclose(result.damping[0, both], path.damping[0, both], rtol=1e-8)
+        np.testing.assert_allclose(result.frequency[0, both], path.frequency[0, both], rtol=1e-8)
+        np.testing.assert_allclose(result.damping[0, both], path.damping[0, both], rtol=1e-6)
         oracle = at_levels(qsma_reference(space, "iwan5", design, amplitudes=fine, linear_damping=LINEAR_DAMPING), 8)
         both = converged & oracle.converged
         apart = both & ((np.abs(result.frequency[0] / oracle.frequency - 1) > 1e-6)
