@@ -272,9 +272,10 @@ def test_a_level_on_a_flat_sliding_mechanism_is_flagged_or_an_equilibrium(beam_s
     is never returned. The SBRB levels stop on a point of the uniform slide (every x element beyond macroslip)
     whose Newton step is a whole share of the joint motion: flagged. The BRB level, followed from level 18 as the
     stiction rule says, converges to 924.02060 rad/s, zeta 0.0446684, a stable 40-digit equilibrium (the end
-    patches' x elements back in microslip); the 40-digit reference's own descent from level 18 reaches a
-    neighbouring one, 924.01927 and 0.0446698 (1.4e-6 and 3e-5 away; several equilibria: which one a descent
-    reaches past a jump depends on the method), the value the issue lists."""
+    patches' x elements back in microslip); the 40-digit reference's own descent from level 18 reaches its mirror
+    image (the other side's end patches in microslip), 924.01927 and 0.0446698, 1.4e-6 and 3e-5 away: the BRB's
+    patch groups are symmetric, and which side slides past the jump is decided by the superelement's slight
+    asymmetry and the descent's steps."""
     cases = dict((case[0], case[3]) for case in FLAT_SLIDE_CASES)[beam]
     (_, reported_damping), _ = cases[level]
     levels = slip * np.geomspace(1e-3, 10.0, 20)
