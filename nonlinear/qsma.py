@@ -42,8 +42,8 @@ NOT_CONVERGED = "solver did not converge"
 MACROSLIP = "no equilibrium: force above the macroslip limit"
 AMBIGUOUS_MODE = "target mode ambiguous: MAC < 0.5 (veering modes)"
 JUMPED = ("loading path jumps here (an element with stiction changed between micro- and macroslip since the last "
-          "level): the equilibrium reached by following the load from the last level's in substeps")
-SUBSTEPS = 16  # geometric substeps of a level where the loading path jumps (as ``nonlinear.qsma_kernel``'s)
+          "level): the equilibrium reached by following the load from the last level's")
+SUBSTEPS = 8  # geometric substeps of a level where the loading path may jump (``nonlinear.qsma_kernel``'s)
 
 
 class QSMAResult(NamedTuple):
@@ -211,22 +211,17 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only, in
         # SUBSTEPS from the last level's equilibrium where an element with stiction changed between micro- and
         # macroslip (the path may jump there; docs/design.md section 5.1).
-        starts = [linear / scale] if x is None else [x] if stiction.any() else [x, linear / scale]
+        starts = [linear / scale] if x is None else [x] if tangential.model.several_equilibria else [x, linear / scale]
         for start in starts:
             r, ok, solution = solve(value, start)
             if ok:
                 break
         if stiction.any() and x is not None and (not ok or regime_changed(solution, x)):
-            # Enough where one step from the last equilibrium reaches the same point (the kernel's SAME_POINT).
-            direct = r if ok else None
-            for n_steps in (1, SUBSTEPS) if ok else (SUBSTEPS,):
-                solution = x
-                for k in range(1, n_steps + 1):
-                    substep = value if k == n_steps else previous_value * (value / previous_value) ** (k / n_steps)
-                    r, ok, solution = solve(substep, solution)
-                    if not ok:
-                        break
-                if ok and direct is not None and np.abs(r - direct).max() <= 1e-8 * np.abs(r).max():
+            solution = x  # from the last equilibrium in SUBSTEPS, each from the last (as the kernel)
+            for k in range(1, SUBSTEPS + 1):
+                substep = value if k == SUBSTEPS else previous_value * (value / previous_value) ** (k / SUBSTEPS)
+                r, ok, solution = solve(substep, solution)
+                if not ok:
                     break
             if ok and regime_changed(solution, x):
                 note[level] = JUMPED

@@ -44,17 +44,13 @@ INLINE = "always"
 # FLAT: the residual vanishes on a point where every element along a joint mechanism slides beyond macroslip (the
 # energy flat along it, to alpha's coupling), but the Newton step from the point does not: no equilibrium there.
 # JUMPED: converged, where the loading path jumps (an element with a stiction drop changed between micro- and
-# macroslip since the last converged level): the level was followed there in SUBSTEPS from that level's equilibrium.
+# macroslip since the last converged level): the level was followed there from that level's equilibrium.
 CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED = 0, 1, 2, 3, 4, 5
-# Geometric substeps of the level from the last converged one where the loading path jumps (stiction): each starts
-# from the equilibrium of the one before, so a fold met on the way is left by descent from the last equilibrium
-# before it, as the load grows.
-SUBSTEPS = 16
-# Where the level's solution from the extrapolated start and the one reached in a single step from the last
-# converged level's equilibrium are within this share of the largest joint motion of each other (both converged
-# to 1e-10), every start met reaches that equilibrium, and the substeps are not taken (they reach it too: the
-# kernel's loading path is the same with eight substeps between levels, tests/nonlinear).
-SAME_POINT = 1e-8
+# Geometric substeps of a level from the last converged one where the loading path may jump (stiction), each from
+# the equilibrium of the one before: a fold met on the way is left by descent from the last equilibrium before it,
+# at most one substep beyond it, and the load grows from the equilibrium reached (the same rule in
+# ``nonlinear.qsma`` and the 40-digit reference).
+SUBSTEPS = 8
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 REFINED_ERROR = 1e-6  # below this the residual's error is measured against the terms C g is summed from
@@ -599,16 +595,6 @@ def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _same_point(x, other, phi):
-    """Whether two solutions of a level are one equilibrium: within SAME_POINT of the largest joint motion."""
-    largest_difference, largest_motion = 0.0, 0.0
-    for i in range(x.size):
-        largest_difference = max(largest_difference, abs((x[i] - other[i]) * phi[i]))
-        largest_motion = max(largest_motion, abs(x[i] * phi[i]))
-    return largest_difference <= SAME_POINT * largest_motion
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _regime_changed(x, previous, table):
     """Whether an element with a stiction drop (table: ``_law_table``) is on the other side of macroslip, |x| = 1,
     at x than at the previous level's equilibrium: its force jumped, and so may the loading path."""
@@ -666,7 +652,6 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     work = np.empty((N_WORK_ROWS, m))
     matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
     compliance_pinv = np.empty((m, m))
-    direct = np.empty(m)  # a level's solution from the extrapolated start, where the loading path may jump
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
@@ -719,29 +704,21 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                              compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
                                              mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
-                # The loading path: from the last converged level's equilibrium in substeps, each from the last;
-                # first in one step where the extrapolated start converged, enough where both reach one point.
+                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last.
                 jumped = code == CONVERGED
-                for i in range(m):
-                    direct[i] = x[i]
-                for n_steps in (1, SUBSTEPS):
-                    if n_steps == 1 and not jumped:
-                        continue
-                    for k in range(1, n_steps + 1):
-                        substep = value if k == n_steps else levels[previous] * (value / levels[previous]) ** (
-                            k / n_steps)
-                        for i in range(m):
-                            if k == 1:
-                                x[i] = solutions[d, previous, i]
-                            linear[i] = linear_per_level[d, i] * substep
-                        code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
-                                                         active, compliance_pinv, pinv_formed, stiffness_scaled,
-                                                         mechanisms, mechanism_load[d], joint_shape[d],
-                                                         eigenvalue[d] * substep if amplitude_control else substep,
-                                                         amplitude_control)
-                        if code != CONVERGED:
-                            break
-                    if code == CONVERGED and _same_point(x, direct, phi[d]):
+                for k in range(1, SUBSTEPS + 1):
+                    substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
+                        k / SUBSTEPS)
+                    for i in range(m):
+                        if k == 1:
+                            x[i] = solutions[d, previous, i]
+                        linear[i] = linear_per_level[d, i] * substep
+                    code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
+                                                     active, compliance_pinv, pinv_formed, stiffness_scaled,
+                                                     mechanisms, mechanism_load[d], joint_shape[d],
+                                                     eigenvalue[d] * substep if amplitude_control else substep,
+                                                     amplitude_control)
+                    if code != CONVERGED:
                         break
                 if code == CONVERGED and (jumped or _regime_changed(x, solutions[d, previous], table)):
                     code = JUMPED

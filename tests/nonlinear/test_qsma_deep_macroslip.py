@@ -255,7 +255,9 @@ FLAT_SLIDE_CASES = [
 
 def confirmed_by_reference(extended, amplitude, joint_displacement):
     """The 40-digit solve started from a float64 level's joint motion: (its level, how far it moved relative to the
-    largest motion). A float64 equilibrium stays where it is, its full equations then within 1e-20."""
+    largest motion). A float64 equilibrium stays where it is, within its own resolution (STEP_ACCEPT, 1e-6 of the
+    motion; 1e-10 typically), far closer than a neighbouring equilibrium (a whole slip displacement away), its
+    full equations then within 1e-20."""
     start = mpmath.matrix([mpmath.mpf(float(value)) for value in joint_displacement])
     r, steps = extended.solve(amplitude, start)
     exact = extended.level(amplitude, r, steps, LINEAR_DAMPING)
@@ -267,7 +269,7 @@ def confirmed_by_reference(extended, amplitude, joint_displacement):
                                                       for level in cases])
 def test_a_level_on_a_flat_sliding_mechanism_is_flagged_or_an_equilibrium(beam_spaces, beam, design, slip, level):
     """Each of the four levels is either flagged as flat energy or a 40-digit equilibrium on the loading path: the
-    extended-precision solve started from it stays there (within 1e-10 of the motion, its full equations within
+    extended-precision solve started from it stays there (within 1e-6 of the motion, its full equations within
     1e-20) and gives its omega and zeta within 1e-8 and 1e-6. The value once reported, off by up to 5 % in zeta,
     is never returned. The SBRB levels stop on a point of the uniform slide (every x element beyond macroslip)
     whose Newton step is a whole share of the joint motion: flagged. The BRB level, followed from level 18 as the
@@ -289,7 +291,7 @@ def test_a_level_on_a_flat_sliding_mechanism_is_flagged_or_an_equilibrium(beam_s
         return
     exact, moved = confirmed_by_reference(ReferenceDesign(space, "iwan5", design), levels[level],
                                           result.joint_displacement[0, level])
-    assert moved <= 1e-10 and exact.full_residual <= 1e-20
+    assert moved <= 1e-6 and exact.full_residual <= 1e-20
     assert abs(result.frequency[0, level] / exact.frequency - 1) <= 1e-8
     assert abs(result.damping[0, level] / exact.damping - 1) <= 1e-6
 
@@ -367,8 +369,9 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
         residual, step = equilibrium_defects(space, "iwan5", design, result)
         assert np.all(residual[converged] <= 1e-9)
         assert np.all(step[converged] <= 1e-6)
-        assert np.all(mechanism_imbalance(space, "iwan5", design[None, :], result)[0, converged]
-                      <= qsma_kernel.FORCE_ACCEPT)
+        if joint_mechanisms(space).tangential.size:  # the ASB's lap has none
+            assert np.all(mechanism_imbalance(space, "iwan5", design[None, :], result)[0, converged]
+                          <= qsma_kernel.FORCE_ACCEPT)
         fine = fine_levels(levels, 8)
         path = at_levels(qsma_designs(space, "iwan5", design[None, :], amplitudes=fine,
                                       linear_damping=LINEAR_DAMPING), 8)
@@ -385,7 +388,7 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
             extended = ReferenceDesign(space, "iwan5", design)
             for level in np.flatnonzero(apart):
                 exact, moved = confirmed_by_reference(extended, levels[level], result.joint_displacement[0, level])
-                assert moved <= 1e-10 and exact.full_residual <= 1e-20
+                assert moved <= 1e-6 and exact.full_residual <= 1e-20
                 assert abs(result.frequency[0, level] / exact.frequency - 1) <= 1e-8
                 assert abs(result.damping[0, level] / exact.damping - 1) <= 1e-6
     with capsys.disabled():
