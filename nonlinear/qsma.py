@@ -217,12 +217,11 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
             if ok:
                 break
         if stiction.any() and x is not None and (not ok or regime_changed(solution, x)):
-            solution = x  # from the last equilibrium in SUBSTEPS, each from the last (as the kernel)
+            waypoint = x  # from the last equilibrium in SUBSTEPS, each from the last one reached (as the kernel)
             for k in range(1, SUBSTEPS + 1):
                 substep = value if k == SUBSTEPS else previous_value * (value / previous_value) ** (k / SUBSTEPS)
-                r, ok, solution = solve(substep, solution)
-                if not ok:
-                    break
+                r, ok, solution = solve(substep, waypoint)
+                waypoint = solution if ok else waypoint
             if ok and regime_changed(solution, x):
                 note[level] = JUMPED
         if ok:

@@ -652,6 +652,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     work = np.empty((N_WORK_ROWS, m))
     matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
     compliance_pinv = np.empty((m, m))
+    waypoint = np.empty(m)  # the last equilibrium reached on the loading path within a level
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
@@ -704,22 +705,25 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                              compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
                                              mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
-                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last.
+                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last
+                # equilibrium reached (a substep that fails is passed: the next one starts where it started).
                 jumped = code == CONVERGED
+                for i in range(m):
+                    waypoint[i] = solutions[d, previous, i]
                 for k in range(1, SUBSTEPS + 1):
                     substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
                         k / SUBSTEPS)
                     for i in range(m):
-                        if k == 1:
-                            x[i] = solutions[d, previous, i]
+                        x[i] = waypoint[i]
                         linear[i] = linear_per_level[d, i] * substep
                     code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
                                                      active, compliance_pinv, pinv_formed, stiffness_scaled,
                                                      mechanisms, mechanism_load[d], joint_shape[d],
                                                      eigenvalue[d] * substep if amplitude_control else substep,
                                                      amplitude_control)
-                    if code != CONVERGED:
-                        break
+                    if code == CONVERGED:
+                        for i in range(m):
+                            waypoint[i] = x[i]
                 if code == CONVERGED and (jumped or _regime_changed(x, solutions[d, previous], table)):
                     code = JUMPED
             elif code != CONVERGED and previous >= 0:
