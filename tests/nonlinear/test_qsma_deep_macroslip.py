@@ -346,7 +346,7 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
     """Five-parameter Iwan designs of Table 3 at the deep levels (q_slip geomspace(1e-3, 10, 20)). Every level the
     kernel reports converged satisfies the condensed equations within 1e-9 of their largest term, evaluated in
     numpy with the elements' own laws, and balances the slip forces on the joint's mechanisms within FORCE_ACCEPT;
-    the levels whose Newton step exceeds STEP_ACCEPT of the motion are counted (measured: 0 to 3 in 2,000 per
+    the levels whose Newton step exceeds STEP_ACCEPT of the motion are counted (measured: 0 to 8 in 2,000 per
     structure, steps of 2e-6 to 4e-6 where no mechanism slides fully, which the kernel does not check). The
     loading path: the oracle
     follows the same rule (substeps from the last equilibrium where an element with stiction changed regime), and
