@@ -701,9 +701,12 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
             stuck_force = eigenvalue[d] * value if amplitude_control else value
-            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                             compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
-                                             mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
+            if stiction and previous >= 0 and _regime_changed(x, solutions[d, previous], table):
+                code = NOT_CONVERGED  # the start already jumped: straight to the loading path's substeps
+            else:
+                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
+                                                 compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
+                                                 mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
                 # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last
                 # equilibrium reached (a substep that fails is passed: the next one starts where it started).
