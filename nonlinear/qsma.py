@@ -34,13 +34,16 @@ import numpy as np
 import scipy.optimize
 
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, modal_assurance, stuck_stiffness_matrix
-from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_dissipation,
+from nonlinear.joint import (patch_elements, scaled_law, slip_displacement, stuck_stiffness, tangential_dissipation,
                              tangential_elements, tangential_rows, tangential_slip_deficit)
 
 CONVERGED = ""
 NOT_CONVERGED = "solver did not converge"
 MACROSLIP = "no equilibrium: force above the macroslip limit"
 AMBIGUOUS_MODE = "target mode ambiguous: MAC < 0.5 (veering modes)"
+JUMPED = ("loading path jumps here (an element with stiction changed between micro- and macroslip since the last "
+          "level): the equilibrium reached by following the load from the last level's")
+SUBSTEPS = 8  # geometric substeps of a level where the loading path may jump (``nonlinear.qsma_kernel``'s)
 
 
 class QSMAResult(NamedTuple):
@@ -53,7 +56,10 @@ class QSMAResult(NamedTuple):
         0 for stuck patches);
     converged: (levels,) bool; reason: (levels,) '' when converged, else why not (solver failure, no
         equilibrium above the macroslip force, or an ambiguous target mode);
-    stuck_frequency: omega_0 (rad/s) of the tracked mode; mac: its MAC against the reference mode.
+    stuck_frequency: omega_0 (rad/s) of the tracked mode; mac: its MAC against the reference mode;
+    note: (levels,) '' or, at a converged level, what the reader should know of it: where the loading path
+        jumps (stiction, ``JUMPED``) the level is the equilibrium reached by following the load from the last
+        converged level.
     """
 
     amplitude: np.ndarray
@@ -66,6 +72,7 @@ class QSMAResult(NamedTuple):
     reason: np.ndarray
     stuck_frequency: np.ndarray
     mac: np.ndarray
+    note: np.ndarray
 
 
 RAYLEIGH_REFINEMENTS = 3  # steps of Rayleigh quotient iteration after the dense eigen-solve (cubic convergence)
@@ -172,31 +179,54 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
     def slip_deficit(r):
         return tangential_slip_deficit(tangential, r[None, :])[0]
 
-    n_levels, n_unknowns = len(levels), len(rows)
-    r_levels = np.full((n_levels, n_unknowns), np.nan)
-    converged = np.zeros(n_levels, dtype=bool)
-    reason = np.full(n_levels, NOT_CONVERGED, dtype=object)
-    x = None
-    for level, value in enumerate(levels):
+    law = scaled_law(tangential)
+    stiction = (law.s * (1.0 - law.theta) > 0.0)[0]  # elements whose force drops at macroslip
+
+    def solve(value, start):
+        """One level from ``start`` (scaled): (r, converged, scaled solution)."""
         linear = value * b if amplitude_control else value / eigenvalue * b
 
         def residual(x_scaled):
             r = x_scaled * scale
             return (r - linear - compliance @ slip_deficit(r)) / scale
 
+        solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
+        r = solution.x * scale
+        # Round-off floor of the residual: machine precision times its largest term.
+        terms = np.max([np.abs(r), np.abs(linear), np.abs(compliance @ slip_deficit(r))])
+        return r, bool(np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms), solution.x
+
+    def regime_changed(x_scaled, previous):
+        return bool(np.any(stiction & ((np.abs(x_scaled) > 1.0) != (np.abs(previous) > 1.0))))
+
+    n_levels, n_unknowns = len(levels), len(rows)
+    r_levels = np.full((n_levels, n_unknowns), np.nan)
+    converged = np.zeros(n_levels, dtype=bool)
+    reason = np.full(n_levels, NOT_CONVERGED, dtype=object)
+    note = np.full(n_levels, "", dtype=object)
+    x, previous_value = None, None
+    for level, value in enumerate(levels):
+        linear = value * b if amplitude_control else value / eigenvalue * b
         # Continuation from the last level; for the convex laws (unique equilibrium) also a fresh start. The
-        # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only.
+        # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only, in
+        # SUBSTEPS from the last level's equilibrium where an element with stiction changed between micro- and
+        # macroslip (the path may jump there; docs/design.md section 5.1).
         starts = [linear / scale] if x is None else [x] if tangential.model.several_equilibria else [x, linear / scale]
         for start in starts:
-            solution = scipy.optimize.root(residual, start, method="hybr", options={"xtol": 1e-14, "maxfev": 4000})
-            r = solution.x * scale
-            # Round-off floor of the residual: machine precision times its largest term.
-            terms = np.max([np.abs(r), np.abs(linear), np.abs(compliance @ slip_deficit(r))])
-            if np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms:
+            r, ok, solution = solve(value, start)
+            if ok:
                 break
-        if np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms:
+        if stiction.any() and x is not None and (not ok or regime_changed(solution, x)):
+            waypoint = x  # from the last equilibrium in SUBSTEPS, each from the last one reached (as the kernel)
+            for k in range(1, SUBSTEPS + 1):
+                substep = value if k == SUBSTEPS else previous_value * (value / previous_value) ** (k / SUBSTEPS)
+                r, ok, solution = solve(substep, waypoint)
+                waypoint = solution if ok else waypoint
+            if ok and regime_changed(solution, x):
+                note[level] = JUMPED
+        if ok:
             r_levels[level], converged[level], reason[level] = r, True, CONVERGED
-            x = solution.x
+            x, previous_value = solution, value
         elif not amplitude_control and np.all(tangential.stuck[0] | (np.abs(r) >= scale)):
             reason[level] = MACROSLIP
     if mac < UNAMBIGUOUS_MAC:
@@ -207,7 +237,7 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         amplitude=amplitude, force=force, frequency=frequency, damping=damping, joint_displacement=r_levels,
         slip_ratio=np.where(tangential.stuck, 0.0, np.abs(r_levels) / scale),
         converged=converged, reason=reason.astype(str),
-        stuck_frequency=np.sqrt(eigenvalue), mac=mac)
+        stuck_frequency=np.sqrt(eigenvalue), mac=mac, note=note.astype(str))
 
 
 def modal_backbone(tangential, joint_displacement, joint_shape, eigenvalue, levels, amplitude_control: bool,

@@ -41,7 +41,16 @@ INLINE = "always"
 # Status codes per design and level; UNRESTRAINED: no solution, and every loaded slipping element is beyond
 # macroslip (or the Newton matrix is singular): the halves slide freely.
 # UNBALANCED: the condensed residual vanishes but the slip forces do not balance the load on a mechanism.
-CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED = 0, 1, 2, 3
+# FLAT: the residual vanishes on a point where every element along a joint mechanism slides beyond macroslip (the
+# energy flat along it, to alpha's coupling), but the Newton step from the point does not: no equilibrium there.
+# JUMPED: converged, where the loading path jumps (an element with a stiction drop changed between micro- and
+# macroslip since the last converged level): the level was followed there from that level's equilibrium.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED = 0, 1, 2, 3, 4, 5
+# Geometric substeps of a level from the last converged one where the loading path may jump (stiction), each from
+# the equilibrium of the one before: a fold met on the way is left by descent from the last equilibrium before it,
+# at most one substep beyond it, and the load grows from the equilibrium reached (the same rule in
+# ``nonlinear.qsma`` and the 40-digit reference).
+SUBSTEPS = 8
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 REFINED_ERROR = 1e-6  # below this the residual's error is measured against the terms C g is summed from
@@ -50,6 +59,12 @@ FORCE_TARGET = 1e-12  # ... and until the slip forces balance the load on the me
 # confirm reach 4e-7 where elements slid 1e9 slip displacements (the mechanism held only through alpha's coupling,
 # or by a stiff element whose motion the condensation resolves to 1e-7); iterates run off along a slide are at 0.44.
 FORCE_ACCEPT = 1e-6
+# Where every element along a joint mechanism slides, a level is accepted only where the Newton step from it (true
+# slopes, unshifted) is within this share of the largest joint motion: along the mechanism the energy is flat to
+# 1e-18 of its scale, so a residual within the acceptance leaves the iterate anywhere on a slide that a whole
+# Newton step (a quarter of the motion, in the cases met) still corrects; a resolved equilibrium's step is the
+# residual's size times the condition number (below 1e-9 of the motion in every converged level measured).
+STEP_ACCEPT = 1e-6
 MAX_ITERATIONS = 60
 MAX_HALVINGS = 40
 # A Newton step longer than STEP_LIMIT (1 + max|x|) in scaled slip is shortened to it and the Newton matrix is
@@ -529,12 +544,64 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
             modal_force, modal_force_terms = _modal_force(stuck_force, joint_shape, deficit, amplitude_control)
             imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms,
                                              mechanism_load, modal_force, modal_force_terms, work[FORCE])
-        return (CONVERGED if imbalance <= FORCE_ACCEPT else UNBALANCED), pinv_formed
+        if imbalance > FORCE_ACCEPT:
+            return UNBALANCED, pinv_formed
+        if _sliding_mechanism(x, table, mechanisms) and not _newton_resolved(
+                residual, compliance, phi, work, matrix, active, x, table):
+            return FLAT, pinv_formed
+        return CONVERGED, pinv_formed
     beyond_macroslip = True
     for i in range(m):
         if table[i, MACROSLIP_SLOPE] > 0.0 and linear[i] != 0.0 and abs(x[i]) < 1.0:
             beyond_macroslip = False
     return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, pinv_formed
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _sliding_mechanism(x, table, mechanisms):
+    """Whether every element taking part in some joint mechanism d_j (``PARTICIPATION``) slides beyond macroslip:
+    then none holds it, each element's force is its constant sliding force, and the energy is flat along d_j but
+    for alpha's coupling (amplitude control) and the elements entering macroslip."""
+    for j in range(mechanisms.shape[0]):
+        largest = 0.0
+        for i in range(x.size):
+            largest = max(largest, abs(mechanisms[j, i]))
+        sliding = True
+        for i in range(x.size):
+            if abs(mechanisms[j, i]) >= PARTICIPATION * largest and (
+                    abs(x[i]) <= 1.0 or table[i, MACROSLIP_SLOPE] == 0.0):
+                sliding = False
+                break
+        if sliding:
+            return True
+    return False
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
+    """Whether the unshifted Newton step from the iterate x (``_newton_step``, the true slopes where the matrix
+    allows) is within STEP_ACCEPT of the largest joint motion: the iterate is then an equilibrium to that
+    accuracy whatever the energy's curvature; not where the Newton matrix is singular (a mechanism whose energy
+    is flat: no resolved equilibrium). Uses work[STEP], work[NEWTON_SLOPE] and work[RIGHT]."""
+    step = work[STEP]
+    if _newton_step(residual, compliance, phi, work[SLOPE], step, work[NEWTON_SLOPE], matrix, work[RIGHT], active, x,
+                    work[POWER], table, 0.0):
+        return False
+    largest_step, largest_motion = 0.0, 0.0
+    for i in range(x.size):
+        largest_step = max(largest_step, abs(step[i] * phi[i]))
+        largest_motion = max(largest_motion, abs(x[i] * phi[i]))
+    return largest_step <= STEP_ACCEPT * largest_motion
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _regime_changed(x, previous, table):
+    """Whether an element with a stiction drop (table: ``_law_table``) is on the other side of macroslip, |x| = 1,
+    at x than at the previous level's equilibrium: its force jumped, and so may the loading path."""
+    for i in range(x.size):
+        if table[i, STICTION] > 0.0 and (abs(x[i]) > 1.0) != (abs(previous[i]) > 1.0):
+            return True
+    return False
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
@@ -585,6 +652,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     work = np.empty((N_WORK_ROWS, m))
     matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
     compliance_pinv = np.empty((m, m))
+    waypoint = np.empty(m)  # the last equilibrium reached on the loading path within a level
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
@@ -592,6 +660,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
         _law_table(r[d], s[d], chi[d], theta[d], table)
+        stiction = False
+        for i in range(m):
+            stiction = stiction or table[i, STICTION] > 0.0
         for i in range(m):
             stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
         mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
@@ -630,17 +701,42 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
             stuck_force = eigenvalue[d] * value if amplitude_control else value
-            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                             compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
-                                             mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
-            if code != CONVERGED and previous >= 0:
+            if stiction and previous >= 0 and _regime_changed(x, solutions[d, previous], table):
+                code = NOT_CONVERGED  # the start already jumped: straight to the loading path's substeps
+            else:
+                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
+                                                 compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
+                                                 mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
+            if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
+                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last
+                # equilibrium reached (a substep that fails is passed: the next one starts where it started).
+                jumped = code == CONVERGED
+                for i in range(m):
+                    waypoint[i] = solutions[d, previous, i]
+                for k in range(1, SUBSTEPS + 1):
+                    substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
+                        k / SUBSTEPS)
+                    for i in range(m):
+                        x[i] = waypoint[i]
+                        linear[i] = linear_per_level[d, i] * substep
+                    code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
+                                                     active, compliance_pinv, pinv_formed, stiffness_scaled,
+                                                     mechanisms, mechanism_load[d], joint_shape[d],
+                                                     eigenvalue[d] * substep if amplitude_control else substep,
+                                                     amplitude_control)
+                    if code == CONVERGED:
+                        for i in range(m):
+                            waypoint[i] = x[i]
+                if code == CONVERGED and (jumped or _regime_changed(x, solutions[d, previous], table)):
+                    code = JUMPED
+            elif code != CONVERGED and previous >= 0:
                 for i in range(m):
                     x[i] = linear[i] / phi[d, i]
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                                  compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
                                                  mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
             status[d, level] = code
-            if code != CONVERGED:
+            if code != CONVERGED and code != JUMPED:
                 earliest, before = -1, -1
                 continue
             earliest, before, previous = before, previous, level

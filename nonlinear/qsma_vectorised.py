@@ -15,15 +15,19 @@ import numpy as np
 from nonlinear import qsma_kernel
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, joint_mechanisms, stuck_modes
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
-from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, MACROSLIP, NOT_CONVERGED, QSMAResult
+from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, QSMAResult
 
 NO_STUCK_MODE = "no stuck mode found below the modal split's cutoff"
 UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma_kernel.FORCE_ACCEPT:g} of the "
               "forces (deep macroslip)")
-# Reason codes 0 to 5 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
-# mechanism) and their texts, an object array: indexing it with the codes gives the reason strings without
-# copying them.
-REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED], dtype=object)
+FLAT_ENERGY = ("flat energy: every element along a joint mechanism slides and the Newton step from the point is "
+               f"above {qsma_kernel.STEP_ACCEPT:g} of the joint motion (no resolved equilibrium there)")
+# Reason codes 0 to 6 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
+# mechanism, flat energy) and their texts, an object array: indexing it with the codes gives the reason strings
+# without copying them.
+REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED, FLAT_ENERGY],
+                   dtype=object)
+NOTES = np.array(["", JUMPED], dtype=object)  # per converged level: none, or where the loading path jumps
 
 
 def kernel_array(values: np.ndarray) -> np.ndarray:
@@ -60,16 +64,18 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
         amplitude_control, float(linear_damping),
         *map(kernel_array, (tangential.stiffness, mechanisms.tangential, modes.shape @ mechanisms.rigid.T)))
 
-    converged = status == qsma_kernel.CONVERGED
+    converged = (status == qsma_kernel.CONVERGED) | (status == qsma_kernel.JUMPED)
     code = np.where(converged, 0, 1).astype(np.int8)
     if not amplitude_control:
         code[status == qsma_kernel.UNRESTRAINED] = 2
     code[status == qsma_kernel.UNBALANCED] = 5
+    code[status == qsma_kernel.FLAT] = 6
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
     converged &= code == 0
+    note = NOTES[(converged & (status == qsma_kernel.JUMPED)).astype(np.int8)]
     reason = REASONS[code]  # references to five strings, not (designs, levels) copies of up to 50 characters
     return QSMAResult(
         amplitude=amplitude, force=force, frequency=frequency, damping=damping,
         joint_displacement=joint_displacement, slip_ratio=slip_ratio, converged=converged, reason=reason,
-        stuck_frequency=np.sqrt(modes.eigenvalue), mac=modes.mac)
+        stuck_frequency=np.sqrt(modes.eigenvalue), mac=modes.mac, note=note)

@@ -13,6 +13,8 @@ as exact. Per design:
    level starts from the previous level's solution (the first from the stuck solution q b), and a step is
    halved until E decreases; with 40 digits, E's round-off stays far below its changes even at 1e4 slip
    displacements, where float64 loses them;
+   where an element with a stiction drop changed between micro- and macroslip since the previous level, the
+   level is followed from the previous level's solution in substeps (the float64 solvers' loading-path rule);
 5. the full equations checked on the result in the unjoined modal coordinates eta:
    Lambda eta + Phi^T f_J(Phi eta) = alpha psi with alpha = lambda_1 q - b_t^T g and
    eta = A^-1 (alpha psi + Phi_t^T g), residual relative to the largest term.
@@ -30,7 +32,7 @@ import numpy as np
 
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
-from nonlinear.qsma import stuck_target_mode
+from nonlinear.qsma import SUBSTEPS, stuck_target_mode
 
 DIGITS = 40
 NEWTON_TOLERANCE = mpmath.mpf(10) ** -32  # |gradient step| relative to |r| at which a level is solved
@@ -155,14 +157,18 @@ class ReferenceDesign:
         for step_count in range(1, MAX_NEWTON_STEPS + 1):
             gradient = self.compliance_inverse * excess - deficit
             hessian = self.compliance_inverse - mpmath.diag([slope[i] for i in range(m)])
-            try:
-                step = mpmath.lu_solve(hessian, -gradient)
-            except ZeroDivisionError:
-                step = -gradient / max(abs(self.compliance_inverse[i, i]) for i in range(m))
+            # Newton's step where the Hessian is positive definite; elsewhere (the stiction law softening, a flat
+            # slide) shifted by mu I, mu growing until it is (Levenberg-Marquardt: a descent direction that turns
+            # towards steepest descent as mu grows, instead of crawling down a flat energy by steepest descent).
+            size = max(abs(hessian[i, i]) for i in range(m))
+            shift = mpmath.mpf(0)
+            while True:
+                try:
+                    step = mpmath.cholesky_solve(hessian + shift * mpmath.eye(m), -gradient)
+                    break
+                except (ValueError, ZeroDivisionError):
+                    shift = size * mpmath.mpf(10) ** -30 if shift == 0 else shift * 100
             descent = (gradient.T * step)[0]
-            if descent >= 0:  # not a descent direction (the energy is not convex here): steepest descent
-                step = -gradient / max(abs(self.compliance_inverse[i, i]) for i in range(m))
-                descent = (gradient.T * step)[0]
             length = mpmath.mpf(1)
             for _ in range(MAX_HALVINGS):
                 trial = r + length * step
@@ -211,13 +217,28 @@ class ReferenceDesign:
 
 
 def reference_levels(space: JointSpace, model: str, design, amplitudes, linear_damping: float = 0.0,
-                     stuck_group: int | None = None) -> list[ReferenceLevel]:
+                     stuck_group: int | None = None, substeps: int = SUBSTEPS) -> list[ReferenceLevel]:
     """QSMA of one design at increasing modal amplitudes q (m kg^0.5) in extended precision, level by level
-    from the stuck solution, each level starting from the previous one."""
+    from the stuck solution, each level starting from the previous one. The loading path's rule of the float64
+    solvers (docs/design.md section 5.1): where an element with a stiction drop is on the other side of
+    macroslip than at the previous level, the level is followed again from the previous level's equilibrium in
+    ``substeps`` geometric substeps, each from the last one's equilibrium."""
     reference = ReferenceDesign(space, model, design, stuck_group)
+    stiction = [reference.s[i] * (1 - reference.theta[i]) > 0 for i in range(len(reference.phi))]
+
+    def regime(r):
+        return [abs(r[i]) > reference.phi[i] for i in range(len(reference.phi))]
+
     r = mpmath.mpf(float(amplitudes[0])) * reference.joint_shape
-    levels = []
+    levels, previous = [], None
     for amplitude in amplitudes:
-        r, steps = reference.solve(amplitude, r)
+        start = r
+        r, steps = reference.solve(amplitude, start)
+        if previous is not None and any(a and b != c for a, b, c in zip(stiction, regime(r), regime(start))):
+            r = start
+            for k in range(1, substeps + 1):
+                substep = amplitude if k == substeps else previous * (amplitude / previous) ** (k / substeps)
+                r, steps = reference.solve(substep, r)
         levels.append(reference.level(amplitude, r, steps, linear_damping))
+        previous = float(amplitude)
     return levels
