@@ -24,7 +24,7 @@ from experiment.hilbert import OPTION_MINIMA, InstantaneousBackbone, RingDownSig
 from experiment.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
 from experiment.ringdown import RingDown, RingDownError, selected_channels
 
-PROVENANCES = ("measured", "virtual")
+PROVENANCES = ("measured", "virtual", "unknown")
 """Where a backbone comes from: a physical test, or a simulated test of a model (a virtual experiment)."""
 
 

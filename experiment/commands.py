@@ -16,7 +16,7 @@ from experiment.backbone import (BackboneSettingError, check_nyquist, checked_se
                                  ringdown_backbone)
 from experiment.backbone_files import freevib_stem, plot_backbone, write_backbone, write_freevib_table
 from experiment.hilbert import freevib
-from experiment.measured_files import RING_DOWN, known_formats, read_ringdown
+from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
 from experiment.ringdown_files import read_mode_shapes
 from pipeline.files import check_output_folder, sha256_file, write_json
 
@@ -48,11 +48,21 @@ def check_options(arguments: argparse.Namespace) -> tuple[float, float]:
     return band
 
 
+def resolved_provenance(source: Path, declared: str | None) -> str:
+    """The provenance of the backbone: what the file states (``experiment.measured_files``), or what the user
+    declares where the file does not say; a declaration the file contradicts raises ValueError."""
+    stated = stated_provenance(source)
+    if declared is not None and stated not in ("unknown", declared):
+        raise ValueError(f"option --provenance = {declared}: {source} states its data {stated}")
+    return stated if stated != "unknown" else declared or "unknown"
+
+
 def run_freevib(arguments: argparse.Namespace) -> None:
     """Extract, write and plot the backbone of one mode of a ring-down file."""
     band = check_options(arguments)
     source = Path(arguments.file)
     hits = read_ringdown(source)
+    provenance = resolved_provenance(source, arguments.provenance)
     check_nyquist(hits, band, "--mode-hz / --band")
     backbone = ringdown_backbone(
         hits, arguments.mode_hz, band_hz=band,
@@ -65,7 +75,7 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
-    write_backbone(mode_backbone(backbone, source.stem, "measured", settings | {"source_sha256": source_sha256}),
+    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}),
                    out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
@@ -103,5 +113,8 @@ def register(subparsers) -> None:
     command.add_argument("--trim-periods", type=float, default=defaults["trim_periods"],
                          help="periods trimmed at each end of a decay")
     command.add_argument("--feldman", action="store_true", help="use Feldman's FreeVib corrections")
+    command.add_argument("--provenance", choices=("measured", "virtual"),
+                         help="what the data are, where the file does not say (default: the file's statement, or "
+                              "unknown); refused where the file says otherwise")
     command.add_argument("--out", default="results/freevib", help="output folder")
     command.set_defaults(run=run_freevib)

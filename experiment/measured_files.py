@@ -6,6 +6,11 @@ the suffixes it comes with, how its content is recognised where two formats shar
 first format whose suffix and content match a file reads it. A file no format matches, or one of the wrong kind
 for the step, raises one :class:`MeasuredFileError` that names the file and lists the formats.
 
+Provenance. Each format also says where its file states whether the data are measured or virtual (simulated):
+a ring-down CSV in a comment line before its header (``# provenance: measured`` or ``virtual``, or a comment
+that calls the data virtual or simulated), a ring-down .mat in a top-level string variable ``provenance``, a
+backbone in its own record; a file that does not say is "unknown" (UFF 58 has no place for it).
+
 Layouts: ring-down files in :mod:`experiment.ringdown_files`, backbone files in :mod:`experiment.backbone_files`
 (docs/formats.md has both).
 """
@@ -16,9 +21,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import scipy.io
 
-from experiment.backbone import ModeBackbone
+from experiment.backbone import PROVENANCES, ModeBackbone
 from experiment.backbone_files import BACKBONE_TITLE, read_asb_backbone, read_backbone
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import read_csv, read_mat, read_uff58
@@ -50,17 +56,50 @@ def holds_asb_backbone_vectors(path: Path) -> bool:
         return False
 
 
+def checked_provenance(path: Path, stated: str) -> str:
+    """A provenance a file states, which must be one of PROVENANCES; raises MeasuredFileError otherwise."""
+    if stated not in PROVENANCES:
+        raise MeasuredFileError(path, "provenance", f"'{stated}'; expected one of {PROVENANCES}")
+    return stated
+
+
+def csv_provenance(path: Path) -> str:
+    """The provenance a CSV states in its comment lines before the header (module docstring)."""
+    comments = []
+    with open(path, encoding="utf-8-sig", errors="replace") as stream:
+        for line in stream:
+            if line.strip() and not line.lstrip().startswith("#"):
+                break  # the header row: the comments that state the provenance come before it
+            comments.append(line.strip().lstrip("#").strip())
+    for comment in comments:
+        key, _, value = comment.partition(":")
+        if key.strip().lower() == "provenance":
+            return checked_provenance(path, value.strip())
+    words = " ".join(comments).lower()
+    return "virtual" if "virtual" in words or "simulated" in words else "measured" if "measured" in words else "unknown"
+
+
+def mat_provenance(path: Path) -> str:
+    """The provenance a .mat states in a top-level string variable ``provenance`` (module docstring)."""
+    try:
+        stated = scipy.io.loadmat(path, variable_names=["provenance"]).get("provenance")
+    except (ValueError, OSError, scipy.io.matlab.MatReadError):
+        return "unknown"  # the reader names what is wrong with the file
+    return "unknown" if stated is None else checked_provenance(path, str(np.ravel(stated)[0]).strip())
+
+
 @dataclass(frozen=True)
 class MeasuredFormat:
     """One format of measured file: its name, kind (:data:`RING_DOWN` or :data:`BACKBONE`), suffixes (lower case),
-    the content test that tells it from another format with the same suffix, and the reader (path -> list of
-    RingDown, or ModeBackbone)."""
+    the content test that tells it from another format with the same suffix, the reader (path -> list of
+    RingDown, or ModeBackbone) and where the file states its provenance (path -> one of PROVENANCES)."""
 
     name: str
     kind: str
     suffixes: tuple[str, ...]
     recognises: Callable[[Path], bool]
     read: Callable[[Path], list[RingDown] | ModeBackbone]
+    provenance: Callable[[Path], str]
 
     @property
     def description(self) -> str:
@@ -68,11 +107,14 @@ class MeasuredFormat:
 
 
 MEASURED_FORMATS = (
-    MeasuredFormat("backbone CSV", BACKBONE, (".csv",), starts_with_backbone_title, read_backbone),
-    MeasuredFormat("ring-down CSV", RING_DOWN, (".csv",), lambda path: True, read_csv),
-    MeasuredFormat("ASB backbone .mat (Q, W, Z)", BACKBONE, (".mat",), holds_asb_backbone_vectors, read_asb_backbone),
-    MeasuredFormat("ring-down .mat", RING_DOWN, (".mat",), lambda path: True, read_mat),
-    MeasuredFormat("ring-down UFF 58", RING_DOWN, (".uff", ".unv"), lambda path: True, read_uff58),
+    MeasuredFormat("backbone CSV", BACKBONE, (".csv",), starts_with_backbone_title, read_backbone,
+                   lambda path: read_backbone(path).provenance),
+    MeasuredFormat("ring-down CSV", RING_DOWN, (".csv",), lambda path: True, read_csv, csv_provenance),
+    MeasuredFormat("ASB backbone .mat (Q, W, Z)", BACKBONE, (".mat",), holds_asb_backbone_vectors, read_asb_backbone,
+                   lambda path: read_asb_backbone(path).provenance),
+    MeasuredFormat("ring-down .mat", RING_DOWN, (".mat",), lambda path: True, read_mat, mat_provenance),
+    MeasuredFormat("ring-down UFF 58", RING_DOWN, (".uff", ".unv"), lambda path: True, read_uff58,
+                   lambda path: "unknown"),
 )
 """Every format a measurement is read from, in the order they are tried."""
 
@@ -115,3 +157,9 @@ def read_mode_backbone(path: Path) -> ModeBackbone:
     """One mode's backbone from a file in any backbone format of the registry."""
     return read_of_kind(path, BACKBONE, "Process a ring-down into a backbone CSV first: surrogacy freevib FILE "
                                         "--mode-hz F writes <stem>_mode_<F>Hz_backbone.csv.")
+
+
+def stated_provenance(path: Path) -> str:
+    """Whether the measured file ``path`` states its data measured or virtual, "unknown" where it does not say
+    (module docstring)."""
+    return measured_format(path).provenance(Path(path))

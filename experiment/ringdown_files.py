@@ -288,30 +288,36 @@ def common_layout(ring_downs: list[RingDown]) -> RingDown:
     return first
 
 
-def write_ringdown_csv(ring_downs: list[RingDown], destination: Path, comment: str | None = None) -> None:
+def write_ringdown_csv(ring_downs: list[RingDown], destination: Path, comment: str | None = None,
+                       provenance: str | None = None) -> None:
     """Write hits as one CSV (layout in the module docstring): a ``hit`` column numbering them from 1, time in s,
     signals in SI units, every number in Python's shortest round-tripping form; ``comment`` as a ``#`` line
-    before the header (e.g. that the data are virtual)."""
+    before the header (e.g. that the data are virtual) and ``provenance`` ("measured" or "virtual") as a
+    ``# provenance: ...`` line."""
     first = common_layout(ring_downs)
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         if comment is not None:
             stream.write(f"# {comment}\n")
+        if provenance is not None:
+            stream.write(f"# provenance: {provenance}\n")
         writer = csv.writer(stream)
         writer.writerow(["hit", "time [s]", *(f"{name} [{SI_UNITS[first.quantity]}]" for name in first.channels)])
         for number, hit in enumerate(ring_downs, start=1):
             writer.writerows([number, *row] for row in np.column_stack([hit.time, hit.signals.T]).tolist())
 
 
-def write_ringdown_mat(ring_downs: list[RingDown], destination: Path, struct: str = "ringdown") -> None:
+def write_ringdown_mat(ring_downs: list[RingDown], destination: Path, struct: str = "ringdown",
+                       provenance: str | None = None) -> None:
     """Write hits as one MATLAB struct (layout in the module docstring): ``time``, ``units`` and one
     (n_samples, n_hits) matrix per channel. Channel names become MATLAB field names (characters other than
-    letters, digits and ``_`` replaced by ``_``)."""
+    letters, digits and ``_`` replaced by ``_``). ``provenance`` ("measured" or "virtual"), when given, is a
+    top-level string variable of that name."""
     first = common_layout(ring_downs)
     fields = {"time": first.time, "units": f"s, {SI_UNITS[first.quantity]}"}
     for row, name in enumerate(first.channels):
         fields[re.sub(r"\W", "_", name)] = np.column_stack([hit.signals[row] for hit in ring_downs])
     with atomic_path(destination) as temporary:
-        write_mat(temporary, {struct: fields})  # no time stamp: the same hits give the same bytes
+        write_mat(temporary, {struct: fields} | ({"provenance": provenance} if provenance else {}))  # no time stamp
 
 
 def write_ringdown_uff58(ring_downs: list[RingDown], destination: Path) -> None:

@@ -282,7 +282,7 @@ def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_pa
     write_backbone(experiment.backbone, paths["backbone"])
     if ring_downs:
         paths["ring_downs"] = folder / f"{experiment.beam}_ringdowns.mat"
-        write_ringdown_mat(experiment.records.hits, paths["ring_downs"])
+        write_ringdown_mat(experiment.records.hits, paths["ring_downs"], provenance="virtual")
     write_json(paths["configuration"], {
         **experiment.configuration,
         "superelement": {"file": str(rom_path), "sha256": sha256_file(rom_path),

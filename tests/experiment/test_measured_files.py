@@ -1,6 +1,6 @@
 """The registry of measured-file formats: each format chosen by suffix and content from files the project's own
-writers make, read into the right record; a file of no format, or of the other kind, refused in one line that
-names the file, its format and the formats expected."""
+writers make, read into the right record, with the provenance the file states; a file of no format, or of the
+other kind, refused in one line that names the file, its format and the formats expected."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,7 @@ import scipy.io
 from experiment.backbone import ModeBackbone, mode_backbone, ringdown_backbone
 from experiment.backbone_files import read_backbone, write_backbone
 from experiment.measured_files import (MEASURED_FORMATS, MeasuredFileError, measured_format, read_mode_backbone,
-                                       read_ringdown)
+                                       read_ringdown, stated_provenance)
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import write_ringdown_csv, write_ringdown_mat, write_ringdown_uff58
 from test_backbone_files import FREQUENCY_HZ, linear_hits
@@ -83,3 +83,46 @@ def test_a_file_of_no_known_format_is_refused_listing_the_formats(tmp_path):
         read_ringdown(path)
     with pytest.raises(MeasuredFileError, match="missing.mat: field 'file': does not exist"):
         read_mode_backbone(tmp_path / "missing.mat")
+
+
+def test_each_format_states_its_provenance_or_says_unknown(files, tmp_path):
+    """Where a file states what its data are, that is its provenance; where it does not, "unknown" (UFF 58 has no
+    place for it); a statement outside the known ones is refused naming the file."""
+    assert stated_provenance(files["ring-down CSV"]) == "virtual"  # its comment calls the data virtual
+    assert stated_provenance(files["backbone CSV"]) == "virtual" and stated_provenance(files["ring-down UFF 58"]) == \
+        "unknown"
+    assert stated_provenance(files["ring-down .mat"]) == "unknown"
+    hits = linear_hits([1.0])
+    for provenance in ("measured", "virtual"):
+        write_ringdown_mat(hits, tmp_path / f"{provenance}.mat", provenance=provenance)
+        write_ringdown_csv(hits, tmp_path / f"{provenance}.csv", provenance=provenance)
+        assert stated_provenance(tmp_path / f"{provenance}.mat") == stated_provenance(tmp_path / f"{provenance}.csv") \
+            == provenance
+    write_ringdown_csv(hits, tmp_path / "plain.csv")
+    assert stated_provenance(tmp_path / "plain.csv") == "unknown"
+    write_ringdown_csv(hits, tmp_path / "odd.csv", provenance="guessed")
+    with pytest.raises(MeasuredFileError, match="odd.csv: field 'provenance': 'guessed'"):
+        stated_provenance(tmp_path / "odd.csv")
+
+
+def test_freevib_carries_the_file_s_provenance_and_refuses_a_contradiction(tmp_path, capsys):
+    """The backbone freevib writes says what the ring-down says; --provenance declares it where the file does not
+    say, and is refused (exit 2, one line) where the file says otherwise."""
+    from pipeline.cli import main as surrogacy
+
+    hits = linear_hits([1.0, 0.7])
+    write_ringdown_csv(hits, tmp_path / "virtual.csv", provenance="virtual")
+    write_ringdown_csv(hits, tmp_path / "plain.csv")
+    for name, declared, expected in (("virtual", None, "virtual"), ("plain", None, "unknown"),
+                                     ("plain", "measured", "measured")):
+        out = tmp_path / f"{name}-{declared}"
+        assert surrogacy(["freevib", str(tmp_path / f"{name}.csv"), "--mode-hz", "50", "--out", str(out),
+                          *(["--provenance", declared] if declared else [])]) == 0
+        assert read_backbone(out / f"{name}_mode_50Hz_backbone.csv").provenance == expected
+    capsys.readouterr()
+    assert surrogacy(["freevib", str(tmp_path / "virtual.csv"), "--mode-hz", "50", "--provenance", "measured",
+                      "--out", str(tmp_path / "refused")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == [f"surrogacy freevib: error: option --provenance = measured: {tmp_path / 'virtual.csv'} states "
+                     "its data virtual"]
+    assert not (tmp_path / "refused").exists()

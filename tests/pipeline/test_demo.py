@@ -51,7 +51,7 @@ def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_pa
                                       str(tmp_path / "results" / "fit-asb")),)
     loops = steps["discrepancy"].runs
     assert steps["freevib"].runs == (("freevib", str(tmp_path / "hits.mat"), "--mode-hz", "80.5", "--per-channel",
-                                      "--out", str(tmp_path / "results" / "freevib")),)
+                                      "--provenance", "measured", "--out", str(tmp_path / "results" / "freevib")),)
     assert loops[0] == ("discrepancy", str(tmp_path / "results" / "freevib" / "hits_mode_80.5Hz_backbone.csv"),
                         "--out", str(tmp_path / "results" / "discrepancy" / "chen2022"))  # the ring-down processed once
     assert [run[4] for run in loops[1:]] == ["BRB", "LBRB", "SBRB", "ASB C1", "ASB C2", "ASB C3", "ASB C4",
