@@ -17,7 +17,7 @@ from pathlib import Path
 from discrepancy.loop import discrepancy_loop
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
 from experiment.backbone import mode_backbone, ringdown_backbone
-from experiment.measured_files import read_ringdown
+from experiment.measured_files import read_ringdown, stated_provenance
 from study.structures import measured_levels
 
 
@@ -28,9 +28,8 @@ def main(argv=None):
     parser.add_argument("--nominal-frequency-hz", type=float)
     parser.add_argument("--nominal-damping", type=float)
     arguments = parser.parse_args(argv)
-    provenance = "measured"
     if arguments.ringdown is None:  # the virtual beam's nominal frequency and damping are known: give them
-        provenance, arguments.ringdown = "virtual", Path(tempfile.mkdtemp()) / "virtual_ringdown.csv"
+        arguments.ringdown = Path(tempfile.mkdtemp()) / "virtual_ringdown.csv"
         write_undeclared_ringdown(arguments.ringdown, ("microslip",))
         arguments.mode_hz = arguments.nominal_frequency_hz = REFERENCE_FREQUENCY_HZ
         arguments.nominal_damping = REFERENCE_DAMPING
@@ -38,7 +37,7 @@ def main(argv=None):
     elif arguments.mode_hz is None:
         parser.error("a ring-down file needs --mode-hz")
     measured = mode_backbone(ringdown_backbone(read_ringdown(arguments.ringdown), arguments.mode_hz),
-                             arguments.ringdown.stem, provenance)
+                             arguments.ringdown.stem, stated_provenance(arguments.ringdown))  # as the file says
     measurement = measured_levels(measured, path=str(arguments.ringdown))
     verdict = discrepancy_loop(measurement, arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
                                arguments.nominal_damping or float(measurement.damping[0]))
