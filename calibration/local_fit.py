@@ -31,6 +31,7 @@ from scipy.optimize import least_squares
 
 from calibration.objectives import FitSpace, model_curves, normalised_residuals, physical
 from nonlinear.condensation import ModalSplit
+from nonlinear.joint import sampling_scale
 from study.structures import Structure
 
 STEP = 1e-4
@@ -124,14 +125,10 @@ def uncertainty(structure: Structure, space: FitSpace, unit, split: ModalSplit |
     reduced = float(residual @ residual / dof)
     covariance = reduced * np.linalg.pinv(matrix.T @ matrix, hermitian=True)
     unit_std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-    logarithmic = np.append(space.logarithmic, True)
-    lower = np.append(space.lower, space.zeta0_bounds[0])
-    upper = np.append(space.upper, space.zeta0_bounds[1])
-    span = np.where(logarithmic, np.log(np.where(logarithmic, upper, 1.0)) - np.log(np.where(logarithmic, lower, 1.0)),
-                    upper - lower)  # of each unit coordinate, on its sampling scale
+    span = sampling_scale(space.upper, space.logarithmic) - sampling_scale(space.lower, space.logarithmic)
     determined = unit_std <= UNDETERMINED
     bounded = np.where(determined, unit_std, 0.0) * span
-    physical_std = np.where(determined, np.where(logarithmic, np.exp(bounded), bounded), np.nan)
+    physical_std = np.where(determined, np.where(space.logarithmic, np.exp(bounded), bounded), np.nan)
     undetermined = tuple(name for name, ok in zip(space.names, determined) if not ok)
-    return Uncertainty(unit_std, reduced, physical_std, tuple("factor" if log else "absolute" for log in logarithmic),
-                       undetermined)
+    return Uncertainty(unit_std, reduced, physical_std,
+                       tuple("factor" if log else "absolute" for log in space.logarithmic), undetermined)

@@ -24,8 +24,9 @@ from typing import NamedTuple
 import numpy as np
 
 from nonlinear.condensation import ModalSplit
-from nonlinear.joint import from_unit, parameter_limits, parameter_names
+from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
+from study.errors import curve_errors
 from study.structures import Measurement, Structure
 
 ZETA0_FLOOR = 1e-6
@@ -36,41 +37,35 @@ negative; the half above it leaves room for the scatter of the lowest level)."""
 
 
 class FitSpace(NamedTuple):
-    """The calibration box of one friction model on one structure: the design's Table 3 limits (lower, upper,
-    logarithmic, each (d,)), zeta_0's bounds (-) and the names of the d + 1 coordinates."""
+    """The calibration box of one friction model on one structure: the limits of its d + 1 coordinates (lower,
+    upper, logarithmic, each (d + 1,): the design's Table 3 limits, then zeta_0's (-), logarithmic) and their
+    names."""
 
     model: str
     lower: np.ndarray
     upper: np.ndarray
     logarithmic: np.ndarray
-    zeta0_bounds: tuple[float, float]
     names: tuple[str, ...]
-
-    @property
-    def dimension(self) -> int:
-        return len(self.names)
 
 
 def fit_space(model: str, n_groups: int, measurement: Measurement) -> FitSpace:
     """The box of ``model`` with ``n_groups`` parameter groups for the structure that made ``measurement``."""
     lower, upper, logarithmic = parameter_limits(model, n_groups)
-    ceiling = ZETA0_CEILING * float(np.min(measurement.damping))
-    return FitSpace(model, lower, upper, logarithmic, (ZETA0_FLOOR, max(ceiling, 10.0 * ZETA0_FLOOR)),
+    ceiling = max(ZETA0_CEILING * float(np.min(measurement.damping)), 10.0 * ZETA0_FLOOR)
+    return FitSpace(model, np.append(lower, ZETA0_FLOOR), np.append(upper, ceiling), np.append(logarithmic, True),
                     (*parameter_names(model, n_groups), "zeta_0"))
 
 
 def physical(space: FitSpace, unit) -> tuple[np.ndarray, np.ndarray]:
     """Designs (n, d) in physical units (N, N/m, -) and zeta_0 (n,) of unit points (n, d + 1)."""
-    unit = np.atleast_2d(np.asarray(unit, dtype=float))
-    low, high = np.log(space.zeta0_bounds)
-    designs = from_unit(unit[:, :-1], space.lower, space.upper, space.logarithmic)
-    return designs, np.exp(low + unit[:, -1] * (high - low))
+    values = from_unit(np.atleast_2d(unit), space.lower, space.upper, space.logarithmic)
+    return values[:, :-1], values[:, -1]
 
 
 def unit_zeta0(space: FitSpace, zeta0) -> np.ndarray:
     """The last unit coordinate of zeta_0 values (clipped to the box)."""
-    low, high = np.log(space.zeta0_bounds)
-    return np.clip((np.log(np.maximum(zeta0, space.zeta0_bounds[0])) - low) / (high - low), 0.0, 1.0)
+    zeta0 = np.maximum(zeta0, space.lower[-1])
+    return np.clip(to_unit(zeta0, space.lower[-1], space.upper[-1], True), 0.0, 1.0)
 
 
 class Curves(NamedTuple):
@@ -94,9 +89,11 @@ def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit 
 
 
 def linf_errors(measurement: Measurement, curves: Curves) -> np.ndarray:
-    """(n, 2): e_f (Hz) and e_zeta (-), paper Eqs. 26-27; NaN rows where QSMA did not converge."""
-    return np.column_stack([np.max(np.abs(curves.frequency_hz - measurement.frequency_hz), axis=1),
-                            np.max(np.abs(curves.damping - measurement.damping), axis=1)])
+    """(n, 2): e_f (Hz) and e_zeta (-), paper Eqs. 26-27 (``study.errors.curve_errors``, zeta_0 already in the
+    curves); NaN rows where QSMA did not converge."""
+    frequency, damping = curve_errors(curves.frequency_hz, curves.damping, measurement.frequency_hz,
+                                      measurement.damping, [0.0])
+    return np.column_stack([frequency, damping[:, 0]])
 
 
 def plain_errors(measurement: Measurement, curves: Curves) -> dict:

@@ -67,18 +67,18 @@ def parameter_limits(model: str, n_groups: int, stuck_group: int | None = None):
 def from_unit(unit, lower, upper, logarithmic) -> np.ndarray:
     """Parameters (n, d) of unit designs (n, d) in [0, 1]: p = lo + u (hi - lo), in log p where Table 3
     samples logarithmically."""
-    low, high = _sampling_scale(lower, logarithmic), _sampling_scale(upper, logarithmic)
+    low, high = sampling_scale(lower, logarithmic), sampling_scale(upper, logarithmic)
     values = low + np.asarray(unit, dtype=float) * (high - low)
     return np.where(logarithmic, np.exp(values), values)
 
 
 def to_unit(designs, lower, upper, logarithmic) -> np.ndarray:
     """Unit designs (n, d) of parameters (n, d): the inverse of :func:`from_unit`."""
-    low, high = _sampling_scale(lower, logarithmic), _sampling_scale(upper, logarithmic)
-    return (_sampling_scale(designs, logarithmic) - low) / (high - low)
+    low, high = sampling_scale(lower, logarithmic), sampling_scale(upper, logarithmic)
+    return (sampling_scale(designs, logarithmic) - low) / (high - low)
 
 
-def _sampling_scale(values, logarithmic) -> np.ndarray:
+def sampling_scale(values, logarithmic) -> np.ndarray:
     """Values on the scale Table 3 samples them: log where ``logarithmic``, else unchanged."""
     values = np.asarray(values, dtype=float)
     return np.where(logarithmic, np.log(np.where(logarithmic, values, 1.0)), values)
