@@ -10,7 +10,8 @@ converge gets the residual ``UNDEFINED_RESIDUAL`` at every level: the trust regi
 
 Method. scipy.optimize.least_squares, trust-region reflective in the unit box [0, 1]^(d+1) (log where Table 3
 samples in log), the Jacobian by central differences of step ``STEP`` through one vectorised QSMA call of
-2 (d + 1) designs (one-sided at a bound). A fit is converged when least_squares stops on its tolerances
+2 (d + 1) designs (one-sided at a bound): ``box_least_squares``, which the discrepancy loop's refit on a
+structure's superelement uses too (``discrepancy.superelement_route``). A fit is converged when least_squares stops on its tolerances
 (status 1-4), not on its evaluation budget (status 0).
 
 Uncertainty. At the optimum u*, with J the Jacobian of the plain residual (w = 1/2), m residuals and p = d + 1
@@ -53,26 +54,42 @@ def residual_rows(structure: Structure, space: FitSpace, unit, weight: float,
     return rows
 
 
-def difference_points(unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 2 (d + 1) points of a central difference around ``unit`` (kept inside [0, 1]) and each coordinate's
-    step between its pair (2 STEP, or STEP at a bound)."""
-    p = unit.size
-    upper = np.minimum(unit + STEP, 1.0)
-    lower = np.maximum(unit - STEP, 0.0)
-    points = np.repeat(unit[None, :], 2 * p, axis=0)
-    points[np.arange(p), np.arange(p)] = upper
-    points[p + np.arange(p), np.arange(p)] = lower
-    return points, upper - lower
+def difference_points(point: np.ndarray, lower=0.0, upper=1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The 2 p points of a central difference of step ``STEP`` around ``point`` (p,), kept inside the box
+    [lower, upper] (scalars or (p,)), and each coordinate's step between its pair (2 STEP, or less at a bound)."""
+    p = point.size
+    above = np.minimum(point + STEP, upper)
+    below = np.maximum(point - STEP, lower)
+    points = np.repeat(point[None, :], 2 * p, axis=0)
+    points[np.arange(p), np.arange(p)] = above
+    points[p + np.arange(p), np.arange(p)] = below
+    return points, above - below
+
+
+def central_jacobian(residuals, point, lower=0.0, upper=1.0) -> np.ndarray:
+    """(m, p): d r / d x of a batched residual function ``residuals`` ((n, p) points -> (n, m) rows) at
+    ``point`` (p,) by central differences in the box (one call of 2 p points)."""
+    point = np.asarray(point, dtype=float)
+    points, steps = difference_points(point, lower, upper)
+    rows = residuals(points)
+    p = point.size
+    return ((rows[:p] - rows[p:]) / steps[:, None]).T
+
+
+def box_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: int = 400):
+    """scipy.optimize.least_squares (trust-region reflective) of a batched residual function ((n, p) points ->
+    (n, m) rows) from ``start`` (p,) in the box [lower, upper] (scalars or (p,); infinite sides allowed), with the
+    Jacobian by ``central_jacobian`` (module docstring); scipy's OptimizeResult."""
+    start = np.clip(np.asarray(start, dtype=float), lower, upper)
+    return least_squares(lambda x: residuals(x[None, :])[0], start,
+                         jac=lambda x: central_jacobian(residuals, x, lower, upper), bounds=(lower, upper),
+                         method="trf", x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
 
 
 def jacobian(structure: Structure, space: FitSpace, unit, weight: float, split: ModalSplit | None = None
              ) -> np.ndarray:
-    """(2 levels, d + 1): d r / d u by central differences (one QSMA call of 2 (d + 1) designs)."""
-    unit = np.asarray(unit, dtype=float)
-    points, steps = difference_points(unit)
-    rows = residual_rows(structure, space, points, weight, split)
-    p = unit.size
-    return ((rows[:p] - rows[p:]) / steps[:, None]).T
+    """(2 levels, d + 1): d r / d u of the calibration's residual (``residual_rows``) by central differences."""
+    return central_jacobian(lambda points: residual_rows(structure, space, points, weight, split), unit)
 
 
 class LocalFit(NamedTuple):
@@ -93,10 +110,8 @@ class LocalFit(NamedTuple):
 def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5, split: ModalSplit | None = None,
               max_evaluations: int = 400) -> LocalFit:
     """Weighted least squares from the unit point ``start`` (d + 1,) (module docstring)."""
-    solution = least_squares(
-        lambda u: residual_rows(structure, space, u[None, :], weight, split)[0], np.clip(start, 0.0, 1.0),
-        jac=lambda u: jacobian(structure, space, u, weight, split), bounds=(0.0, 1.0), method="trf",
-        x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
+    solution = box_least_squares(lambda points: residual_rows(structure, space, points, weight, split), start,
+                                 max_evaluations=max_evaluations)
     design, zeta0 = physical(space, solution.x)
     return LocalFit(weight, solution.x, design[0], float(zeta0[0]), float(2.0 * solution.cost), int(solution.status),
                     str(solution.message), int(solution.nfev), bool(solution.status > 0))

@@ -9,15 +9,30 @@ from pathlib import Path
 
 from matplotlib.ticker import NullFormatter
 
+import numpy as np
+
 from discrepancy.loop import Verdict, residual_features
 from pipeline.files import atomic_path, write_json
 from study.figures import plt, save
+from study.structures import DAMPING_FLOOR, FREQUENCY_FLOOR, Measurement
 
 
-def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:
+def assumed_noise(measurement: Measurement) -> list[str]:
+    """A sentence saying at how many levels the measurement states no uncertainty and what the fit divided by
+    there (the floors of ``study.structures.Measurement``); nothing where every level states one."""
+    silent = np.isnan(measurement.frequency_uncertainty_hz) | np.isnan(measurement.damping_uncertainty)
+    if not silent.any():
+        return []
+    return ["", f"The measurement states no uncertainty at {int(silent.sum())} of {silent.size} levels: there the fit "
+                f"assumed a standard uncertainty of {FREQUENCY_FLOOR:.0e} of the frequency and "
+                f"{100 * DAMPING_FLOOR:.0f} % of the damping."]
+
+
+def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: Measurement) -> str:
     """The loop's steps as a Markdown table with the evidence and the errors before and after, after the
-    features of the reference model's residual (``discrepancy.loop.residual_features``)."""
-    lines = [f"Discrepancy loop on {source}.", "",
+    features of the reference model's residual (``discrepancy.loop.residual_features``) and the noise the fit
+    assumed where the measurement states none."""
+    lines = [f"Discrepancy loop on {source}.", *assumed_noise(measurement), "",
              "Residual of the reference model, in units of the measurement's uncertainty:", "",
              "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
     lines += [f"| {name} | {f['offset']:.3g} | {f['slope_per_decade']:.3g} | {f['curvature_per_decade2']:.3g} | "
@@ -37,6 +52,12 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict) -> str:
         lines += ["", "Candidates at the last decision (BIC; an effect is added when it lowers the BIC by more "
                       "than 10): " + ", ".join(f"{k} {v:.4g}" for k, v in sorted(last.candidates.items(),
                                                                                   key=lambda item: item[1]))]
+    if last.rejected:
+        lines += ["", "Not accepted whatever their BIC: " + "; ".join(f"{effect}: {reason}" for effect, reason
+                                                                      in sorted(last.rejected.items()))]
+    if verdict.not_determined:
+        lines += ["", "At its bound: not determined (not counted as found): " + "; ".join(
+            f"{effect} ({reason})" for effect, reason in verdict.not_determined.items())]
     found = ", ".join(verdict.effects) or "none"
     lines += ["", f"Effects found: {found}. " + ("A residual above the measurement's noise remains UNEXPLAINED "
                                                   "by the library." if verdict.unexplained else
@@ -65,12 +86,14 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     """discrepancy.md, .png and .json (``record`` and the steps with their evidence) into ``out``."""
     features = residual_features(measurement, verdict.steps[0].fit)
     with atomic_path(out / "discrepancy.md") as temporary:
-        temporary.write_text(verdict_markdown(verdict, source, features))
+        temporary.write_text(verdict_markdown(verdict, source, features, measurement))
     plot_verdict(verdict, measurement, out / "discrepancy.png")
     write_json(out / "discrepancy.json", {
         **record, "effects": verdict.effects, "unexplained": verdict.unexplained,
+        "not_determined": verdict.not_determined,
         "reference_residual_features": features,
         "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
                                                          for k, v in step.fit.parameters.items()},
                    "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
-                   "candidates": step.candidates} for step in verdict.steps]})
+                   "candidates": step.candidates, "not_accepted": step.rejected,
+                   "undetermined_parameters": step.fit.undetermined} for step in verdict.steps]})

@@ -19,12 +19,27 @@ Fit. Weighted least squares (scipy.optimize.least_squares) of frequency and damp
 each residual divided by the measurement's standard uncertainty (with floors of 1e-4 f and 2 % of zeta); positive
 parameters in log, bounded ones through a logistic map; several starts.
 
+Determined. A fit's effect parameters must be determined by the points: at the optimum, the covariance of the
+fitted variables is (J^T J)^-1 (J the Jacobian of the residuals in units of the measurement's uncertainty: what
+the points determine at their stated noise, whatever the model still misses; singular values floored at 1e-12 of
+the largest, so a direction the points do not see gets a huge variance instead of being dropped). A parameter is "at its bound" where its bounded
+map sits within ``AT_BOUND`` of an end (a frequency shift of +-10 %, theta at 0 or 1), and "not determined"
+where the standard deviation of its fitted variable exceeds ``UNDETERMINED`` (3 in the log of a positive
+parameter: a factor 20 either way; 3 in the logit of a bounded one): more parameters than the points carry.
+Whether the effect is there at all is the BIC's question (below), not the covariance's. A trial with such a parameter is
+not accepted as found, whatever its BIC; the step lists it with the reason.
+
 Loop. Starting from the reference model, every effect not yet in the model is added and refitted; the one with
 the lowest Bayesian information criterion BIC = chi^2 + k ln n (n residuals, k parameters) is kept if it lowers
-the BIC by more than ``EVIDENCE`` (10: very strong evidence). The loop stops when the residual is at the
-measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect earns its parameters; a
-residual then still above ``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the
-effect, the parameters, chi^2, BIC, and the L-infinity and RMS errors of frequency and damping.
+the BIC by more than ``EVIDENCE`` (10: very strong evidence), its parameters are determined, and it leaves
+neither L-infinity error (frequency, damping) worse than the reference model's by more than the measurement's
+largest standard uncertainty (a least-squares optimum can trade the worst point for the rest). The loop stops
+when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect
+earns its parameters; a stepwise refinement then swaps or drops effects (an effect whose parameters a later
+step pushed to a bound is dropped whatever its BIC). An effect of the final model whose parameters still sit at a
+bound or are undetermined is reported as "at its bound: not determined", never as found; a residual still above
+``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect, the parameters, chi^2,
+BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not accepted with the reason.
 """
 
 from __future__ import annotations
@@ -43,6 +58,9 @@ EVIDENCE = 10.0  # BIC decrease an effect must bring to be added
 AT_NOISE = 1.5  # chi^2 per degree of freedom at which the residual is the measurement's noise
 UNEXPLAINED = 3.0  # chi^2 per degree of freedom above which a remaining residual is reported unexplained
 UNDEFINED_MISFIT = 1e8  # residual given to a point where the model is undefined (the optimiser moves away)
+AT_BOUND = 1e-2  # fraction of a bounded parameter's range from an end at which it sits on its bound
+UNDETERMINED = 3.0  # standard deviation of a fitted variable (log or logit) above which the points leave it free
+SINGULAR_FLOOR = 1e-12  # singular values of the Jacobian floored at this fraction of the largest
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
 # Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "shift"
@@ -104,7 +122,8 @@ def _to_vector(parameters: dict, specification) -> np.ndarray:
 
 
 class Fit(NamedTuple):
-    """A fitted model: its effects, parameters, chi^2, BIC and model curves at the measured amplitudes."""
+    """A fitted model: its effects, parameters, chi^2, BIC and model curves at the measured amplitudes, and its
+    effect parameters that the points leave at a bound or undetermined (``determinacy``: name -> reason)."""
 
     effects: tuple
     parameters: dict
@@ -113,6 +132,27 @@ class Fit(NamedTuple):
     frequency_hz: np.ndarray
     damping: np.ndarray
     n_parameters: int
+    undetermined: dict = {}
+
+
+def determinacy(jacobian, vector, specification, indices) -> dict:
+    """Parameter name -> reason ("at its bound (value)", "not determined (value, ...)") for the effect parameters
+    at ``indices`` of a least-squares optimum ``vector`` (p,) of fitted variables (``TRANSFORMS`` of
+    ``specification``), from the residual's ``jacobian`` (m, p) (module docstring)."""
+    jacobian = np.asarray(jacobian, dtype=float)
+    _, singular, rows = np.linalg.svd(jacobian, full_matrices=False)
+    floor = SINGULAR_FLOOR * singular[0] if singular.size and singular[0] > 0 else np.finfo(float).tiny
+    spread = np.sqrt(np.sum((rows / np.maximum(singular, floor)[:, None]) ** 2, axis=0))
+    reasons = {}
+    for index in indices:
+        name, kind, _ = specification[index]
+        value = float(TRANSFORMS[kind][0](vector[index]))
+        if kind != "log" and not AT_BOUND < expit(vector[index]) < 1.0 - AT_BOUND:
+            reasons[name] = f"at its bound ({value:.4g})"
+        elif spread[index] > UNDETERMINED:
+            reasons[name] = (f"not determined ({value:.4g}, standard deviation {spread[index]:.2g} in its "
+                             f"{'log' if kind == 'log' else 'logit'})")
+    return reasons
 
 
 def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
@@ -144,11 +184,13 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
                                    max_nfev=400)
         chi_squared = float(np.sum(result.fun ** 2))
         if np.isfinite(chi_squared) and (best is None or chi_squared < best[0]):
-            best = (chi_squared, result.x)
-    parameters = _to_parameters(best[1], specification)
+            best = (chi_squared, result.x, result.jac)
+    chi_squared, vector, jacobian = best
+    parameters = _to_parameters(vector, specification)
     frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping)
-    return Fit(tuple(effects), parameters, best[0], bic(best[0], len(specification), n), frequency, damping,
-               len(specification))
+    undetermined = determinacy(jacobian, vector, specification, range(len(BASE), len(specification)))
+    return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, len(specification), n), frequency, damping,
+               len(specification), undetermined)
 
 
 def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:
@@ -189,23 +231,27 @@ def residual_features(measurement: Measurement, model: Fit) -> dict:
 
 class Step(NamedTuple):
     """One step of the loop: the effect added (None for the reference model), the fit, its errors (L-infinity
-    and RMS of frequency in Hz and of damping), chi^2 per degree of freedom, and every candidate's BIC."""
+    and RMS of frequency in Hz and of damping), chi^2 per degree of freedom, every candidate's BIC, and the
+    candidates not accepted whatever their BIC, with the reason (``admissible``)."""
 
     effect: str | None
     fit: Fit
     errors: dict
     reduced_chi_squared: float
     candidates: dict
+    rejected: dict = {}
 
 
 @dataclass
 class Verdict:
-    """The loop's answer: the effects found in order, the steps with their evidence, and whether a residual
-    above the noise remains unexplained."""
+    """The loop's answer: the effects found in order, the steps with their evidence, whether a residual above the
+    noise remains unexplained, and the effects of the final model whose parameters the points leave at a bound or
+    undetermined (effect -> reason; not counted as found)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     unexplained: bool = False
+    not_determined: dict = field(default_factory=dict)
 
 
 def errors(measurement: Measurement, model: Fit) -> dict:
@@ -235,48 +281,79 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
     ``previous``. Forward selection by BIC from the reference model, then ``stepwise_refinement``."""
     n = 2 * len(measurement.amplitude)
 
-    def step(effect, model, candidates):
+    def step(effect, model, candidates, rejected=None):
         return Step(effect, model, errors(measurement, model), model.chi_squared / max(n - model.n_parameters, 1),
-                    candidates)
+                    candidates, rejected or {})
 
     current = fitted(())
     verdict = Verdict(steps=[step(None, current, {})])
+    reference = verdict.steps[0].errors
+
+    def accepted(trial):
+        return trial is not None and not admissible(measurement, trial, reference, trial.effects)
+
     while verdict.steps[-1].reduced_chi_squared > AT_NOISE:
         trials = {effect: fitted((*current.effects, effect), current) for effect in library
                   if effect not in current.effects}
         trials = {effect: trial for effect, trial in trials.items() if trial is not None}
         if not trials:
             break
-        best = min(trials, key=lambda e: trials[e].bic)
         candidates = {effect: trial.bic for effect, trial in trials.items()}
-        if trials[best].bic > current.bic - EVIDENCE:
-            verdict.steps[-1] = verdict.steps[-1]._replace(candidates=candidates)
+        rejected = {effect: "; ".join(reasons) for effect, trial in trials.items()
+                    if (reasons := admissible(measurement, trial, reference, (effect,)))}
+        eligible = [effect for effect in trials if effect not in rejected]
+        best = min(eligible, key=lambda e: trials[e].bic) if eligible else None
+        if best is None or trials[best].bic > current.bic - EVIDENCE:
+            verdict.steps[-1] = verdict.steps[-1]._replace(candidates=candidates, rejected=rejected)
             break
         current = trials[best]
-        verdict.steps.append(step(best, current, candidates))
-    refined = stepwise_refinement(current, library, fitted)
+        verdict.steps.append(step(best, current, candidates, rejected))
+    refined = stepwise_refinement(current, library, fitted, accepted)
     if refined.effects != current.effects:
         verdict.steps.append(step("refined: " + ", ".join(refined.effects), refined,
                                   {"before refinement": current.bic}))
-    verdict.effects = list(refined.effects)
+    verdict.not_determined = {effect: "; ".join(reasons) for effect in refined.effects
+                              if (reasons := flagged(refined, (effect,)))}
+    verdict.effects = [effect for effect in refined.effects if effect not in verdict.not_determined]
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict
 
 
-def stepwise_refinement(current: Fit, library, fitted) -> Fit:
+def flagged(trial: Fit, effects) -> list[str]:
+    """The reasons ``trial`` gives for parameters of ``effects`` at a bound or undetermined."""
+    return [f"{name} {trial.undetermined[name]}" for effect in effects for name, _, _ in EFFECTS[effect]
+            if name in trial.undetermined]
+
+
+def admissible(measurement: Measurement, trial: Fit, reference: dict, effects) -> list[str]:
+    """Why a trial fit cannot be accepted whatever its BIC (empty if it can): parameters of ``effects`` at a
+    bound or undetermined, or an L-infinity error worse than the reference model's (``reference``: its
+    ``errors``) by more than the measurement's largest standard uncertainty (module docstring)."""
+    reasons = flagged(trial, effects)
+    found = errors(measurement, trial)
+    for name, key, sigma in (("frequency", "frequency_linf_hz", measurement.sigma_frequency),
+                             ("damping", "damping_linf", measurement.sigma_damping)):
+        if found[key] > reference[key] + float(np.max(sigma)):
+            reasons.append(f"L-infinity {name} error {found[key]:.3g} above the reference's {reference[key]:.3g}")
+    return reasons
+
+
+def stepwise_refinement(current: Fit, library, fitted, accepted) -> Fit:
     """Swap an effect of the model for one outside it, or drop one, while that lowers the BIC (dropping: while
-    the BIC rises by less than EVIDENCE, i.e. the effect did not earn its parameters in the final model)."""
+    the BIC rises by less than EVIDENCE, i.e. the effect did not earn its parameters in the final model, or
+    whatever the BIC where the effect's parameters sit at a bound or are undetermined); only to fits that
+    ``accepted`` takes (``admissible`` for all their effects)."""
     improved = True
     while improved and current.effects:
         improved = False
         for effect in current.effects:
             others = tuple(e for e in current.effects if e != effect)
             dropped = fitted(others, current)
-            if dropped is not None and dropped.bic < current.bic + EVIDENCE:
+            if accepted(dropped) and (dropped.bic < current.bic + EVIDENCE or flagged(current, (effect,))):
                 current, improved = dropped, True
                 break
             swaps = [fitted((*others, candidate), current) for candidate in library if candidate not in current.effects]
-            better = [trial for trial in swaps if trial is not None and trial.bic < current.bic - 1e-9]
+            better = [trial for trial in swaps if accepted(trial) and trial.bic < current.bic - 1e-9]
             if better:
                 current, improved = min(better, key=lambda trial: trial.bic), True
                 break

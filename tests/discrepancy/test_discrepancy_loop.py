@@ -16,7 +16,7 @@ import scipy.io
 
 from experiment.backbone_files import read_backbone
 from nonlinear.modal_joint import modal_joint_backbone
-from discrepancy.loop import discrepancy_loop
+from discrepancy.loop import EFFECTS, discrepancy_loop
 from discrepancy.virtual_data import (EFFECT_INSTANCES, REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ,
                                     write_undeclared_backbone)
 from reduction.superelement import StructureError
@@ -177,3 +177,44 @@ def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
         # and 3.8e-3 in damping against the known backbone), the estimator's and not the model's
         before, after = record["steps"][0]["errors"], record["steps"][-1]["errors"]
         assert after["damping_rms"] <= 0.5 * before["damping_rms"]
+
+
+SHORT = np.geomspace(5e-6, 3e-4, 8)  # eight points across the reference joint's slip, as a stepped-sine test gives
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("truth", [("stiffness_change", "amplitude_damping"), ("microslip", "linear_damping")])
+def test_short_backbone_names_no_more_than_it_holds(tmp_path, truth, seed):
+    """Eight points with two effects: the loop names the two or fewer, never one that is not there, and no
+    effect it names has a parameter on a bound or one the points leave free (the effect's parameters read back
+    against the library's bounds, independently of the loop's own flags)."""
+    from discrepancy.loop import MAX_SHIFT
+
+    verdict = loop_on_file(tmp_path, truth, seed=seed, amplitudes=SHORT)
+    assert set(verdict.effects) <= set(truth)
+    final = verdict.steps[-1].fit
+    for effect in verdict.effects:
+        for name in (name for name, _, _ in EFFECTS[effect]):
+            value = final.parameters[name]
+            bounded = {"frequency_shift": (-MAX_SHIFT, MAX_SHIFT), "theta": (0.0, 1.0), "chi": (-0.995, -0.005)}
+            if name in bounded:
+                low, high = bounded[name]
+                assert low + 2e-3 * (high - low) < value < high - 2e-3 * (high - low), (effect, name, value)
+            assert name not in final.undetermined
+
+
+def test_loop_states_the_noise_it_assumed(tmp_path):
+    """A backbone with no uncertainties: the report says the fit divided by the floors, and which they are."""
+    from dataclasses import replace
+
+    from discrepancy.files import verdict_markdown
+
+    path = tmp_path / "measured.csv"
+    write_undeclared_backbone(path, ("linear_damping",), amplitudes=SHORT)
+    stated = measured_levels(read_backbone(path), path=str(path))
+    silent = replace(stated, frequency_uncertainty_hz=np.full(len(SHORT), np.nan),
+                     damping_uncertainty=np.full(len(SHORT), np.nan))
+    verdict = discrepancy_loop(silent, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
+    text = verdict_markdown(verdict, str(path), {}, silent)
+    assert "states no uncertainty at 8 of 8 levels" in text and "1e-04 of the frequency and 2 % of the damping" in text
+    assert "states no uncertainty" not in verdict_markdown(verdict, str(path), {}, stated)
