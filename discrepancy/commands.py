@@ -47,7 +47,8 @@ def run(arguments: argparse.Namespace) -> None:
         record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": measurement.provenance,
                   "borrowed_damping": loaded.borrowed_damping,
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
-        loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping)
+        loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping,
+                       loaded.space)
     else:
         measured = read_mode_backbone(arguments.file)
         measurement = measured_levels(measured, arguments.levels, str(arguments.file))

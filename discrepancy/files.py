@@ -42,7 +42,7 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
              "|---|---|---|---|---|---|---|---|"]
     for number, step in enumerate(verdict.steps):
         e = step.errors
-        reference = (f"reference: the study's best {step.fit.parameters['design']}" if "design" in step.fit.parameters
+        reference = (f"reference: {step.fit.parameters['design']}" if "design" in step.fit.parameters
                      else "reference (Jenkins, nominal f_0 and zeta_0)")
         lines.append(f"| {number} | {step.effect or reference} | "
                      f"{step.reduced_chi_squared:.3g} | {step.fit.bic:.4g} | {e['frequency_linf_hz']:.4g} | "

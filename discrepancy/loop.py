@@ -19,10 +19,13 @@ Fit. Weighted least squares (scipy.optimize.least_squares) of frequency and damp
 each residual divided by the measurement's standard uncertainty (with floors of 1e-4 f and 2 % of zeta); positive
 parameters in log, bounded ones through a logistic map; several starts.
 
-Determined. A fit's effect parameters must be determined by the points: at the optimum, the covariance of the
-fitted variables is (J^T J)^-1 (J the Jacobian of the residuals in units of the measurement's uncertainty: what
-the points determine at their stated noise, whatever the model still misses; singular values floored at 1e-12 of
-the largest, so a direction the points do not see gets a huge variance instead of being dropped). A parameter is "at its bound" where its bounded
+Determined. A fit's effect parameters must be determined by the points: at the optimum, with J the Jacobian of the
+residuals in units of the measurement's uncertainty (what the points determine at their stated noise, whatever
+the model still misses), the covariance of the effect parameters with the others held is (J_e^T J_e)^-1 (J_e their
+columns of J; singular values floored at ``SINGULAR_FLOOR`` of J's scale, so a direction the points do not see
+gets a huge variance instead of being dropped). The joint's own parameters are held because their trade against an
+effect is not local: a Jenkins joint on a superelement mimics a 0.4 % frequency shift to first order (its
+Jacobian spans the shift's column to 2e-8) but not over the whole backbone, where only the shift fits. A parameter is "at its bound" where its bounded
 map sits within ``AT_BOUND`` of an end (a frequency shift of +-10 %, theta at 0 or 1), and "not determined"
 where the standard deviation of its fitted variable exceeds ``UNDETERMINED`` (3 in the log of a positive
 parameter: a factor 20 either way; 3 in the logit of a bounded one): more parameters than the points carry.
@@ -60,7 +63,7 @@ UNEXPLAINED = 3.0  # chi^2 per degree of freedom above which a remaining residua
 UNDEFINED_MISFIT = 1e8  # residual given to a point where the model is undefined (the optimiser moves away)
 AT_BOUND = 1e-2  # fraction of a bounded parameter's range from an end at which it sits on its bound
 UNDETERMINED = 3.0  # standard deviation of a fitted variable (log or logit) above which the points leave it free
-SINGULAR_FLOOR = 1e-12  # singular values of the Jacobian floored at this fraction of the largest
+SINGULAR_FLOOR = 1e-12  # singular values floored at this fraction of the Jacobian's largest entry
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
 # Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "shift"
@@ -140,17 +143,18 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
     at ``indices`` of a least-squares optimum ``vector`` (p,) of fitted variables (``TRANSFORMS`` of
     ``specification``), from the residual's ``jacobian`` (m, p) (module docstring)."""
     jacobian = np.asarray(jacobian, dtype=float)
-    _, singular, rows = np.linalg.svd(jacobian, full_matrices=False)
-    floor = SINGULAR_FLOOR * singular[0] if singular.size and singular[0] > 0 else np.finfo(float).tiny
+    indices = list(indices)
+    _, singular, rows = np.linalg.svd(jacobian[:, indices], full_matrices=False)
+    floor = max(SINGULAR_FLOOR * float(np.max(np.abs(jacobian))), np.finfo(float).tiny)
     spread = np.sqrt(np.sum((rows / np.maximum(singular, floor)[:, None]) ** 2, axis=0))
     reasons = {}
-    for index in indices:
+    for position, index in enumerate(indices):
         name, kind, _ = specification[index]
         value = float(TRANSFORMS[kind][0](vector[index]))
         if kind != "log" and not AT_BOUND < expit(vector[index]) < 1.0 - AT_BOUND:
             reasons[name] = f"at its bound ({value:.4g})"
-        elif spread[index] > UNDETERMINED:
-            reasons[name] = (f"not determined ({value:.4g}, standard deviation {spread[index]:.2g} in its "
+        elif spread[position] > UNDETERMINED:
+            reasons[name] = (f"not determined ({value:.4g}, standard deviation {spread[position]:.2g} in its "
                              f"{'log' if kind == 'log' else 'logit'})")
     return reasons
 

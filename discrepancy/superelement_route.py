@@ -1,27 +1,35 @@
 """The discrepancy loop on a structure's own model: its superelement and friction model, with the study's fits as
-the reference. ``discrepancy.loop`` holds the loop, the effect library and the one-mode
-model for measurements with no finite-element model behind them; this module puts the study's evaluation in the
-one-mode model's place.
+the starting points. ``discrepancy.loop`` holds the loop, the effect library and the one-mode model for
+measurements with no finite-element model behind them; this module puts the structure's QSMA in the one-mode
+model's place.
 
-Reference. The candidate designs of a friction model on a structure are the study's Pareto designs there (the
-sample's front and NSGA-II's, ``fronts_<model>.csv``), evaluated by the study's QSMA (``qsma_designs``) at the
-measurement's levels with the study's linear damping zeta_0 (borrowed, as the paper did). The reference model is
-the candidate of the study's macroslip model (Jenkins) with the lowest chi^2 against the measurement (weighted by
-its uncertainty, as in ``discrepancy.loop``); its residual is what the study's best fit misses.
+Candidates. The designs of a friction model on a structure are the study's Pareto designs there (the sample's
+front and NSGA-II's, ``fronts_<model>.csv``), evaluated by the study's QSMA (``qsma_designs``) at the
+measurement's levels with the study's linear damping zeta_0 (borrowed, as the paper did). They are where the fits
+start, not the answer.
 
-Effects. The friction effects change the friction model and refit by choosing again among the study's designs:
-microslip = the Iwan element (iwan4), microslip with stiction = iwan5 (theta < 1); each counts its model's
-parameters in the BIC. The effects outside the joint act on the chosen design's backbone f(q), zeta(q) and are
-fitted by weighted least squares on the candidates closest to the measurement in frequency, in damping and in both
-(``shortlist``; the best pair is kept):
+Fit. Every model the loop tries is fitted by weighted least squares (``calibration.local_fit.box_least_squares``:
+trust-region reflective, the Jacobian by central differences through one vectorised QSMA call) over the friction
+model's joint parameters in the study's unit box (log where Table 3 samples in log) and the parameters of the
+effects outside the joint (the loop's variables, ``discrepancy.loop.TRANSFORMS``), each residual divided by the
+measurement's uncertainty. The model's backbone is QSMA's omega_j(q), zeta_j(q) of the joint alone with
 
-    linear_damping     zeta(q) - zeta_0 + zeta_0'          (a structure-specific linear damping, zeta_0' free)
-    stiffness_change   f(q) (1 + s)                         (a linear stiffness or mass change outside the joint;
-                                                             the joint's share of the stiffness is kept)
+    linear_damping     zeta_j(q) + zeta_0'             (zeta_0' free; otherwise the borrowed zeta_0)
+    stiffness_change   f(q) (1 + s)                     (a linear stiffness or mass change outside the joint;
+                                                         the joint's share of the stiffness is kept)
     amplitude_damping  zeta(q) + c q / q_max
     cubic_stiffening   sqrt(f(q)^2 + gamma f(q_min)^2 (q / q_max)^2)
 
-The loop itself (forward selection by BIC, stepwise swap and drop, "unexplained") is ``select_effects``.
+The friction effects change the friction model (microslip = iwan4, microslip with stiction = iwan5), each
+counting its model's parameters in the BIC. The first fit of a friction model starts from its candidates closest
+to the measurement in frequency, in damping and in both (``shortlist``, two each); every later fit of it starts
+from that optimum, from the closest candidate of each ranking and from the previous step's optimum, with the new
+effect at its library start (a fit that absorbed an effect into the joint's parameters can be a poor start for the
+model that holds the effect).
+
+Reference. The macroslip model (Jenkins) fitted with no effect: what the best Jenkins joint on this superelement
+misses. The loop itself (forward selection by BIC, honest-fit rules, stepwise swap and drop, "unexplained") is
+``select_effects``.
 """
 
 from __future__ import annotations
@@ -32,11 +40,14 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
+from calibration.local_fit import box_least_squares
+from nonlinear.condensation import JointSpace
 from nonlinear.friction_models import FRICTION_MODELS
+from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from study.datasets import DEFAULT_DAMPING_CASE
-from discrepancy.loop import (EFFECTS, Fit, Verdict, _to_parameters, _to_vector, bic, outside_joint,
-                               select_effects, weighted_misfit)
+from discrepancy.loop import (EFFECTS, UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic, determinacy,
+                              outside_joint, select_effects, weighted_misfit)
 from study.structures import Measurement
 from study.workflow import front_designs, read_study
 
@@ -45,7 +56,8 @@ FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_
 """Friction model -> the friction effects it adds to the macroslip reference (``nonlinear.friction_models``)."""
 OUTSIDE_JOINT = ("linear_damping", "stiffness_change", "amplitude_damping", "cubic_stiffening")
 REFERENCE_MODEL = next(name for name, effects in FRICTION_EFFECTS.items() if not effects)  # macroslip only
-SHORTLIST = 8  # candidates per ranking refitted with effects outside the joint (``shortlist``)
+SHORTLIST = 2  # candidates per ranking a friction model's first fit starts from (``shortlist``)
+MAX_EVALUATIONS = 60  # least-squares iterations of one fit from one start
 
 
 class Candidates(NamedTuple):
@@ -53,7 +65,7 @@ class Candidates(NamedTuple):
 
     labels: (k,) where each design comes from ("sample 33261", "nsga2 4"); designs: (k, d) parameters;
     frequency_hz, damping: (k, n) QSMA backbones with the borrowed zeta_0 (designs that did not converge at
-    every level are left out); n_parameters: d, the friction model's parameters (counted in the BIC).
+    every level are left out); n_groups: the structure's patch groups.
     """
 
     model: str
@@ -61,16 +73,18 @@ class Candidates(NamedTuple):
     designs: np.ndarray
     frequency_hz: np.ndarray
     damping: np.ndarray
-    n_parameters: int
+    n_groups: int
 
 
-def evaluate_candidates(space, model: str, designs, labels, amplitude, linear_damping: float) -> Candidates:
+def evaluate_candidates(space: JointSpace, model: str, designs, labels, amplitude, linear_damping: float
+                        ) -> Candidates:
     """QSMA of the ``designs`` (k, d) of ``model`` on a structure's joint space at ``amplitude`` (n,) m kg^0.5."""
     designs = np.atleast_2d(np.asarray(designs, dtype=float))
     result = qsma_designs(space, model, designs, amplitudes=amplitude, linear_damping=linear_damping)
     kept = np.all(result.converged, axis=1)
     return Candidates(model, [label for label, keep in zip(labels, kept) if keep], designs[kept],
-                      result.frequency[kept] / (2 * np.pi), result.damping[kept], designs.shape[1])
+                      result.frequency[kept] / (2 * np.pi), result.damping[kept],
+                      int(np.max(space.superelement.patch_groups)) + 1)
 
 
 def friction_model(effects, available) -> str | None:
@@ -80,18 +94,18 @@ def friction_model(effects, available) -> str | None:
     return next((model for model in available if set(FRICTION_EFFECTS[model]) == wanted), None)
 
 
-def augmented(candidates: Candidates, index: int, parameters: dict, amplitude, borrowed_damping: float):
-    """Frequency (Hz) and damping (n,) of candidate ``index`` with the effects outside the joint that
-    ``parameters`` hold (module docstring)."""
-    frequency = candidates.frequency_hz[index] * (1.0 + parameters.get("frequency_shift", 0.0))
-    damping = candidates.damping[index] - borrowed_damping + parameters.get("zeta_0", borrowed_damping)
+def augmented(frequency_hz, joint_damping, parameters: dict, amplitude, borrowed_damping: float):
+    """Frequency (Hz) and damping (n,) of a joint's backbone (QSMA's frequency and the joint's own damping, (n,))
+    with the effects outside the joint that ``parameters`` hold (module docstring)."""
+    frequency = frequency_hz * (1.0 + parameters.get("frequency_shift", 0.0))
+    damping = joint_damping + parameters.get("zeta_0", borrowed_damping)
     return outside_joint(frequency, damping, amplitude, parameters, float(frequency[0]))
 
 
 def shortlist(measurement: Measurement, candidates: Candidates, k: int) -> np.ndarray:
-    """Indices of the candidates worth refitting with effects outside the joint: the k best by chi^2 of
-    frequency, of damping and of both (the effects act on one of the two, so a design that misses only the other
-    can become the best)."""
+    """Indices of the candidates a friction model's fits start from: the k best by chi^2 of frequency, of
+    damping and of both (an effect outside the joint acts on one of the two, so a design that misses only the
+    other can become the best)."""
     frequency = np.sum(((candidates.frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency) ** 2, 1)
     damping = np.sum(((candidates.damping - measurement.damping) / measurement.sigma_damping) ** 2, 1)
     ranked = [np.argsort(np.nan_to_num(chi, nan=np.inf), kind="stable")[:k]
@@ -99,67 +113,143 @@ def shortlist(measurement: Measurement, candidates: Candidates, k: int) -> np.nd
     return np.unique(np.concatenate(ranked))
 
 
-def fit_candidates(measurement: Measurement, candidates: Candidates, effects: tuple, borrowed_damping: float,
-                   previous: dict | None = None) -> Fit | None:
-    """The best design of ``candidates`` with the effects outside the joint among ``effects`` fitted to it by
-    weighted least squares (starts: the library's, and ``previous``'s values); None without candidates."""
-    if not candidates.labels:
-        return None
-    specification = [p for effect in effects if effect in OUTSIDE_JOINT for p in EFFECTS[effect]]
-    initial_values = {"zeta_0": borrowed_damping}
-    start = {name: (previous or {}).get(name, initial_values.get(name, initial))
-             for name, _, initial in specification}
+class StructureModel(NamedTuple):
+    """What a fit on a structure's superelement needs: the measurement, the joint space, the borrowed zeta_0."""
 
-    def misfit(index, parameters):
-        return weighted_misfit(measurement, *augmented(candidates, index, parameters, measurement.amplitude,
-                                                       borrowed_damping))
+    measurement: Measurement
+    space: JointSpace
+    borrowed_damping: float
+
+
+def residual_rows(structure: StructureModel, model: str, n_groups: int, specification, points) -> np.ndarray:
+    """Residuals (n, 2 levels) in units of the measurement's uncertainty of points (n, d + e): the joint design
+    in the unit box (d) and the effects' variables (e, ``specification``); UNDEFINED_MISFIT where QSMA did not
+    converge at every level."""
+    points = np.atleast_2d(points)
+    d = points.shape[1] - len(specification)
+    measurement = structure.measurement
+    designs = from_unit(points[:, :d], *parameter_limits(model, n_groups))
+    result = qsma_designs(structure.space, model, designs, amplitudes=measurement.amplitude, linear_damping=0.0)
+    rows = np.full((len(points), 2 * len(measurement.amplitude)), UNDEFINED_MISFIT)
+    for row, (point, frequency, damping, converged) in enumerate(zip(points, result.frequency, result.damping,
+                                                                     result.converged)):
+        if converged.all():
+            parameters = _to_parameters(point[d:], specification)
+            rows[row] = weighted_misfit(measurement, *augmented(frequency / (2 * np.pi), damping, parameters,
+                                                                measurement.amplitude, structure.borrowed_damping))
+    return rows
+
+
+def effects_on_design(structure: StructureModel, model: str, design, specification, values: dict) -> np.ndarray:
+    """The effects' variables (e,) fitted by weighted least squares with the joint ``design`` (d,) held: one QSMA
+    evaluation, then the effects alone on its backbone (from ``values``), the start of a fit of them all."""
+    vector = _to_vector(values, specification)
+    if not specification:
+        return vector
+    measurement = structure.measurement
+    joint = qsma_designs(structure.space, model, np.asarray(design, dtype=float)[None, :],
+                         amplitudes=measurement.amplitude, linear_damping=0.0)
+    if not joint.converged.all():
+        return vector
+
+    def misfit(variables):
+        return weighted_misfit(measurement, *augmented(joint.frequency[0] / (2 * np.pi), joint.damping[0],
+                                                       _to_parameters(variables, specification),
+                                                       measurement.amplitude, structure.borrowed_damping))
+
+    with np.errstate(all="ignore"):
+        return least_squares(misfit, vector, method="trf", x_scale="jac", max_nfev=200).x
+
+
+def refit(structure: StructureModel, model: str, n_groups: int, effects: tuple, starts: list) -> Fit:
+    """The best weighted least-squares fit of ``model`` with the effects outside the joint among ``effects`` from
+    each of ``starts`` ((label, design (d,) in physical units, effect parameters dict); missing parameters take
+    the library's starts, then ``effects_on_design``'s fit on the start's backbone) (module docstring)."""
+    specification = [p for effect in effects if effect in OUTSIDE_JOINT for p in EFFECTS[effect]]
+    limits = parameter_limits(model, n_groups)
+    d = len(limits[0])
+    lower = np.concatenate([np.zeros(d), np.full(len(specification), -np.inf)])
+    upper = np.concatenate([np.ones(d), np.full(len(specification), np.inf)])
+    defaults = {"zeta_0": structure.borrowed_damping}
+
+    def rows(points):
+        return residual_rows(structure, model, n_groups, specification, points)
 
     best = None
-    for index in shortlist(measurement, candidates, SHORTLIST if specification else len(candidates.labels)):
-        if specification:
-            with np.errstate(all="ignore"):
-                result = least_squares(lambda v: misfit(index, _to_parameters(v, specification)),
-                                       _to_vector(start, specification), method="trf", x_scale="jac", max_nfev=200)
-            parameters = _to_parameters(result.x, specification)
-        else:
-            parameters = {}
-        chi_squared = float(np.sum(misfit(index, parameters) ** 2))
+    for label, design, values in starts:
+        effect_values = {name: values.get(name, defaults.get(name, initial)) for name, _, initial in specification}
+        start = np.concatenate([to_unit(np.asarray(design, dtype=float), *limits),
+                                effects_on_design(structure, model, design, specification, effect_values)])
+        with np.errstate(all="ignore"):
+            result = box_least_squares(rows, start, lower, upper, MAX_EVALUATIONS)
+        chi_squared = float(2.0 * result.cost)
         if best is None or chi_squared < best[0]:
-            best = (chi_squared, index, parameters)
-    chi_squared, index, parameters = best
-    frequency, damping = augmented(candidates, index, parameters, measurement.amplitude, borrowed_damping)
-    n_parameters = candidates.n_parameters + len(specification)
-    return Fit(tuple(effects), {"design": f"{candidates.model} {candidates.labels[index]}", **parameters},
-               chi_squared, bic(chi_squared, n_parameters, 2 * len(measurement.amplitude)), frequency, damping,
-               n_parameters)
+            best = (chi_squared, label, result)
+    chi_squared, label, result = best
+    design = from_unit(result.x[None, :d], *limits)[0]
+    parameters = _to_parameters(result.x[d:], specification)
+    measurement = structure.measurement
+    fitted = qsma_designs(structure.space, model, design[None, :], amplitudes=measurement.amplitude,
+                          linear_damping=0.0)
+    frequency, damping = augmented(fitted.frequency[0] / (2 * np.pi), fitted.damping[0], parameters,
+                                   measurement.amplitude, structure.borrowed_damping)
+    full = [(name, "design", None) for name in parameter_names(model, n_groups)] + specification
+    undetermined = determinacy(result.jac, result.x, full, range(d, d + len(specification)))
+    named = dict(zip(parameter_names(model, n_groups), map(float, design)))
+    return Fit(tuple(effects), {"design": f"{model}, refitted from {label}", "model": model, **named, **parameters},
+               chi_squared, bic(chi_squared, d + len(specification), 2 * len(measurement.amplitude)), frequency,
+               damping, d + len(specification), undetermined)
 
 
-def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borrowed_damping: float) -> Verdict:
-    """The loop (``discrepancy.loop.select_effects``) on a structure's superelement: ``candidates`` maps friction
-    models (at least the reference, Jenkins) to their ``Candidates``; the library is the effects outside the
-    joint and the friction effects the available models hold."""
+def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borrowed_damping: float,
+                               space: JointSpace) -> Verdict:
+    """The loop (``discrepancy.loop.select_effects``) on a structure's superelement (``space``): ``candidates``
+    maps friction models (at least the reference, Jenkins) to their ``Candidates``; the library is the effects
+    outside the joint and the friction effects the available models hold."""
     if REFERENCE_MODEL not in candidates:
         raise ValueError(f"candidates: the reference friction model '{REFERENCE_MODEL}' is missing; got "
                          f"{sorted(candidates)}")
     library = OUTSIDE_JOINT + tuple(sorted({e for model in candidates for e in FRICTION_EFFECTS[model]}))
+    structure = StructureModel(measurement, space, borrowed_damping)
+    plain = {}  # friction model -> its fit with no effect outside the joint, where its later fits start
+
+    def design_start(fit: Fit):
+        model = fit.parameters["model"]
+        names = parameter_names(model, candidates[model].n_groups)
+        return (fit.parameters["design"].split("from ", 1)[1], [fit.parameters[name] for name in names],
+                fit.parameters)
 
     def fitted(effects, previous=None):
         model = friction_model(effects, candidates)
-        if model is None:
+        if model is None or not candidates[model].labels:
             return None
-        return fit_candidates(measurement, candidates[model], tuple(effects), borrowed_damping,
-                              previous.parameters if previous is not None else None)
+        found = candidates[model]
+
+        def from_candidates(k):
+            return [(found.labels[i], found.designs[i], {}) for i in shortlist(measurement, found, k)]
+
+        if model not in plain:
+            plain[model] = refit(structure, model, found.n_groups,
+                                 tuple(e for e in effects if e not in OUTSIDE_JOINT), from_candidates(SHORTLIST))
+        if set(effects) == set(plain[model].effects):
+            return plain[model]
+        starts = [design_start(plain[model])] + from_candidates(1)
+        if previous is not None and previous.parameters["model"] == model:
+            starts.append(design_start(previous))
+        return refit(structure, model, found.n_groups, tuple(effects), starts)
 
     return select_effects(measurement, fitted, library)
 
 
 class StudyStructure(NamedTuple):
     """What the loop needs from a study folder for one structure: its measurement at the study's levels (with its
-    provenance and source), the candidates of each friction model the study explored, the borrowed zeta_0."""
+    provenance and source), the candidates of each friction model the study explored, the borrowed zeta_0 and
+    the structure's joint space."""
 
     measurement: Measurement
     candidates: dict
     borrowed_damping: float
+    space: JointSpace
 
 
 def from_study(folder: Path, name: str) -> StudyStructure:
@@ -177,4 +267,4 @@ def from_study(folder: Path, name: str) -> StudyStructure:
         front = front_designs(paths, model, explored.n_groups, name)
         candidates[model] = evaluate_candidates(structure.space, model, front.designs, front.labels,
                                                 measurement.amplitude, borrowed)
-    return StudyStructure(measurement, candidates, borrowed)
+    return StudyStructure(measurement, candidates, borrowed, structure.space)
