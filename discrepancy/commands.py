@@ -45,10 +45,10 @@ def run(arguments: argparse.Namespace) -> None:
         measurement = loaded.measurement
         source = f"{arguments.structure} of {arguments.study} ({measurement.provenance})"
         record = {"study": str(arguments.study), "structure": arguments.structure, "provenance": measurement.provenance,
-                  "borrowed_damping": loaded.borrowed_damping,
+                  "borrowed_damping": loaded.borrowed_damping, "damping_rule": loaded.damping_rule,
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
         loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping,
-                       loaded.space)
+                       loaded.space, loaded.damping_rule)
     else:
         measured = read_mode_backbone(arguments.file)
         measurement = measured_levels(measured, arguments.levels, str(arguments.file))

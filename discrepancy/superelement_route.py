@@ -5,8 +5,8 @@ model's place.
 
 Candidates. The designs of a friction model on a structure are the study's Pareto designs there (the sample's
 front and NSGA-II's, ``fronts_<model>.csv``), evaluated by the study's QSMA (``qsma_designs``) at the
-measurement's levels with the study's linear damping zeta_0 (borrowed, as the paper did). They are where the fits
-start, not the answer.
+measurement's levels with the study's linear damping zeta_0 (borrowed, as the paper did, made each design's by the
+study's damping rule, ``study.errors.structure_damping``). They are where the fits start, not the answer.
 
 Fit. Every model the loop tries is fitted by weighted least squares (``calibration.local_fit.box_least_squares``:
 trust-region reflective, the Jacobian by central differences through one vectorised QSMA call) over the friction
@@ -14,7 +14,7 @@ model's joint parameters in the study's unit box (log where Table 3 samples in l
 effects outside the joint (the loop's variables, ``discrepancy.loop.TRANSFORMS``), each residual divided by the
 measurement's uncertainty. The model's backbone is QSMA's omega_j(q), zeta_j(q) of the joint alone with
 
-    linear_damping     zeta_j(q) + zeta_0'             (zeta_0' free; otherwise the borrowed zeta_0)
+    linear_damping     zeta_j(q) + zeta_0'             (zeta_0' free; otherwise the borrowed zeta_0 by the rule)
     stiffness_change   f(q) (1 + s)                     (a linear stiffness or mass change outside the joint;
                                                          the joint's share of the stiffness is kept)
     amplitude_damping  zeta(q) + c q / q_max
@@ -48,6 +48,7 @@ from nonlinear.qsma_vectorised import qsma_designs
 from study.datasets import DEFAULT_DAMPING_CASE
 from discrepancy.loop import (EFFECTS, UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic, determinacy,
                               outside_joint, select_effects, weighted_misfit)
+from study.errors import structure_damping
 from study.structures import Measurement
 from study.workflow import front_designs, read_study
 
@@ -76,14 +77,16 @@ class Candidates(NamedTuple):
     n_groups: int
 
 
-def evaluate_candidates(space: JointSpace, model: str, designs, labels, amplitude, linear_damping: float
-                        ) -> Candidates:
-    """QSMA of the ``designs`` (k, d) of ``model`` on a structure's joint space at ``amplitude`` (n,) m kg^0.5."""
+def evaluate_candidates(space: JointSpace, model: str, designs, labels, amplitude, linear_damping: float,
+                        rule: str = "added") -> Candidates:
+    """QSMA of the ``designs`` (k, d) of ``model`` on a structure's joint space at ``amplitude`` (n,) m kg^0.5,
+    with the borrowed ``linear_damping`` made each design's zeta_0 by ``rule``."""
     designs = np.atleast_2d(np.asarray(designs, dtype=float))
-    result = qsma_designs(space, model, designs, amplitudes=amplitude, linear_damping=linear_damping)
+    result = qsma_designs(space, model, designs, amplitudes=amplitude, linear_damping=0.0)
     kept = np.all(result.converged, axis=1)
+    damping = result.damping + structure_damping(result.damping, [linear_damping], rule)
     return Candidates(model, [label for label, keep in zip(labels, kept) if keep], designs[kept],
-                      result.frequency[kept] / (2 * np.pi), result.damping[kept],
+                      result.frequency[kept] / (2 * np.pi), damping[kept],
                       int(np.max(space.superelement.patch_groups)) + 1)
 
 
@@ -94,11 +97,25 @@ def friction_model(effects, available) -> str | None:
     return next((model for model in available if set(FRICTION_EFFECTS[model]) == wanted), None)
 
 
-def augmented(frequency_hz, joint_damping, parameters: dict, amplitude, borrowed_damping: float):
+class StructureModel(NamedTuple):
+    """What a fit on a structure's superelement needs: the measurement, the joint space, the borrowed damping
+    case's value and the rule that makes it each design's zeta_0 (``study.errors.DAMPING_RULES``)."""
+
+    measurement: Measurement
+    space: JointSpace
+    borrowed_damping: float
+    damping_rule: str = "added"
+
+
+def augmented(frequency_hz, joint_damping, parameters: dict, amplitude, structure: StructureModel):
     """Frequency (Hz) and damping (n,) of a joint's backbone (QSMA's frequency and the joint's own damping, (n,))
-    with the effects outside the joint that ``parameters`` hold (module docstring)."""
+    on ``structure`` with the effects outside the joint that ``parameters`` hold (module docstring)."""
     frequency = frequency_hz * (1.0 + parameters.get("frequency_shift", 0.0))
-    damping = joint_damping + parameters.get("zeta_0", borrowed_damping)
+    if "zeta_0" in parameters:
+        zeta0 = parameters["zeta_0"]
+    else:
+        zeta0 = structure_damping(joint_damping[None, :], [structure.borrowed_damping], structure.damping_rule)[0, 0]
+    damping = joint_damping + zeta0
     return outside_joint(frequency, damping, amplitude, parameters, float(frequency[0]))
 
 
@@ -111,14 +128,6 @@ def shortlist(measurement: Measurement, candidates: Candidates, k: int) -> np.nd
     ranked = [np.argsort(np.nan_to_num(chi, nan=np.inf), kind="stable")[:k]
               for chi in (frequency, damping, frequency + damping)]
     return np.unique(np.concatenate(ranked))
-
-
-class StructureModel(NamedTuple):
-    """What a fit on a structure's superelement needs: the measurement, the joint space, the borrowed zeta_0."""
-
-    measurement: Measurement
-    space: JointSpace
-    borrowed_damping: float
 
 
 def residual_rows(structure: StructureModel, model: str, n_groups: int, specification, points) -> np.ndarray:
@@ -136,7 +145,7 @@ def residual_rows(structure: StructureModel, model: str, n_groups: int, specific
         if converged.all():
             parameters = _to_parameters(point[d:], specification)
             rows[row] = weighted_misfit(measurement, *augmented(frequency / (2 * np.pi), damping, parameters,
-                                                                measurement.amplitude, structure.borrowed_damping))
+                                                                measurement.amplitude, structure))
     return rows
 
 
@@ -155,7 +164,7 @@ def effects_on_design(structure: StructureModel, model: str, design, specificati
     def misfit(variables):
         return weighted_misfit(measurement, *augmented(joint.frequency[0] / (2 * np.pi), joint.damping[0],
                                                        _to_parameters(variables, specification),
-                                                       measurement.amplitude, structure.borrowed_damping))
+                                                       measurement.amplitude, structure))
 
     with np.errstate(all="ignore"):
         return least_squares(misfit, vector, method="trf", x_scale="jac", max_nfev=200).x
@@ -192,7 +201,7 @@ def refit(structure: StructureModel, model: str, n_groups: int, effects: tuple, 
     fitted = qsma_designs(structure.space, model, design[None, :], amplitudes=measurement.amplitude,
                           linear_damping=0.0)
     frequency, damping = augmented(fitted.frequency[0] / (2 * np.pi), fitted.damping[0], parameters,
-                                   measurement.amplitude, structure.borrowed_damping)
+                                   measurement.amplitude, structure)
     full = [(name, "design", None) for name in parameter_names(model, n_groups)] + specification
     undetermined = determinacy(result.jac, result.x, full, range(d, d + len(specification)))
     named = dict(zip(parameter_names(model, n_groups), map(float, design)))
@@ -202,7 +211,7 @@ def refit(structure: StructureModel, model: str, n_groups: int, effects: tuple, 
 
 
 def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borrowed_damping: float,
-                               space: JointSpace) -> Verdict:
+                               space: JointSpace, damping_rule: str = "added") -> Verdict:
     """The loop (``discrepancy.loop.select_effects``) on a structure's superelement (``space``): ``candidates``
     maps friction models (at least the reference, Jenkins) to their ``Candidates``; the library is the effects
     outside the joint and the friction effects the available models hold."""
@@ -210,7 +219,7 @@ def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borro
         raise ValueError(f"candidates: the reference friction model '{REFERENCE_MODEL}' is missing; got "
                          f"{sorted(candidates)}")
     library = OUTSIDE_JOINT + tuple(sorted({e for model in candidates for e in FRICTION_EFFECTS[model]}))
-    structure = StructureModel(measurement, space, borrowed_damping)
+    structure = StructureModel(measurement, space, borrowed_damping, damping_rule)
     plain = {}  # friction model -> its fit with no effect outside the joint, where its later fits start
 
     def design_start(fit: Fit):
@@ -243,13 +252,14 @@ def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borro
 
 class StudyStructure(NamedTuple):
     """What the loop needs from a study folder for one structure: its measurement at the study's levels (with its
-    provenance and source), the candidates of each friction model the study explored, the borrowed zeta_0 and
-    the structure's joint space."""
+    provenance and source), the candidates of each friction model the study explored, the borrowed damping
+    case's value, the structure's joint space and the study's damping rule."""
 
     measurement: Measurement
     candidates: dict
     borrowed_damping: float
     space: JointSpace
+    damping_rule: str
 
 
 def from_study(folder: Path, name: str) -> StudyStructure:
@@ -266,5 +276,5 @@ def from_study(folder: Path, name: str) -> StudyStructure:
     for model in (m for m in FRICTION_EFFECTS if m in explored.models):
         front = front_designs(paths, model, explored.n_groups, name)
         candidates[model] = evaluate_candidates(structure.space, model, front.designs, front.labels,
-                                                measurement.amplitude, borrowed)
-    return StudyStructure(measurement, candidates, borrowed, structure.space)
+                                                measurement.amplitude, borrowed, explored.damping_rule)
+    return StudyStructure(measurement, candidates, borrowed, structure.space, explored.damping_rule)

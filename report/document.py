@@ -191,8 +191,11 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
     if not verdicts:
         return lines + ["_discrepancy not run_"]
     lines += ["Reference model: the one-mode joint model (a linear mode and a Jenkins element) on a measurement "
-              "file, or a study's best Jenkins design on the structure's superelement (`study-<structure>`). "
-              "Errors are of the reference (before) and of the final model (after).", "",
+              "file, or the Jenkins joint refitted on the structure's superelement from the study's designs "
+              "(`study-<structure>`; every model the loop tries there is refitted). An effect is accepted only "
+              "with its parameters determined and neither L-infinity error worse than the reference's beyond "
+              "the measurement's uncertainty; effects left at a bound are listed as not determined. Errors are "
+              "of the reference (before) and of the final model (after).", "",
               "| measurement | provenance | reference model | effects found | verdict | L-inf f (Hz) before -> after | "
               "RMS f (Hz) | L-inf zeta | RMS zeta |", "|---|---|---|---|---|---|---|---|---|"]
     for path in verdicts:
@@ -201,6 +204,8 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
         changes = [f"{before[key]:.3g} -> {after[key]:.3g}"
                    for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
         found = ", ".join(verdict["effects"]) or "none"
+        if verdict["not_determined"]:
+            found += " (at a bound, not determined: " + ", ".join(verdict["not_determined"]) + ")"
         answer = "residual unexplained" if verdict["unexplained"] else "explained to the noise"
         reference = (f"superelement, {verdict['steps'][0]['parameters']['design']}" if "study" in verdict
                      else "one-mode joint")

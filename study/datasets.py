@@ -7,11 +7,13 @@ study reads only those files, whatever the source:
 - ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, the unstressed halves;
   ``reduction.superelement.beam_superelement`` says why), measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled
   virtual). Linear damping cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the
-  SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's.
+  SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's. Added to the joint's
+  damping (``study.errors`` rule "added"): the virtual experiments add it so.
 - ``asb``: the six configurations C1, C2, C3, C4, C4a, CD1 of the real assembly (ABAQUS reduced models and
-  measured backbones in ../shared/data; CD2 has no reduced model). Every patch in one group, so that one design
+  measured backbones; CD2 has no reduced model). Every patch in one group, so that one design
   is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:
-  each configuration's damping at its lowest measured level. The middle-stuck model needs a middle patch and
+  each configuration's damping at its lowest measured level, less each design's own joint damping there
+  (``study.errors`` rule "outside_joint": the measured damping already holds the joint's). The middle-stuck model needs a middle patch and
   is not defined on the ASB's single group: the ASB study runs Jenkins and both Iwan models.
 """
 
@@ -32,6 +34,8 @@ DATASET_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1), "asb": models_
 """The friction models each dataset's structures can carry: the beams' three patch groups, the ASB's one (every
 patch in one group, ``study.structures.asb_superelement``)."""
 DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
+DAMPING_RULE = {"beams": "added", "asb": "outside_joint"}
+"""How each dataset's damping cases become zeta_0 (``study.errors.DAMPING_RULES``, module docstring)."""
 
 
 def measurement_path(folder: Path, name: str) -> Path:

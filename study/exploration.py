@@ -39,7 +39,7 @@ from nonlinear.joint import parameter_names
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
 from study.designs import design_chunk
-from study.errors import design_errors
+from study.errors import DAMPING_RULES, design_errors
 from study.structures import Structure
 
 IN_FLIGHT_PER_THREAD = 2
@@ -73,13 +73,15 @@ class Sample:
 
 @dataclass(frozen=True)
 class Exploration:
-    """What a study evaluates: the structures (same patch groups), friction models, sample and the linear
-    damping cases (case name -> zeta_0 of each structure, in the structures' order)."""
+    """What a study evaluates: the structures (same patch groups), friction models, sample, the linear
+    damping cases (case name -> value of each structure, in the structures' order) and the rule that makes a
+    case's value each design's zeta_0 (``study.errors.DAMPING_RULES``)."""
 
     structures: tuple[Structure, ...]
     models: tuple[str, ...]
     sample: Sample
     damping_cases: dict
+    damping_rule: str = "added"
 
     def __post_init__(self):
         unknown = [model for model in self.models if model not in MODEL_NAMES]
@@ -95,6 +97,8 @@ class Exploration:
             except FrictionParameterError as error:
                 raise StudyError(f"models: {model!r} does not fit these structures ({self.n_groups} patch "
                                  f"group(s)): {error}") from None
+        if self.damping_rule not in DAMPING_RULES:
+            raise StudyError(f"damping_rule {self.damping_rule!r}: expected one of {DAMPING_RULES}")
         for case, values in self.damping_cases.items():
             if len(values) != len(self.structures):
                 raise StudyError(f"damping case {case!r}: {len(values)} values for {len(self.structures)} structures")
@@ -115,7 +119,8 @@ class Exploration:
                             "damping": s.measurement.damping.tolist(),
                             "eigenvalues": s.space.eigenvalues.tolist(), "reference": s.space.reference.tolist()}
                            for s in self.structures],
-            "sample": self.sample.__dict__, "damping_cases": {k: list(v) for k, v in self.damping_cases.items()}})
+            "sample": self.sample.__dict__, "damping_cases": {k: list(v) for k, v in self.damping_cases.items()},
+            "damping_rule": self.damping_rule})
 
 
 def chunk_path(folder: Path, model: str, chunk: int) -> Path:
@@ -138,7 +143,7 @@ def chunk_rows(exploration: Exploration, model: str, chunk: int, splits=None) ->
     for index, structure in enumerate(exploration.structures):
         zeta0 = [exploration.damping_cases[case][index] for case in cases]
         split = None if splits is None else splits[index]
-        errors = design_errors(structure, model, designs, zeta0, split=split)
+        errors = design_errors(structure, model, designs, zeta0, split=split, rule=exploration.damping_rule)
         name = structure.name
         columns[f"frequency_error_hz[{name}]"] = errors.frequency_error_hz
         columns.update({f"damping_error[{name}][{case}]": errors.damping_error[:, k] for k, case in enumerate(cases)})
@@ -317,7 +322,7 @@ def _write_manifest(exploration: Exploration, folder: Path) -> None:
                         "source": s.measurement.source, "levels": len(s.measurement.amplitude)}
                        for s in exploration.structures],
         "damping_cases": {case: list(map(float, values)) for case, values in exploration.damping_cases.items()},
-        "columns": "see study.exploration module docstring"})
+        "damping_rule": exploration.damping_rule, "columns": "see study.exploration module docstring"})
 
 
 def read_exploration(folder: Path, model: str, columns: list[str] | None = None):

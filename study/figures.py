@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
+from study.errors import structure_damping  # noqa: E402
 from pipeline.files import atomic_path  # noqa: E402
 
 
@@ -47,10 +48,11 @@ def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance
     save(figure, destination)
 
 
-def plot_responses(destination: Path, model: str, curves, title: str | None = None) -> None:
+def plot_responses(destination: Path, model: str, curves, title: str | None = None, rule: str = "added") -> None:
     """Frequency and damping against modal amplitude: the measurement (labelled virtual where it is) and the
     QSMA backbones of representative designs. curves: per structure (Structure, design indices, designs
-    (k, d), zeta_0); title: the figure's (default: the study's representative Pareto designs)."""
+    (k, d), the damping case's value made zeta_0 by ``rule``, ``study.errors.structure_damping``); title: the
+    figure's (default: the study's representative Pareto designs)."""
     figure, axes = plt.subplots(2, len(curves), figsize=(4.2 * len(curves), 6.0), squeeze=False)
     for column, (structure, indices, designs, zeta0) in enumerate(curves):
         measurement = structure.measurement
@@ -59,10 +61,11 @@ def plot_responses(destination: Path, model: str, curves, title: str | None = No
         axes[1, column].semilogx(measurement.amplitude, measurement.damping, "ko", ms=3, label=label)
         if len(designs):
             amplitude = np.geomspace(measurement.amplitude[0], measurement.amplitude[-1], 40)
-            result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=zeta0)
+            result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=0.0)
+            damping = result.damping + structure_damping(result.damping, [zeta0], rule)
             for k, index in enumerate(indices):
                 axes[0, column].semilogx(amplitude, result.frequency[k] / (2 * np.pi), label=f"design {index}")
-                axes[1, column].semilogx(amplitude, result.damping[k], label=f"design {index}")
+                axes[1, column].semilogx(amplitude, damping[k], label=f"design {index}")
         for axis in axes[:, column]:
             axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         axes[0, column].set(title=structure.name, ylabel="natural frequency (Hz)")

@@ -31,7 +31,7 @@ from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
 from study.analysis import anova_observations, model_errors, representative_designs, sample_front
-from study.datasets import (ASB_CONFIGURATIONS, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
+from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, StudyError, check_explored, explore, read_exploration
@@ -119,7 +119,7 @@ def exploration(paths: Paths, parameters: dict) -> Exploration:
     structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels)
     table1 = read_low_amplitude_measurements(paths.reference / TABLE1) if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
-                       damping_cases(study.dataset, structures, table1))
+                       damping_cases(study.dataset, structures, table1), DAMPING_RULE[study.dataset])
 
 
 class StudyFolder(NamedTuple):
@@ -250,7 +250,8 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
         split = modal_split(structure.space)
 
         def objective(unit, structure=structure, zeta0=zeta0, split=split):
-            result = design_errors(structure, model, from_unit(unit, *limits), [zeta0], split=split)
+            result = design_errors(structure, model, from_unit(unit, *limits), [zeta0], split=split,
+                                   rule=explored.damping_rule)
             return np.column_stack([result.frequency_error_hz, result.damping_error[:, 0]])
 
         rng = np.random.default_rng([parameters["sample"].seed, index])
@@ -283,7 +284,7 @@ def responses(paths: Paths, parameters: dict, explored: Exploration, model: str,
                                         parameters["pareto"].representatives)
         designs = frame.loc[front.design[chosen]].to_numpy()
         curves.append((structure, front.design[chosen], designs, explored.damping_cases[case][index]))
-    figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves)
+    figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves, rule=explored.damping_rule)
 
 
 def report(paths: Paths, parameters: dict) -> Path:

@@ -67,6 +67,28 @@ def test_truth_lies_in_every_acceptance_region(beams):
         assert target_mode(structure_.space.superelement, structure_.measurement.low_amplitude_frequency_hz)[0] == 0
 
 
+def test_damping_rule_outside_the_joint_does_not_count_the_joints_damping_twice(beams):
+    """The truth with zeta_0 outside the joint, and the damping case's value taken as the lowest measured level
+    (as the ASB study does): added to the joint's damping (the paper's rule) the truth misses by the joint's own
+    damping at that level; with the rule "outside_joint" it is exact again, and an "outside_joint" zeta_0 is
+    never negative (a design whose joint damps more than the whole measured structure)."""
+    from study.errors import structure_damping
+
+    structures, _ = beams
+    brb = structures[0]
+    lowest = float(brb.measurement.damping[0])
+    added = design_errors(brb, MODEL, TRUE_DESIGN[None, :], [lowest], rule="added")
+    outside = design_errors(brb, MODEL, TRUE_DESIGN[None, :], [lowest], rule="outside_joint")
+    joint_at_lowest = lowest - ZETA0  # the measurement is the truth's joint damping plus ZETA0
+    assert joint_at_lowest > 1e-5  # a microslipping joint: enough to matter against the study's resolution
+    assert added.damping_error[0, 0] == pytest.approx(joint_at_lowest, rel=1e-6)
+    assert outside.damping_error[0, 0] < 1e-9
+    assert np.all(structure_damping(np.array([[2e-3, 3e-3], [5e-4, 1e-3]]), [1e-3, 4e-3], "outside_joint")
+                  == np.array([[0.0, 2e-3], [5e-4, 3.5e-3]]))
+    with pytest.raises(ValueError, match="damping rule 'sum'"):
+        structure_damping(np.zeros((1, 2)), [1e-3], "sum")
+
+
 def test_surrogacy_of_the_known_truth_and_the_nested_regions(beams, tmp_path):
     structures, brb_low = beams
     exploration = Exploration((*structures, brb_low), (MODEL,), Sample(seed=7, n_designs=1200, chunk_size=400,
