@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtr
 from scipy.stats import norm
+from scipy.stats import t as student_t
 from statsmodels.stats.proportion import proportion_confint
 
 from nonlinear.condensation import modal_split
@@ -76,7 +77,7 @@ class Settings(NamedTuple):
     drawn in the surrogate's acceptance region for SC."""
 
     seed: int = 2024
-    n_per_level: int = 1000
+    n_per_level: int = 2000
     level_probability: float = 0.1
     n_conditional: int = 2000
 
@@ -97,7 +98,9 @@ class SubsetResult(NamedTuple):
     surrogate: index of I; probability: P(accepted by I); probability_cov: its coefficient of variation;
     probability_lower, probability_upper: its 95 % interval; thresholds: (m + 1,) b_k of the levels, the last 1;
     level_probabilities: (m + 1,) p_k; confidence: (S,) SC_IJ; lower, upper: (S,) its interval at ``level``;
-    effective_size: (S,) n / (1 + gamma) of each J's indicator; n_conditional: designs drawn given I;
+    effective_size: (S,) effective sample size of SC_IJ (``family_confidence``); families: the independent level-0
+    families the conditional designs descend from (fewer than about 10: the interval rests on few independent
+    chains, raise n_per_level); n_conditional: designs drawn given I;
     evaluations: misfit evaluations of single structures (designs x structures); seed.
     """
 
@@ -112,6 +115,7 @@ class SubsetResult(NamedTuple):
     lower: np.ndarray
     upper: np.ndarray
     effective_size: np.ndarray
+    families: int
     n_conditional: int
     evaluations: int
     seed: int
@@ -267,7 +271,8 @@ def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surroga
     spread = norm.ppf(0.5 + CONFIDENCE_LEVEL / 2) * cov
     return SubsetResult(surrogate, probability, cov, probability * np.exp(-spread), probability * np.exp(spread),
                         np.array(record["thresholds"]), np.array(record["level_probabilities"]), confidence, lower,
-                        upper, effective, conditional.shape[0], int(evaluations), settings.seed)
+                        upper, effective, int(np.unique(families[accepted]).size), conditional.shape[0],
+                        int(evaluations), settings.seed)
 
 
 def _probability(level_probabilities, gammas, n_per_level: int) -> tuple[float, float]:
@@ -284,7 +289,8 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     independent (their chains never met), those of one family are not. With y_b and n_b the accepted count and
     size of family b (B families), SC = sum y_b / sum n_b and, as a ratio estimator over independent families,
     Var(SC) = B / (B - 1) sum (y_b - SC n_b)^2 / n^2; the effective size is SC (1 - SC) / Var(SC), at most n, and
-    B where every family agrees (SC = 0 or 1, so that each family counts as one design)."""
+    B where every family agrees (SC = 0 or 1, so that each family counts as one design), times (z / t_{B-1})^2 so
+    that the interval widens as Student's t does for a variance estimated from B families."""
     acceptance = np.asarray(acceptance, dtype=float)
     _, family = np.unique(families, return_inverse=True)
     n_families, n = family.max() + 1, acceptance.shape[0]
@@ -295,6 +301,8 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     binomial = confidence * (1.0 - confidence)
     effective = np.where(variance > 0, np.minimum(binomial / np.where(variance > 0, variance, 1.0), n), n_families)
     effective = np.where(binomial > 0, effective, n_families)
+    if n_families > 1:  # the variance from B families has B - 1 degrees of freedom: Student's t for the normal
+        effective = effective * (norm.ppf(0.5 + level / 2) / student_t.ppf(0.5 + level / 2, n_families - 1)) ** 2
     lower, upper = proportion_confint(confidence * effective, effective, alpha=1.0 - level, method=INTERVAL_METHOD)
     return confidence, np.asarray(lower, float), np.asarray(upper, float), effective
 
@@ -335,7 +343,7 @@ def study_subset_simulation(exploration: Exploration, model: str, surrogate: str
                              exploration.names.index(surrogate), settings, state_folder=state_folder, problem=problem)
 
 
-SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "effective_size",
+SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "effective_size", "families",
                   "surrogate_probability", "surrogate_probability_cov", "surrogate_probability_lower",
                   "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance", "n_conditional",
                   "evaluations", "seed")
@@ -348,7 +356,8 @@ def subset_table(result: SubsetResult, model: str, structures: Sequence[str], fr
     return pd.DataFrame({
         "model": model, "surrogate": structures[result.surrogate], "real": list(structures),
         "confidence": result.confidence, "lower": result.lower, "upper": result.upper,
-        "effective_size": result.effective_size, "surrogate_probability": result.probability,
+        "effective_size": result.effective_size, "families": result.families,
+        "surrogate_probability": result.probability,
         "surrogate_probability_cov": result.probability_cov, "surrogate_probability_lower": result.probability_lower,
         "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": frequency_tolerance_hz,
         "damping_tolerance": damping_tolerance, "n_conditional": result.n_conditional,
