@@ -28,7 +28,9 @@ from pathlib import Path
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
+from study.datasets import DEFAULT_DAMPING_CASE
 from study.parameters import defaults
+from study.subset_simulation import Settings, study_subset_simulation, subset_table, write_subset_csv
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -60,3 +62,54 @@ def register(subparsers) -> None:
                               "or sample) and recompute them, instead of refusing the folder")
     add_config_arguments(command, "[study], [sample], [acceptance], [pareto]", "sample.n_designs=20000")
     command.set_defaults(run=run)
+    register_confidence(subparsers)
+
+
+CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ of one surrogate at acceptance bounds where random designs rarely fall
+into its acceptance region, by subset simulation (``study.subset_simulation``; docs/design.md section 7).
+
+Reads a finished study's folder (its study.json and measurements/; the exploration itself is not needed), samples
+the designs of one friction model that the surrogate accepts at the given bounds, and writes one CSV row per real
+structure J: SC_IJ with its interval, effective sample size and families, P(accepted by the surrogate) with its
+c.o.v. and interval, the evaluations used and the seed (docs/formats.md). Each level's state is saved under
+<out>.levels/<surrogate>/, so a killed run started again resumes from its last finished level.
+"""
+
+
+def run_confidence(arguments: argparse.Namespace) -> None:
+    """Subset simulation of one surrogate; writes its CSV and prints it."""
+    folder = workflow.read_study(arguments.study)
+    exploration = folder.exploration
+    case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
+    settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
+    out = Path(arguments.out)
+    result = study_subset_simulation(exploration, arguments.model, arguments.surrogate, case, arguments.frequency_bound,
+                                     arguments.damping_bound, settings,
+                                     state_folder=out.with_name(out.name + ".levels") / arguments.surrogate)
+    table = subset_table(result, arguments.model, exploration.names, arguments.frequency_bound,
+                         arguments.damping_bound)
+    write_subset_csv(table, out)
+    print(table.to_string(index=False))
+    print(f"wrote {out}")
+
+
+def register_confidence(subparsers) -> None:
+    """Add the ``confidence`` subcommand."""
+    settings = Settings()
+    command = subparsers.add_parser(
+        "confidence", help="surrogacy confidence of one surrogate at tight acceptance bounds (subset simulation)",
+        description=CONFIDENCE_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("--study", type=Path, required=True, help="folder of a study (surrogacy study --out)")
+    command.add_argument("--model", required=True, help="friction model of the study")
+    command.add_argument("--surrogate", required=True, help="structure I (a name in the study)")
+    command.add_argument("--frequency-bound", type=float, required=True, help="acceptance bound of e_f (Hz)")
+    command.add_argument("--damping-bound", type=float, required=True, help="acceptance bound of e_zeta (-)")
+    command.add_argument("--damping-case", help="linear damping case of the study (default: the study's default)")
+    command.add_argument("--seed", type=int, default=settings.seed, help="seed of the sampler's numpy Generator")
+    command.add_argument("--per-level", type=int, default=settings.n_per_level, help="designs per level")
+    command.add_argument("--level-probability", type=float, default=settings.level_probability,
+                         help="conditional probability between levels")
+    command.add_argument("--conditional", type=int, default=settings.n_conditional,
+                         help="designs drawn in the surrogate's acceptance region for SC")
+    command.add_argument("--out", type=Path, required=True, help="CSV file to write")
+    command.set_defaults(run=run_confidence)

@@ -58,7 +58,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits
-from pipeline.files import sha256_json, write_json
+from pipeline.files import atomic_path, sha256_json, write_json
 from study.errors import scaled_misfit
 from study.exploration import Exploration, structure_errors
 from study.surrogacy import CONFIDENCE_LEVEL, INTERVAL_METHOD
@@ -362,3 +362,9 @@ def subset_table(result: SubsetResult, model: str, structures: Sequence[str], fr
         "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": frequency_tolerance_hz,
         "damping_tolerance": damping_tolerance, "n_conditional": result.n_conditional,
         "evaluations": result.evaluations, "seed": result.seed}, columns=list(SUBSET_COLUMNS))
+
+
+def write_subset_csv(table: pd.DataFrame, destination: Path) -> None:
+    """Write ``subset_table`` as CSV (full precision), atomically."""
+    with atomic_path(destination) as temporary:
+        table.to_csv(temporary, index=False, columns=list(SUBSET_COLUMNS))
