@@ -65,6 +65,7 @@ from study.surrogacy import CONFIDENCE_LEVEL, INTERVAL_METHOD
 
 TARGET_ACCEPTANCE = 0.44  # fraction of conditional moves taken that lambda is adapted to
 INITIAL_SCALE = 0.6  # lambda of the first level's chains
+MIN_MINORITY_FAMILIES = 5  # families holding the rarer outcome needed to estimate the variance of SC
 MAX_LEVELS = 40
 
 Misfit = Callable[[np.ndarray, Sequence[int]], np.ndarray]
@@ -288,9 +289,10 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     families: (n,) the level-0 design each conditional design descends from; designs of different families are
     independent (their chains never met), those of one family are not. With y_b and n_b the accepted count and
     size of family b (B families), SC = sum y_b / sum n_b and, as a ratio estimator over independent families,
-    Var(SC) = B / (B - 1) sum (y_b - SC n_b)^2 / n^2; the effective size is SC (1 - SC) / Var(SC), at most n, and
-    B where every family agrees (SC = 0 or 1, so that each family counts as one design), times (z / t_{B-1})^2 so
-    that the interval widens as Student's t does for a variance estimated from B families."""
+    Var(SC) = B / (B - 1) sum (y_b - SC n_b)^2 / n^2; the effective size is SC (1 - SC) / Var(SC) between B and n,
+    and B (each family counts as one design) where fewer than MIN_MINORITY_FAMILIES families hold a design of the
+    minority outcome (the variance of a rare outcome seen in one or two families is not estimable), times
+    (z / t_{B-1})^2 so that the interval widens as Student's t does for a variance estimated from B families."""
     acceptance = np.asarray(acceptance, dtype=float)
     _, family = np.unique(families, return_inverse=True)
     n_families, n = family.max() + 1, acceptance.shape[0]
@@ -299,8 +301,10 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     confidence = counts.sum(axis=0) / n
     variance = (n_families / max(n_families - 1, 1)) * np.sum((counts - confidence * sizes[:, None]) ** 2, axis=0) / n ** 2
     binomial = confidence * (1.0 - confidence)
-    effective = np.where(variance > 0, np.minimum(binomial / np.where(variance > 0, variance, 1.0), n), n_families)
-    effective = np.where(binomial > 0, effective, n_families)
+    minority = np.where(confidence > 0.5, counts < sizes[:, None], counts > 0)  # (B, S) families holding one
+    estimable = (variance > 0) & (np.count_nonzero(minority, axis=0) >= MIN_MINORITY_FAMILIES)
+    effective = np.where(estimable, binomial / np.where(estimable, variance, 1.0), n_families)
+    effective = np.clip(effective, n_families, n)
     if n_families > 1:  # the variance from B families has B - 1 degrees of freedom: Student's t for the normal
         effective = effective * (norm.ppf(0.5 + level / 2) / student_t.ppf(0.5 + level / 2, n_families - 1)) ** 2
     lower, upper = proportion_confint(confidence * effective, effective, alpha=1.0 - level, method=INTERVAL_METHOD)

@@ -79,6 +79,10 @@ def test_independent_designs_give_the_binomial_interval_and_clones_count_once():
     assert effective[1] == pytest.approx(families, rel=0.05)
     assert effective[0] == pytest.approx(families)  # every family accepts: each counts once
     np.testing.assert_allclose(lower[0], proportion_confint(families, families, method="beta")[0])
+    rare = np.ones((800, 2), dtype=bool)
+    rare[3, 1] = False  # one design of one family of 8 rejected: its variance is not estimable from one family
+    _, _, _, effective = family_confidence(rare, np.repeat(np.arange(8), 100))
+    assert effective[1] == pytest.approx(8 * (stats.norm.ppf(0.975) / stats.t.ppf(0.975, 7)) ** 2)
 
 
 def test_killed_run_resumes_from_its_last_level_to_the_same_numbers(tmp_path):
