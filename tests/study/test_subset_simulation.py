@@ -5,6 +5,7 @@ and on the ASB's measured backbones it agrees with brute-force Latin hypercube c
 evaluation as the exploration."""
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 from statsmodels.stats.proportion import proportion_confint
@@ -148,3 +149,37 @@ def test_agrees_with_brute_force_on_the_measured_asb(asb):
     print(f"C1 at 0.3 Hz, 5e-4: brute force {tight.accepted_counts[0]} of {len(designs)}; subset simulation "
           f"P = {result.probability:.3g} (c.o.v. {result.probability_cov:.2f}), SC {np.round(result.confidence, 3)} "
           f"[{np.round(result.lower, 3)}, {np.round(result.upper, 3)}], {result.evaluations} evaluations")
+
+
+def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
+    """``surrogacy confidence`` on an ASB study folder (measurements only): its CSV holds the numbers of
+    ``study_subset_simulation`` with the same settings; killed after level 1 it resumes to the same file; the levels
+    of another seed in the same place are refused naming the file."""
+    from locations import SHARED
+    from pipeline.cli import main as surrogacy
+    from study.workflow import read_study
+
+    data = SHARED / "data"
+    if not (data / "asb-reduced-models").exists():
+        pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
+    folder, out = tmp_path / "asb", tmp_path / "c1.csv"
+    assert surrogacy(["study", "--out", str(folder), "--set", "study.dataset=asb", "--data", str(data),
+                      "--reference", str(SHARED / "reference"), "--steps", "measurements"]) == 0
+    command = ["confidence", "--study", str(folder), "--model", "iwan4", "--surrogate", "ASB C1", "--frequency-bound",
+               "0.3", "--damping-bound", "5e-4", "--per-level", "500", "--conditional", "500", "--seed", "3",
+               "--out", str(out)]
+    assert surrogacy(command) == 0
+    written = pd.read_csv(out)
+    direct = study_subset_simulation(read_study(folder).exploration, "iwan4", "ASB C1", "measured", 0.3, 5e-4,
+                                     Settings(seed=3, n_per_level=500, n_conditional=500))
+    np.testing.assert_array_equal(written["confidence"], direct.confidence)
+    np.testing.assert_array_equal(written["upper"], direct.upper)
+    assert written["surrogate_probability"][0] == direct.probability and written["evaluations"][0] == direct.evaluations
+    levels = sorted((tmp_path / "c1.csv.levels" / "ASB C1").glob("level-*.json"))
+    assert len(levels) == len(direct.thresholds) >= 3
+    for path in levels[2:]:
+        path.unlink()
+    assert surrogacy(command) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(out), written)
+    assert surrogacy([*command[:-4], "--seed", "4", "--out", str(out)]) == 2
+    assert "level-" in capsys.readouterr().err
