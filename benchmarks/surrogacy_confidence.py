@@ -41,7 +41,8 @@ def rows(n_designs: int = 20000, seed: int = 0) -> Iterator[dict]:
         if not (model_path.exists() and backbone_path.exists()):
             yield row("surrogacy", "ASB C1-C3", note=f"skipped: no {model_path} or {backbone_path}")
             return
-        structures.append(structure(configuration, asb_superelement(model_path), read_mode_backbone(backbone_path), 0.0))
+        structures.append(structure(configuration, asb_superelement(model_path), read_mode_backbone(backbone_path),
+                                    0.0))
     cases = {"lowest": tuple(float(s.measurement.damping[0]) for s in structures)}
     exploration = Exploration(tuple(structures), (MODEL,), Sample(seed, n_designs, n_designs, 1), cases)
     designs = design_chunk(seed, MODEL, 0, n_designs, exploration.n_groups)

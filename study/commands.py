@@ -65,8 +65,8 @@ def register(subparsers) -> None:
     register_confidence(subparsers)
 
 
-CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ of one surrogate at acceptance bounds where random designs rarely fall
-into its acceptance region, by subset simulation (``study.subset_simulation``; docs/design.md section 7).
+CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ of one surrogate at acceptance bounds where random designs
+rarely fall into its acceptance region, by subset simulation (``study.subset_simulation``; docs/design.md section 7).
 
 Reads a finished study's folder (its study.json and measurements/; the exploration itself is not needed), samples
 the designs of one friction model that the surrogate accepts at the given bounds, and writes one CSV row per real

@@ -244,7 +244,8 @@ def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surroga
         if not np.isfinite(threshold) or record["level"] + 1 >= MAX_LEVELS:
             raise ValueError(f"subset simulation of structure {surrogate}: misfit threshold {threshold:.4g} at "
                              f"level {record['level']} (expected to reach 1 within {MAX_LEVELS} levels; more than "
-                             f"{1 - settings.level_probability:.0%} of the designs not converged, or the region empty?)")
+                             f"{1 - settings.level_probability:.0%} of the designs not converged, or the region "
+                             "empty?)")
         record["thresholds"].append(threshold)
         record["level_probabilities"].append(fraction)
         record["gammas"][-1] = chain_correlation_factor((misfits <= threshold).reshape(record["chains"]))
@@ -299,7 +300,8 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     sizes = np.bincount(family, minlength=n_families).astype(float)
     counts = np.stack([np.bincount(family, weights=column, minlength=n_families) for column in acceptance.T], axis=1)
     confidence = counts.sum(axis=0) / n
-    variance = (n_families / max(n_families - 1, 1)) * np.sum((counts - confidence * sizes[:, None]) ** 2, axis=0) / n ** 2
+    deviations = np.sum((counts - confidence * sizes[:, None]) ** 2, axis=0)
+    variance = n_families / max(n_families - 1, 1) * deviations / n ** 2
     binomial = confidence * (1.0 - confidence)
     minority = np.where(confidence > 0.5, counts < sizes[:, None], counts > 0)  # (B, S) families holding one
     estimable = (variance > 0) & (np.count_nonzero(minority, axis=0) >= MIN_MINORITY_FAMILIES)

@@ -124,7 +124,8 @@ def test_agrees_with_brute_force_on_the_measured_asb(asb):
     """iwan4 on C1-C3 at 2 Hz / 5e-3: 20,000 Latin hypercube designs accept 200 or more on every cell compared
     (C1 for C2 and C3, C2 for C1 and C3); subset simulation (2 x about 15,000 evaluations) agrees with their
     Clopper-Pearson counts within the two intervals. At 0.3 Hz / 5e-4 the same sample accepts 2 for C1, and subset
-    simulation (3000 designs per level) gives P(C1) within the brute-force interval and SC with an interval. About 5 s (QSMA compiled)."""
+    simulation (3000 designs per level) gives P(C1) within the brute-force interval and SC with an interval.
+    About 5 s (QSMA compiled)."""
     model, case = "iwan4", "low"
     designs = np.vstack([design_chunk(31, model, chunk, 5000, asb.n_groups) for chunk in range(4)])
     errors = structure_errors(asb, model, designs)
