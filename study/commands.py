@@ -72,7 +72,8 @@ Reads a finished study's folder (its study.json and measurements/; the explorati
 the designs of one friction model that the surrogate accepts at the given bounds, and writes one CSV row per real
 structure J: SC_IJ with its interval, effective sample size and families, P(accepted by the surrogate) with its
 c.o.v. and interval, the evaluations used and the seed (docs/formats.md). Each level's state is saved under
-<out>.levels/<surrogate>/, so a killed run started again resumes from its last finished level.
+<out>.levels/<surrogate>/, so a killed run started again resumes from its last finished level. ``--scheduler``
+spreads each batch of evaluations over a dask.distributed cluster, with the same numbers as in one process.
 """
 
 
@@ -83,9 +84,10 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
     out = Path(arguments.out)
-    result = study_subset_simulation(exploration, arguments.model, arguments.surrogate, case, arguments.frequency_bound,
-                                     arguments.damping_bound, settings,
-                                     state_folder=out.with_name(out.name + ".levels") / arguments.surrogate)
+    with workflow.cluster_client(arguments.scheduler) as client:
+        result = study_subset_simulation(exploration, arguments.model, arguments.surrogate, case,
+                                         arguments.frequency_bound, arguments.damping_bound, settings,
+                                         out.with_name(out.name + ".levels") / arguments.surrogate, client)
     table = subset_table(result, arguments.model, exploration.names, arguments.frequency_bound,
                          arguments.damping_bound)
     write_subset_csv(table, out)
@@ -111,5 +113,7 @@ def register_confidence(subparsers) -> None:
                          help="conditional probability between levels")
     command.add_argument("--conditional", type=int, default=settings.n_conditional,
                          help="designs drawn in the surrogate's acceptance region for SC")
+    command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
+                                             "(default: evaluate in this process)")
     command.add_argument("--out", type=Path, required=True, help="CSV file to write")
     command.set_defaults(run=run_confidence)

@@ -223,13 +223,13 @@ def check_explored(exploration: Exploration, folder: Path) -> None:
 
 def _evaluate(exploration: Exploration, model: str, chunk: int) -> pa.Table:
     """One task on a worker: the structures' modal splits, then the chunk."""
-    return chunk_rows(exploration, model, chunk, _splits(exploration))
+    return chunk_rows(exploration, model, chunk, process_splits(exploration))
 
 
 _SPLITS: dict = {}  # study key -> the structures' modal splits, in each process
 
 
-def _splits(exploration: Exploration):
+def process_splits(exploration: Exploration):
     """The structures' modal splits, formed once per process and study."""
     key = exploration.key()
     if key not in _SPLITS:

@@ -38,8 +38,8 @@ that J accepts, and its interval is the Clopper-Pearson interval (as ``study.sur
 size n / (1 + gamma) of the chains (gamma as above, for the indicator of J; where every state agrees, gamma takes its
 largest value, chain length - 1, so that each chain counts as one design).
 
-The evaluations are batched: one call of the misfit per step of all chains. The state after each level is a JSON
-file in ``state_folder`` (designs, misfits, thresholds, the generator's state), so that a killed run restarts from
+The evaluations are batched: one call of the misfit per step of all chains, in this process or spread over a
+dask.distributed cluster (``study_misfit``). The state after each level is a JSON file in ``state_folder`` (designs, misfits, thresholds, the generator's state), so that a killed run restarts from
 its last finished level and gives the same numbers as an uninterrupted one.
 """
 
@@ -56,11 +56,10 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 from statsmodels.stats.proportion import proportion_confint
 
-from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits
 from pipeline.files import atomic_path, sha256_json, write_json
 from study.errors import scaled_misfit
-from study.exploration import Exploration, structure_errors
+from study.exploration import Exploration, process_splits, structure_errors
 from study.surrogacy import CONFIDENCE_LEVEL, INTERVAL_METHOD
 
 TARGET_ACCEPTANCE = 0.44  # fraction of conditional moves taken that lambda is adapted to
@@ -314,37 +313,54 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
 
 
 def study_misfit(exploration: Exploration, model: str, case: str, frequency_tolerance_hz: float,
-                 damping_tolerance: float) -> Misfit:
-    """The ``Misfit`` of a study's structures: unit designs mapped by Table 3 (``nonlinear.joint.from_unit``),
-    evaluated by the exploration's own evaluation (``study.exploration.structure_errors``) with linear damping
-    case ``case``, scaled by the bounds (``study.errors.scaled_misfit``)."""
+                 damping_tolerance: float, client=None) -> Misfit:
+    """The ``Misfit`` of a study's structures (``scaled_errors``) with linear damping case ``case``: in this
+    process (client None), or on a dask.distributed ``client``, each batch cut into one piece per worker thread
+    (a design's errors do not depend on the batch it is evaluated in, so the numbers are the serial ones)."""
     if case not in exploration.damping_cases:
         raise ValueError(f"damping case {case!r}: not a case of this study; expected one of "
                          f"{list(exploration.damping_cases)}")
     column = list(exploration.damping_cases).index(case)
-    limits = parameter_limits(model, exploration.n_groups)
-    splits = [modal_split(structure.space) for structure in exploration.structures]
+    bounds = (frequency_tolerance_hz, damping_tolerance)
+    if client is None:
+        return lambda unit, structures: scaled_errors(exploration, model, column, bounds, unit, structures)
+    shared = client.scatter(exploration, broadcast=True)
+    pieces = max(1, sum(client.nthreads().values()))
 
     def misfit(unit, structures):
-        errors = structure_errors(exploration, model, from_unit(unit, *limits), splits, list(structures))
-        return np.column_stack([scaled_misfit(error.frequency_error_hz, error.damping_error[:, column],
-                                              frequency_tolerance_hz, damping_tolerance) for error in errors])
+        parts = [part for part in np.array_split(unit, pieces) if len(part)]
+        futures = [client.submit(scaled_errors, shared, model, column, bounds, part, list(structures), pure=False)
+                   for part in parts]
+        return np.vstack(client.gather(futures))
 
     return misfit
 
 
+def scaled_errors(exploration: Exploration, model: str, column: int, bounds: tuple[float, float], unit,
+                  structures) -> np.ndarray:
+    """Scaled misfits (n, k) of unit designs (n, d) on the structures indexed by ``structures`` (k,): the designs
+    mapped by Table 3 (``nonlinear.joint.from_unit``), evaluated by the exploration's own evaluation
+    (``study.exploration.structure_errors``, the structures' modal splits formed once per process), the damping
+    error of case number ``column``, scaled by ``bounds`` (Hz, -) (``study.errors.scaled_misfit``)."""
+    designs = from_unit(unit, *parameter_limits(model, exploration.n_groups))
+    errors = structure_errors(exploration, model, designs, process_splits(exploration), list(structures))
+    return np.column_stack([scaled_misfit(error.frequency_error_hz, error.damping_error[:, column], *bounds)
+                            for error in errors])
+
+
 def study_subset_simulation(exploration: Exploration, model: str, surrogate: str, case: str,
                             frequency_tolerance_hz: float, damping_tolerance: float, settings: Settings = Settings(),
-                            state_folder: Path | None = None) -> SubsetResult:
+                            state_folder: Path | None = None, client=None) -> SubsetResult:
     """``subset_simulation`` of one friction model's designs with ``surrogate`` (a structure's name) as I, at the
-    acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-)."""
+    acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-); evaluations in this process or on a
+    dask.distributed ``client`` (``study_misfit``)."""
     if surrogate not in exploration.names:
         raise ValueError(f"surrogate {surrogate!r}: not a structure of this study; expected one of {exploration.names}")
     if model not in exploration.models:
         raise ValueError(f"model {model!r}: not a friction model of this study; expected one of {exploration.models}")
     problem = json.dumps({"study_key": exploration.key(), "model": model, "case": case,
                           "bounds": [frequency_tolerance_hz, damping_tolerance]})
-    misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance)
+    misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance, client)
     return subset_simulation(misfit, len(parameter_limits(model, exploration.n_groups)[0]), len(exploration.names),
                              exploration.names.index(surrogate), settings, state_folder=state_folder, problem=problem)
 

@@ -184,3 +184,19 @@ def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
     pd.testing.assert_frame_equal(pd.read_csv(out), written)
     assert surrogacy([*command[:-4], "--seed", "4", "--out", str(out)]) == 2
     assert "level-" in capsys.readouterr().err
+
+
+def test_cluster_gives_the_serial_numbers(asb):
+    """Each batch spread over a LocalCluster of two worker processes: the same floats as in this process."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    bounds, settings = (0.3, 5e-4), Settings(seed=9, n_per_level=500, n_conditional=500)
+    serial = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings)
+    with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client):
+        distributed = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings, client=client)
+    for field, value in serial._asdict().items():
+        np.testing.assert_array_equal(getattr(distributed, field), value, err_msg=field)
+    assert len(serial.thresholds) >= 3
