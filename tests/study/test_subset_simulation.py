@@ -156,7 +156,8 @@ def test_agrees_with_brute_force_on_the_measured_asb(asb):
 def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
     """``surrogacy confidence`` on an ASB study folder (measurements only): its CSV holds the numbers of
     ``study_subset_simulation`` with the same settings; killed after level 1 it resumes to the same file; the levels
-    of another seed in the same place are refused naming the file."""
+    of another seed in the same place are refused naming the file; two surrogates give their rows one after the
+    other, the first the same as alone."""
     from locations import SHARED
     from pipeline.cli import main as surrogacy
     from study.workflow import read_study
@@ -185,6 +186,11 @@ def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
     pd.testing.assert_frame_equal(pd.read_csv(out), written)
     assert surrogacy([*command[:-4], "--seed", "4", "--out", str(out)]) == 2
     assert "level-" in capsys.readouterr().err
+    matrix = tmp_path / "matrix.csv"
+    assert surrogacy([*command[:6], "ASB C1", "ASB C2", *command[7:-1], str(matrix)]) == 0
+    rows = pd.read_csv(matrix)
+    assert list(rows["surrogate"].unique()) == ["ASB C1", "ASB C2"] and len(rows) == 12
+    pd.testing.assert_frame_equal(rows[rows["surrogate"] == "ASB C1"].reset_index(drop=True), written)
 
 
 def test_cluster_gives_the_serial_numbers(asb):
