@@ -28,19 +28,22 @@ proposals taken (log lambda += a - 0.44). When the (p_0 N)-th smallest misfit is
 
     P(accepted by I) = p_0^m P_m,    P_m = fraction of the last level's designs with g_I <= 1.
 
-Its coefficient of variation (Au & Beck 2001, Eq. 29) is delta^2 = sum_k (1 - p_k) / (p_k N) (1 + gamma_k), with
-gamma_k from the autocorrelation of the level's indicator along its chains (``chain_correlation_factor``); the 95 %
-interval given is P exp(-/+ 1.96 delta) (a lognormal estimator).
+Au & Beck's (2001, Eq. 29) coefficient of variation of one run, delta^2 = sum_k (1 - p_k) / (p_k N) (1 + gamma_k),
+with gamma_k from the autocorrelation of the level's indicator along its chains (``chain_correlation_factor``),
+ignores the correlation between levels, and on a narrow region reached through few chains the runs scatter far
+more than it says. The estimator therefore makes R independent runs (default 4) and takes P and its interval from
+their spread in log space (``combined_probability``).
 
-Surrogacy. The last level's designs with g_I <= 1 seed chains restricted to {g_I <= 1} until ``n_conditional`` states
-are drawn: a sample of the prior given acceptance by I. Every structure J is evaluated on them, SC_IJ is the fraction
-that J accepts, and its interval is the Clopper-Pearson interval (as ``study.surrogacy``) at the effective sample
-size n / (1 + gamma) of the chains (gamma as above, for the indicator of J; where every state agrees, gamma takes its
-largest value, chain length - 1, so that each chain counts as one design).
+Surrogacy. In each run the last level's designs with g_I <= 1 seed chains restricted to {g_I <= 1} until
+``n_conditional`` states are drawn: a sample of the prior given acceptance by I. Every structure J is evaluated on
+them, and SC_IJ is the fraction of the R runs' conditional designs that J accepts. Its interval accounts for the
+chains' correlation through their families (``family_confidence``): every design descends from one level-0 design
+of its run, and designs of different families are independent.
 
 The evaluations are batched: one call of the misfit per step of all chains, in this process or spread over a
-dask.distributed cluster (``study_misfit``). The state after each level is a JSON file in ``state_folder`` (designs, misfits, thresholds, the generator's state), so that a killed run restarts from
-its last finished level and gives the same numbers as an uninterrupted one.
+dask.distributed cluster (``study_misfit``). The state after each level of each run is a JSON file in
+``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed run restarts
+from its last finished level and gives the same numbers as an uninterrupted one.
 """
 
 from __future__ import annotations
@@ -72,14 +75,16 @@ Misfit = Callable[[np.ndarray, Sequence[int]], np.ndarray]
 
 
 class Settings(NamedTuple):
-    """How the estimator samples: seed of its numpy Generator; n_per_level N designs per level; level_probability
-    p_0, the conditional probability between levels (p_0 N seeds of 1 / p_0 states each); n_conditional designs
-    drawn in the surrogate's acceptance region for SC."""
+    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r]); n_per_level N
+    designs per level; level_probability p_0, the conditional probability between levels (p_0 N seeds of 1 / p_0
+    states each); n_conditional designs drawn in the surrogate's acceptance region for SC, per run; n_runs
+    independent runs."""
 
     seed: int = 2024
     n_per_level: int = 2000
     level_probability: float = 0.1
     n_conditional: int = 2000
+    n_runs: int = 4
 
     def check(self) -> None:
         chains = self.n_per_level * self.level_probability
@@ -88,16 +93,18 @@ class Settings(NamedTuple):
             raise ValueError(f"level_probability {self.level_probability} with n_per_level {self.n_per_level}: "
                              "expected 1 / level_probability and n_per_level * level_probability whole numbers, "
                              "the latter at least 2")
-        if self.n_conditional < 1:
-            raise ValueError(f"n_conditional must be at least 1; got {self.n_conditional}")
+        for name in ("n_conditional", "n_runs"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1; got {getattr(self, name)}")
 
 
 class SubsetResult(NamedTuple):
     """Subset simulation of one surrogate I against S structures.
 
     surrogate: index of I; probability: P(accepted by I); probability_cov: its coefficient of variation;
-    probability_lower, probability_upper: its 95 % interval; thresholds: (m + 1,) b_k of the levels, the last 1;
-    level_probabilities: (m + 1,) p_k; confidence: (S,) SC_IJ; lower, upper: (S,) its interval at ``level``;
+    probability_lower, probability_upper: its interval at ``level`` (``combined_probability``); run_probabilities:
+    (R,) each run's P; levels: (R,) each run's number of levels m + 1 (the last at the target);
+    confidence: (S,) SC_IJ; lower, upper: (S,) its interval at ``level``;
     effective_size: (S,) effective sample size of SC_IJ (``family_confidence``); families: the independent level-0
     families the conditional designs descend from (fewer than about 10: the interval rests on few independent
     chains, raise n_per_level); n_conditional: designs drawn given I;
@@ -109,8 +116,8 @@ class SubsetResult(NamedTuple):
     probability_cov: float
     probability_lower: float
     probability_upper: float
-    thresholds: np.ndarray
-    level_probabilities: np.ndarray
+    run_probabilities: np.ndarray
+    levels: np.ndarray
     confidence: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
@@ -204,21 +211,70 @@ def _last_level(folder: Path | None, key: str) -> dict | None:
     return record
 
 
+class Run(NamedTuple):
+    """One run of subset simulation: probability P of acceptance by I and its Au-Beck c.o.v.; thresholds (m + 1,)
+    b_k, the last 1; level_probabilities (m + 1,) p_k; acceptance (n, S) of the conditional designs by each
+    structure; families (n,) the level-0 design each descends from; evaluations (single structures)."""
+
+    probability: float
+    cov: float
+    thresholds: np.ndarray
+    level_probabilities: np.ndarray
+    acceptance: np.ndarray
+    families: np.ndarray
+    evaluations: int
+
+
 def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surrogate: int,
                       settings: Settings = Settings(), level: float = CONFIDENCE_LEVEL,
                       state_folder: Path | None = None, problem: str = "") -> SubsetResult:
-    """P(accepted by I) and SC_IJ for every J by subset simulation (module docstring).
+    """P(accepted by I) and SC_IJ for every J from ``settings.n_runs`` independent runs of subset simulation
+    (module docstring): P and its interval by ``combined_probability``, SC from the conditional designs of every
+    run together, each run's families its own (``family_confidence``).
 
     misfit: ``Misfit`` over unit designs of ``dimension`` parameters and ``n_structures`` structures; surrogate:
-    index of I; level: confidence level of SC's interval; state_folder: where each level's state is saved and a
-    killed run is resumed from (None: nothing saved); problem: a text naming the misfit (its study, model, bounds),
-    part of the state's key. Raises ValueError where the surrogate's region is not reached in MAX_LEVELS levels.
+    index of I; level: confidence level of the intervals; state_folder: where each level's state is saved
+    (``run-<r>/level-<k>.json``) and a killed run is resumed from (None: nothing saved); problem: a text naming the
+    misfit (its study, model, bounds), part of the state's key. Raises ValueError where the surrogate's region is
+    not reached in MAX_LEVELS levels.
     """
     settings.check()
+    key = _state_key(settings, surrogate, dimension, problem)
+    runs = [subset_run(misfit, dimension, n_structures, surrogate, settings, run, key,
+                       None if state_folder is None else Path(state_folder) / f"run-{run}")
+            for run in range(settings.n_runs)]
+    probability, cov, probability_lower, probability_upper = combined_probability(
+        [run.probability for run in runs], [run.cov for run in runs], level)
+    families = np.concatenate([run.families + index * settings.n_per_level for index, run in enumerate(runs)])
+    acceptance = np.vstack([run.acceptance for run in runs])
+    confidence, lower, upper, effective = family_confidence(acceptance, families, level)
+    return SubsetResult(surrogate, probability, cov, probability_lower, probability_upper,
+                        np.array([run.probability for run in runs]), np.array([len(run.thresholds) for run in runs]),
+                        confidence, lower, upper, effective, int(np.unique(families).size), acceptance.shape[0],
+                        sum(run.evaluations for run in runs), settings.seed)
+
+
+def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -> tuple[float, float, float, float]:
+    """P(accepted by I) from R independent runs' estimates P_r: in log space, m = mean log P_r and its standard
+    error s = sd(log P_r) / sqrt(R) (the runs' spread, which holds every correlation between levels and chains);
+    returns P = exp(m), s (its c.o.v.) and the interval exp(m -/+ t s), t Student's quantile on R - 1 degrees of
+    freedom. A single run (R = 1) has s = its Au-Beck c.o.v. ``covs`` and the normal quantile."""
+    logs = np.log(np.asarray(probabilities, float))
+    runs = logs.size
+    error = np.std(logs, ddof=1) / np.sqrt(runs) if runs > 1 else float(np.asarray(covs, float)[0])
+    quantile = student_t.ppf(0.5 + level / 2, runs - 1) if runs > 1 else norm.ppf(0.5 + level / 2)
+    centre = logs.mean()
+    return (float(np.exp(centre)), float(error), float(np.exp(centre - quantile * error)),
+            float(np.exp(centre + quantile * error)))
+
+
+def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, settings: Settings, run: int,
+               key: str, state_folder: Path | None) -> Run:
+    """Run number ``run`` of subset simulation (module docstring), its generator seeded with [seed, run], each
+    finished level saved in ``state_folder`` under ``key`` and resumed from there."""
     n_seeds = round(settings.n_per_level * settings.level_probability)
     chain_length = round(1.0 / settings.level_probability)
-    key = _state_key(settings, surrogate, dimension, problem)
-    rng = np.random.default_rng(settings.seed)
+    rng = np.random.default_rng([settings.seed, run])
     saved = _last_level(state_folder, key)
     if saved is None:
         states = rng.standard_normal((settings.n_per_level, dimension))
@@ -268,12 +324,8 @@ def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surroga
     acceptance = np.ones((conditional.shape[0], n_structures), dtype=bool)
     acceptance[:, others] = misfit(ndtr(conditional), others) <= 1.0
     evaluations = record["evaluations"] + used + conditional.shape[0] * len(others)
-    confidence, lower, upper, effective = family_confidence(acceptance, np.repeat(families[accepted], length), level)
-    spread = norm.ppf(0.5 + CONFIDENCE_LEVEL / 2) * cov
-    return SubsetResult(surrogate, probability, cov, probability * np.exp(-spread), probability * np.exp(spread),
-                        np.array(record["thresholds"]), np.array(record["level_probabilities"]), confidence, lower,
-                        upper, effective, int(np.unique(families[accepted]).size), conditional.shape[0],
-                        int(evaluations), settings.seed)
+    return Run(probability, cov, np.array(record["thresholds"]), np.array(record["level_probabilities"]),
+               acceptance, np.repeat(families[accepted], length), int(evaluations))
 
 
 def _probability(level_probabilities, gammas, n_per_level: int) -> tuple[float, float]:
@@ -367,8 +419,8 @@ def study_subset_simulation(exploration: Exploration, model: str, surrogate: str
 
 SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "effective_size", "families",
                   "surrogate_probability", "surrogate_probability_cov", "surrogate_probability_lower",
-                  "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance", "n_conditional",
-                  "evaluations", "seed")
+                  "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance", "runs",
+                  "n_conditional", "evaluations", "seed")
 
 
 def subset_table(result: SubsetResult, model: str, structures: Sequence[str], frequency_tolerance_hz: float,
@@ -382,7 +434,8 @@ def subset_table(result: SubsetResult, model: str, structures: Sequence[str], fr
         "surrogate_probability": result.probability,
         "surrogate_probability_cov": result.probability_cov, "surrogate_probability_lower": result.probability_lower,
         "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": frequency_tolerance_hz,
-        "damping_tolerance": damping_tolerance, "n_conditional": result.n_conditional,
+        "damping_tolerance": damping_tolerance, "runs": len(result.run_probabilities),
+        "n_conditional": result.n_conditional,
         "evaluations": result.evaluations, "seed": result.seed}, columns=list(SUBSET_COLUMNS))
 
 

@@ -37,10 +37,9 @@ def boxes(probability: float):
 
 @pytest.mark.parametrize("probability", [1e-2, 1e-6])
 def test_intervals_cover_the_exact_acceptance_probability_and_surrogacy(probability):
-    """200 seeded runs of 2000 designs per level (the default). Measured coverage of the nominal 95 % intervals:
-    P 0.96 and SC_IJ 0.945 at P = 1e-2 (about 90 families), P 0.945 and SC_IJ 0.965 at P = 1e-6 (about 28
-    families; with 1000 designs per level, 14 families, 0.92 and 0.93 over 300 runs); the runs' spread of log P
-    matches the stated c.o.v. within 30 %."""
+    """200 seeded estimates with the default settings (4 runs of 2000 designs per level). Measured coverage of the
+    nominal 95 % intervals: P 0.945 and SC_IJ 0.960 at P = 1e-2, P 0.975 and SC_IJ 0.980 at P = 1e-6 (about 110
+    families); the estimates' spread of log P matches the stated c.o.v. within 30 %."""
     misfit, exact = boxes(probability)
     runs = [subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=seed)) for seed in range(200)]
     covered_p = np.mean([run.probability_lower <= probability <= run.probability_upper for run in runs])
@@ -53,11 +52,11 @@ def test_intervals_cover_the_exact_acceptance_probability_and_surrogacy(probabil
     assert abs(np.mean([run.confidence[1] for run in runs]) - exact[1]) < 0.01
     for run in runs:
         assert run.confidence[0] == 1.0 and run.confidence[2] == 0.0 and run.upper[2] < 0.5
-        assert run.thresholds[-1] == 1.0 and np.all(np.diff(run.thresholds) < 0)
+        assert set(run.levels) <= {round(-np.log10(probability)), round(-np.log10(probability)) + 1}  # p_0 = 0.1
     if probability == 1e-6:  # brute force for the same interval width: n_eff / P designs of 3 structures
         evaluations = np.mean([run.evaluations for run in runs])
         brute_force = 3 * np.mean([run.effective_size[1] for run in runs]) / probability
-        assert evaluations < 2e4 and brute_force > 1e3 * evaluations
+        assert evaluations < 1e5 and brute_force > 1e4 * evaluations
 
 
 def test_correlation_factor_of_independent_and_of_constant_chains():
@@ -90,9 +89,9 @@ def test_independent_designs_give_the_binomial_interval_and_clones_count_once():
 def test_killed_run_resumes_from_its_last_level_to_the_same_numbers(tmp_path):
     misfit, _ = boxes(1e-4)
     whole = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
-    levels = sorted((tmp_path / "whole").glob("level-*.json"))
-    assert len(levels) == len(whole.thresholds)  # level 0 and one per intermediate threshold
-    for path in levels[2:]:  # killed after level 1
+    levels = [sorted((tmp_path / "whole" / f"run-{run}").glob("level-*.json")) for run in range(4)]
+    assert [len(run) for run in levels] == list(whole.levels)  # level 0 and one per intermediate threshold
+    for path in levels[2][2:] + levels[3]:  # killed in the third run after its level 1
         path.unlink()
     resumed = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
     for field, value in whole._asdict().items():
@@ -178,8 +177,8 @@ def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
     np.testing.assert_array_equal(written["confidence"], direct.confidence)
     np.testing.assert_array_equal(written["upper"], direct.upper)
     assert written["surrogate_probability"][0] == direct.probability and written["evaluations"][0] == direct.evaluations
-    levels = sorted((tmp_path / "c1.csv.levels" / "ASB C1").glob("level-*.json"))
-    assert len(levels) == len(direct.thresholds) >= 3
+    levels = sorted((tmp_path / "c1.csv.levels" / "ASB C1" / "run-3").glob("level-*.json"))
+    assert len(levels) == direct.levels[3] >= 3
     for path in levels[2:]:
         path.unlink()
     assert surrogacy(command) == 0
@@ -199,11 +198,11 @@ def test_cluster_gives_the_serial_numbers(asb):
 
     from distributed import Client, LocalCluster
 
-    bounds, settings = (0.3, 5e-4), Settings(seed=9, n_per_level=500, n_conditional=500)
+    bounds, settings = (0.3, 5e-4), Settings(seed=9, n_per_level=500, n_conditional=500, n_runs=2)
     serial = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings)
     with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                        silence_logs=logging.ERROR) as cluster, Client(cluster) as client):
         distributed = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings, client=client)
     for field, value in serial._asdict().items():
         np.testing.assert_array_equal(getattr(distributed, field), value, err_msg=field)
-    assert len(serial.thresholds) >= 3
+    assert np.all(serial.levels >= 3)
