@@ -11,8 +11,10 @@ Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.explo
     design_errors, accepted     L-infinity errors of paper Eqs. 26-27 per design and structure, acceptance
     explore, read_exploration   every chunk on every structure to Parquet; resumable; serial or dask
     check_explored              the analysis' check: the whole exploration of the current inputs
-Answers (:mod:`study.surrogacy`, :mod:`study.pareto`, :mod:`study.anova`, :mod:`study.prestress`)
+Answers (:mod:`study.surrogacy`, :mod:`study.subset_simulation`, :mod:`study.pareto`, :mod:`study.anova`,
+:mod:`study.prestress`)
     surrogacy_matrix            SC_IJ (Eq. 29) with binomial intervals; replicate spread; bounds sweep
+    subset_simulation           SC_IJ and P(accepted by I) at tight bounds, sampled inside I's region
     non_dominated, nsga2_front  Pareto fronts of the sample and of NSGA-II seeded from it (Fig. 6)
     surrogacy_anova             Table 6's four-way ANOVA (statsmodels)
     compare                     the SBRB with and without prestress (Fig. 12)

@@ -25,10 +25,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import pandas as pd
+
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
+from study.datasets import DEFAULT_DAMPING_CASE
 from study.parameters import defaults
+from study.subset_simulation import Settings, study_subset_simulation, subset_table, write_subset_csv
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -60,3 +64,63 @@ def register(subparsers) -> None:
                               "or sample) and recompute them, instead of refusing the folder")
     add_config_arguments(command, "[study], [sample], [acceptance], [pareto]", "sample.n_designs=20000")
     command.set_defaults(run=run)
+    register_confidence(subparsers)
+
+
+CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ at acceptance bounds where random designs rarely fall into a
+surrogate's acceptance region, by subset simulation (``study.subset_simulation``; docs/design.md section 7).
+
+Reads a study's folder (its study.json and measurements/; the exploration itself is not needed), samples the
+designs of one friction model that each surrogate (``--surrogate``, default every structure: the whole matrix)
+accepts at the given bounds, and writes one CSV row per surrogate I and real structure J: SC_IJ with its interval,
+effective sample size and families, P(accepted by I) with its c.o.v. and interval, the evaluations used and the
+seed, the same for every surrogate (docs/formats.md). Each level's state is saved under
+<out>.levels/<surrogate>/, so a killed run started again resumes from its last finished level. ``--scheduler``
+spreads each batch of evaluations over a dask.distributed cluster, with the same numbers as in one process.
+"""
+
+
+def run_confidence(arguments: argparse.Namespace) -> None:
+    """Subset simulation of each surrogate; writes the CSV and prints its main columns."""
+    folder = workflow.read_study(arguments.study)
+    exploration = folder.exploration
+    case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
+    settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
+    out = Path(arguments.out)
+    tables = []
+    with workflow.cluster_client(arguments.scheduler) as client:
+        for surrogate in arguments.surrogate or exploration.names:
+            result = study_subset_simulation(exploration, arguments.model, surrogate, case, arguments.frequency_bound,
+                                             arguments.damping_bound, settings,
+                                             out.with_name(out.name + ".levels") / surrogate, client)
+            tables.append(subset_table(result, arguments.model, exploration.names, arguments.frequency_bound,
+                                       arguments.damping_bound))
+    table = pd.concat(tables, ignore_index=True)
+    write_subset_csv(table, out)
+    print(table[["surrogate", "real", "confidence", "lower", "upper", "families", "surrogate_probability",
+                 "evaluations"]].to_string(index=False))
+    print(f"wrote {out}")
+
+
+def register_confidence(subparsers) -> None:
+    """Add the ``confidence`` subcommand."""
+    settings = Settings()
+    command = subparsers.add_parser(
+        "confidence", help="surrogacy confidence of one surrogate at tight acceptance bounds (subset simulation)",
+        description=CONFIDENCE_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("--study", type=Path, required=True, help="folder of a study (surrogacy study --out)")
+    command.add_argument("--model", required=True, help="friction model of the study")
+    command.add_argument("--surrogate", nargs="+", help="structures I (names in the study; default: every one)")
+    command.add_argument("--frequency-bound", type=float, required=True, help="acceptance bound of e_f (Hz)")
+    command.add_argument("--damping-bound", type=float, required=True, help="acceptance bound of e_zeta (-)")
+    command.add_argument("--damping-case", help="linear damping case of the study (default: the study's default)")
+    command.add_argument("--seed", type=int, default=settings.seed, help="seed of the sampler's numpy Generator")
+    command.add_argument("--per-level", type=int, default=settings.n_per_level, help="designs per level")
+    command.add_argument("--level-probability", type=float, default=settings.level_probability,
+                         help="conditional probability between levels")
+    command.add_argument("--conditional", type=int, default=settings.n_conditional,
+                         help="designs drawn in the surrogate's acceptance region for SC")
+    command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
+                                             "(default: evaluate in this process)")
+    command.add_argument("--out", type=Path, required=True, help="CSV file to write")
+    command.set_defaults(run=run_confidence)

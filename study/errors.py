@@ -102,3 +102,13 @@ def accepted(frequency_error_hz, damping_error, frequency_tolerance_hz: float = 
     with np.errstate(invalid="ignore"):
         return (np.asarray(frequency_error_hz) <= frequency_tolerance_hz) & (np.asarray(damping_error)
                                                                               <= damping_tolerance)
+
+
+def scaled_misfit(frequency_error_hz, damping_error, frequency_tolerance_hz: float = FREQUENCY_TOLERANCE_HZ,
+                  damping_tolerance: float = DAMPING_TOLERANCE) -> np.ndarray:
+    """g = max(e_f / f_b, e_zeta / zeta_b): each L-infinity error in its acceptance bound, so that a design is
+    accepted (``accepted``) exactly where g <= 1 and the region {g <= b} is the acceptance box with both bounds
+    scaled by b; inf where either error is NaN (not converged). Arrays of any matching shape."""
+    misfit = np.maximum(np.asarray(frequency_error_hz, dtype=float) / frequency_tolerance_hz,
+                       np.asarray(damping_error, dtype=float) / damping_tolerance)
+    return np.where(np.isnan(misfit), np.inf, misfit)

@@ -39,7 +39,7 @@ from nonlinear.joint import parameter_names
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
 from study.designs import design_chunk
-from study.errors import DAMPING_RULES, design_errors
+from study.errors import DAMPING_RULES, DesignErrors, design_errors
 from study.structures import Structure
 
 IN_FLIGHT_PER_THREAD = 2
@@ -140,10 +140,7 @@ def chunk_rows(exploration: Exploration, model: str, chunk: int, splits=None) ->
                "seed": np.full(len(designs), sample.seed, dtype=np.int64)}
     columns.update(zip(parameter_names(model, exploration.n_groups), designs.T))
     cases = list(exploration.damping_cases)
-    for index, structure in enumerate(exploration.structures):
-        zeta0 = [exploration.damping_cases[case][index] for case in cases]
-        split = None if splits is None else splits[index]
-        errors = design_errors(structure, model, designs, zeta0, split=split, rule=exploration.damping_rule)
+    for structure, errors in zip(exploration.structures, structure_errors(exploration, model, designs, splits)):
         name = structure.name
         columns[f"frequency_error_hz[{name}]"] = errors.frequency_error_hz
         columns.update({f"damping_error[{name}][{case}]": errors.damping_error[:, k] for k, case in enumerate(cases)})
@@ -151,6 +148,21 @@ def chunk_rows(exploration: Exploration, model: str, chunk: int, splits=None) ->
         columns[f"reason[{name}]"] = pa.array(errors.reason).dictionary_encode()
         columns[f"stuck_frequency_hz[{name}]"] = errors.stuck_frequency_hz
     return pa.table(columns)
+
+
+def structure_errors(exploration: Exploration, model: str, designs, splits=None,
+                     structures=None) -> list[DesignErrors]:
+    """``study.errors.design_errors`` of ``designs`` (n, d) on each structure (all, or the indices in
+    ``structures``, in that order), damping errors for every damping case in the exploration's order. splits: the
+    structures' ``modal_split`` (all of them), formed here when not given."""
+    indices = range(len(exploration.structures)) if structures is None else structures
+    results = []
+    for index in indices:
+        zeta0 = [values[index] for values in exploration.damping_cases.values()]
+        split = None if splits is None else splits[index]
+        results.append(design_errors(exploration.structures[index], model, designs, zeta0, split=split,
+                                     rule=exploration.damping_rule))
+    return results
 
 
 def write_chunk(table: pa.Table, destination: Path, key: str) -> None:
@@ -217,13 +229,13 @@ def check_explored(exploration: Exploration, folder: Path) -> None:
 
 def _evaluate(exploration: Exploration, model: str, chunk: int) -> pa.Table:
     """One task on a worker: the structures' modal splits, then the chunk."""
-    return chunk_rows(exploration, model, chunk, _splits(exploration))
+    return chunk_rows(exploration, model, chunk, process_splits(exploration))
 
 
 _SPLITS: dict = {}  # study key -> the structures' modal splits, in each process
 
 
-def _splits(exploration: Exploration):
+def process_splits(exploration: Exploration):
     """The structures' modal splits, formed once per process and study."""
     key = exploration.key()
     if key not in _SPLITS:

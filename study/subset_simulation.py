@@ -1,0 +1,445 @@
+"""Surrogacy confidence at tight acceptance bounds by subset simulation (paper section 4.4, Eq. 29).
+
+Random designs rarely fall into a structure's acceptance region when the bounds are tight: at P(accepted by I) =
+1e-5, a sample of 1e6 designs gives SC_IJ from about ten accepted designs. Subset simulation (Au & Beck 2001) samples
+the acceptance region of the surrogate I directly, over the same prior as the study's Latin hypercube (every
+design parameter uniform over its Table 3 range, in log where Table 3 samples logarithmically), so that
+
+    SC_IJ = P(accepted by J | accepted by I)
+
+keeps the paper's meaning, while P(accepted by I) itself is estimated on the way.
+
+Misfit. A design x is accepted by structure S when its scaled misfit g_S(x) = max(e_f / f_b, e_zeta / zeta_b) <= 1
+(both L-infinity errors within their bounds, ``study.errors.accepted``; a design that did not converge has g = inf).
+The nested regions {g_I <= b_k} with b_0 > b_1 > ... > b_m = 1 shrink both bounds in proportion, from loose to the
+target.
+
+Sampling space. A unit design u in [0, 1)^d (``nonlinear.joint.from_unit`` maps it to the parameters) is u = Phi(z)
+with z standard normal, so the prior is the standard normal in z and the Markov chains below need no prior ratio.
+
+Levels. Level 0 draws N designs from the prior. At level k the N designs are sorted by g_I; the threshold b_{k+1} is
+the (p_0 N)-th smallest misfit, and the p_0 N designs below it seed p_0 N Markov chains of 1 / p_0 states each
+(seed included), restricted to {g_I <= b_{k+1}}: the next level's N designs. The moves are adaptive conditional
+sampling (Papaioannou, Betz, Zwirglmaier & Straub 2015): the proposal z' = rho z + sigma xi, xi standard normal,
+sigma_i = min(lambda s_i, 1), rho_i = sqrt(1 - sigma_i^2), s_i the seeds' standard deviation in coordinate i, leaves
+the prior invariant, and z' is taken when g_I(z') <= b_{k+1}. lambda is fixed within a level (so that each chain is
+a Markov chain that keeps the conditional distribution) and moves between levels towards a fraction of 0.44 of the
+proposals taken (log lambda += a - 0.44). When the (p_0 N)-th smallest misfit is <= 1 the target is reached, and
+
+    P(accepted by I) = p_0^m P_m,    P_m = fraction of the last level's designs with g_I <= 1.
+
+Au & Beck's (2001, Eq. 29) coefficient of variation of one run, delta^2 = sum_k (1 - p_k) / (p_k N) (1 + gamma_k),
+with gamma_k from the autocorrelation of the level's indicator along its chains (``chain_correlation_factor``),
+ignores the correlation between levels, and on a narrow region reached through few chains the runs scatter far
+more than it says. The estimator therefore makes R independent runs (default 4) and takes P and its interval from
+their spread in log space (``combined_probability``).
+
+Surrogacy. In each run the last level's designs with g_I <= 1 seed chains restricted to {g_I <= 1} until
+``n_conditional`` states are drawn: a sample of the prior given acceptance by I. Every structure J is evaluated on
+them, and SC_IJ is the fraction of the R runs' conditional designs that J accepts. Its interval accounts for the
+chains' correlation through their families (``family_confidence``): every design descends from one level-0 design
+of its run, and designs of different families are independent.
+
+The evaluations are batched: one call of the misfit per step of all chains, in this process or spread over a
+dask.distributed cluster (``study_misfit``). The state after each level of each run is a JSON file in
+``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed run restarts
+from its last finished level and gives the same numbers as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable, NamedTuple, Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.special import ndtr
+from scipy.stats import norm
+from scipy.stats import t as student_t
+from statsmodels.stats.proportion import proportion_confint
+
+from nonlinear.joint import from_unit, parameter_limits
+from pipeline.files import atomic_path, sha256_json, write_json
+from study.errors import scaled_misfit
+from study.exploration import Exploration, process_splits, structure_errors
+from study.surrogacy import CONFIDENCE_LEVEL, INTERVAL_METHOD
+
+TARGET_ACCEPTANCE = 0.44  # fraction of conditional moves taken that lambda is adapted to
+INITIAL_SCALE = 0.6  # lambda of the first level's chains
+MIN_MINORITY_FAMILIES = 5  # families holding the rarer outcome needed to estimate the variance of SC
+MAX_LEVELS = 40
+
+Misfit = Callable[[np.ndarray, Sequence[int]], np.ndarray]
+"""misfit(unit (n, d) in [0, 1], structures (k,) indices) -> (n, k) scaled misfit g_S; accepted where g_S <= 1."""
+
+
+class Settings(NamedTuple):
+    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r]); n_per_level N
+    designs per level; level_probability p_0, the conditional probability between levels (p_0 N seeds of 1 / p_0
+    states each); n_conditional designs drawn in the surrogate's acceptance region for SC, per run; n_runs
+    independent runs."""
+
+    seed: int = 2024
+    n_per_level: int = 2000
+    level_probability: float = 0.1
+    n_conditional: int = 2000
+    n_runs: int = 4
+
+    def check(self) -> None:
+        chains = self.n_per_level * self.level_probability
+        if not (0.0 < self.level_probability < 1.0) or abs(chains - round(chains)) > 1e-9 or chains < 2 \
+                or abs(1.0 / self.level_probability - round(1.0 / self.level_probability)) > 1e-9:
+            raise ValueError(f"level_probability {self.level_probability} with n_per_level {self.n_per_level}: "
+                             "expected 1 / level_probability and n_per_level * level_probability whole numbers, "
+                             "the latter at least 2")
+        for name in ("n_conditional", "n_runs"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1; got {getattr(self, name)}")
+
+
+class SubsetResult(NamedTuple):
+    """Subset simulation of one surrogate I against S structures.
+
+    surrogate: index of I; probability: P(accepted by I); probability_cov: its coefficient of variation;
+    probability_lower, probability_upper: its interval at ``level`` (``combined_probability``); run_probabilities:
+    (R,) each run's P; levels: (R,) each run's number of levels m + 1 (the last at the target);
+    confidence: (S,) SC_IJ; lower, upper: (S,) its interval at ``level``;
+    effective_size: (S,) effective sample size of SC_IJ (``family_confidence``); families: the independent level-0
+    families the conditional designs descend from (fewer than about 10: the interval rests on few independent
+    chains, raise n_per_level); n_conditional: designs drawn given I;
+    evaluations: misfit evaluations of single structures (designs x structures); seed.
+    """
+
+    surrogate: int
+    probability: float
+    probability_cov: float
+    probability_lower: float
+    probability_upper: float
+    run_probabilities: np.ndarray
+    levels: np.ndarray
+    confidence: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    effective_size: np.ndarray
+    families: int
+    n_conditional: int
+    evaluations: int
+    seed: int
+
+
+def chain_correlation_factor(indicator) -> float:
+    """gamma of Au & Beck (2001, Eq. 29) for an indicator (n_chains, length) along Markov chains:
+    gamma = 2 sum_{k=1}^{L-1} (1 - k / L) rho_k, rho_k its autocorrelation at lag k estimated over all chains,
+    so that Var(mean) = p (1 - p) / n (1 + gamma). Between 0 and L - 1; L - 1 (every chain one design) where the
+    indicator is constant and its correlation unknown."""
+    values = np.asarray(indicator, dtype=float)
+    length = values.shape[1]
+    mean = values.mean()
+    variance = mean * (1.0 - mean)
+    if length == 1:
+        return 0.0
+    if variance <= 0.0:
+        return float(length - 1)
+    lags = np.arange(1, length)
+    covariance = np.array([np.mean(values[:, :-lag] * values[:, lag:]) - mean ** 2 for lag in lags])
+    gamma = 2.0 * np.sum((1.0 - lags / length) * covariance / variance)
+    return float(np.clip(gamma, 0.0, length - 1))
+
+
+def conditional_chains(misfit: Misfit, surrogate: int, seeds, seed_misfit, threshold: float, length: int,
+                       scale: float, rng: np.random.Generator):
+    """Markov chains in {g_I <= threshold} from ``seeds`` (n_chains, d) in standard normal space with the proposal
+    of the module docstring at lambda = ``scale``: returns states (n_chains, length, d), their misfits (n_chains,
+    length), the fraction of proposals taken and the evaluations made ((length - 1) n_chains)."""
+    seeds = np.asarray(seeds, dtype=float)
+    n_chains, dimension = seeds.shape
+    spread = seeds.std(axis=0, ddof=1) if n_chains > 1 else np.ones(dimension)
+    sigma = np.minimum(scale * spread, 1.0)
+    states, misfits, taken_count = [seeds], [np.asarray(seed_misfit, dtype=float)], 0
+    for _ in range(1, length):
+        proposal = np.sqrt(1.0 - sigma ** 2) * states[-1] + sigma * rng.standard_normal((n_chains, dimension))
+        proposed = misfit(ndtr(proposal), [surrogate])[:, 0]
+        taken = proposed <= threshold
+        states.append(np.where(taken[:, None], proposal, states[-1]))
+        misfits.append(np.where(taken, proposed, misfits[-1]))
+        taken_count += np.count_nonzero(taken)
+    evaluations = (length - 1) * n_chains
+    return (np.stack(states, axis=1), np.stack(misfits, axis=1), taken_count / max(evaluations, 1), evaluations)
+
+
+def adapted_scale(scale: float, taken_fraction: float) -> float:
+    """lambda of the next level: log lambda + (a - TARGET_ACCEPTANCE), a the fraction of proposals taken."""
+    return float(np.exp(np.log(scale) + taken_fraction - TARGET_ACCEPTANCE))
+
+
+def _choose_seeds(misfits, n_seeds: int, rng: np.random.Generator):
+    """The next threshold (the n_seeds-th smallest misfit), the fraction of designs at or below it, and the indices
+    of n_seeds of those designs (chosen at random among ties)."""
+    threshold = np.sort(misfits)[n_seeds - 1]
+    below = np.flatnonzero(misfits <= threshold)
+    chosen = np.sort(rng.choice(below, n_seeds, replace=False)) if below.size > n_seeds else below
+    return float(threshold), below.size / misfits.size, chosen
+
+
+def _state_key(settings: Settings, surrogate: int, dimension: int, problem: str) -> str:
+    return sha256_json({"settings": settings._asdict(), "surrogate": surrogate, "dimension": dimension,
+                        "problem": problem})
+
+
+def _save_level(folder: Path | None, key: str, record: dict, states, misfits, families,
+                rng: np.random.Generator) -> None:
+    """Write one finished level (its designs in standard normal space, misfits, families, the generator's state
+    and the record so far) as ``<folder>/level-<k>.json``; nothing where folder is None."""
+    if folder is not None:
+        write_json(Path(folder) / f"level-{record['level']:03d}.json",
+                   {"key": key, **record, "states": states.tolist(), "misfits": misfits.tolist(),
+                    "families": families.tolist(), "generator": rng.bit_generator.state})
+
+
+def _last_level(folder: Path | None, key: str) -> dict | None:
+    """The last saved level of this run in ``folder`` (None where none); levels of another run are refused."""
+    if folder is None:
+        return None
+    paths = sorted(Path(folder).glob("level-*.json"))
+    if not paths:
+        return None
+    record = json.loads(paths[-1].read_text())
+    if record.get("key") != key:
+        raise ValueError(f"{paths[-1]}: the state of another subset simulation (other settings, surrogate or "
+                         "problem); use another state folder")
+    return record
+
+
+class Run(NamedTuple):
+    """One run of subset simulation: probability P of acceptance by I and its Au-Beck c.o.v.; thresholds (m + 1,)
+    b_k, the last 1; level_probabilities (m + 1,) p_k; acceptance (n, S) of the conditional designs by each
+    structure; families (n,) the level-0 design each descends from; evaluations (single structures)."""
+
+    probability: float
+    cov: float
+    thresholds: np.ndarray
+    level_probabilities: np.ndarray
+    acceptance: np.ndarray
+    families: np.ndarray
+    evaluations: int
+
+
+def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surrogate: int,
+                      settings: Settings = Settings(), level: float = CONFIDENCE_LEVEL,
+                      state_folder: Path | None = None, problem: str = "") -> SubsetResult:
+    """P(accepted by I) and SC_IJ for every J from ``settings.n_runs`` independent runs of subset simulation
+    (module docstring): P and its interval by ``combined_probability``, SC from the conditional designs of every
+    run together, each run's families its own (``family_confidence``).
+
+    misfit: ``Misfit`` over unit designs of ``dimension`` parameters and ``n_structures`` structures; surrogate:
+    index of I; level: confidence level of the intervals; state_folder: where each level's state is saved
+    (``run-<r>/level-<k>.json``) and a killed run is resumed from (None: nothing saved); problem: a text naming the
+    misfit (its study, model, bounds), part of the state's key. Raises ValueError where the surrogate's region is
+    not reached in MAX_LEVELS levels.
+    """
+    settings.check()
+    key = _state_key(settings, surrogate, dimension, problem)
+    runs = [subset_run(misfit, dimension, n_structures, surrogate, settings, run, key,
+                       None if state_folder is None else Path(state_folder) / f"run-{run}")
+            for run in range(settings.n_runs)]
+    probability, cov, probability_lower, probability_upper = combined_probability(
+        [run.probability for run in runs], [run.cov for run in runs], level)
+    families = np.concatenate([run.families + index * settings.n_per_level for index, run in enumerate(runs)])
+    acceptance = np.vstack([run.acceptance for run in runs])
+    confidence, lower, upper, effective = family_confidence(acceptance, families, level)
+    return SubsetResult(surrogate, probability, cov, probability_lower, probability_upper,
+                        np.array([run.probability for run in runs]), np.array([len(run.thresholds) for run in runs]),
+                        confidence, lower, upper, effective, int(np.unique(families).size), acceptance.shape[0],
+                        sum(run.evaluations for run in runs), settings.seed)
+
+
+def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -> tuple[float, float, float, float]:
+    """P(accepted by I) from R independent runs' estimates P_r: in log space, m = mean log P_r and its standard
+    error s = sd(log P_r) / sqrt(R) (the runs' spread, which holds every correlation between levels and chains);
+    returns P = exp(m), s (its c.o.v.) and the interval exp(m -/+ t s), t Student's quantile on R - 1 degrees of
+    freedom. A single run (R = 1) has s = its Au-Beck c.o.v. ``covs`` and the normal quantile."""
+    logs = np.log(np.asarray(probabilities, float))
+    runs = logs.size
+    error = np.std(logs, ddof=1) / np.sqrt(runs) if runs > 1 else float(np.asarray(covs, float)[0])
+    quantile = student_t.ppf(0.5 + level / 2, runs - 1) if runs > 1 else norm.ppf(0.5 + level / 2)
+    centre = logs.mean()
+    return (float(np.exp(centre)), float(error), float(np.exp(centre - quantile * error)),
+            float(np.exp(centre + quantile * error)))
+
+
+def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, settings: Settings, run: int,
+               key: str, state_folder: Path | None) -> Run:
+    """Run number ``run`` of subset simulation (module docstring), its generator seeded with [seed, run], each
+    finished level saved in ``state_folder`` under ``key`` and resumed from there."""
+    n_seeds = round(settings.n_per_level * settings.level_probability)
+    chain_length = round(1.0 / settings.level_probability)
+    rng = np.random.default_rng([settings.seed, run])
+    saved = _last_level(state_folder, key)
+    if saved is None:
+        states = rng.standard_normal((settings.n_per_level, dimension))
+        misfits = misfit(ndtr(states), [surrogate])[:, 0]
+        families = np.arange(settings.n_per_level)
+        record = {"level": 0, "thresholds": [], "level_probabilities": [], "gammas": [0.0], "scale": INITIAL_SCALE,
+                  "evaluations": settings.n_per_level, "chains": [settings.n_per_level, 1]}
+        _save_level(state_folder, key, record, states, misfits, families, rng)
+    else:
+        states, misfits, families = (np.array(saved[name]) for name in ("states", "misfits", "families"))
+        rng.bit_generator.state = saved["generator"]
+        record = {name: saved[name] for name in ("level", "thresholds", "level_probabilities", "gammas", "scale",
+                                                 "evaluations", "chains")}
+    while True:
+        threshold, fraction, chosen = _choose_seeds(misfits, n_seeds, rng)
+        if threshold <= 1.0:
+            final = misfits <= 1.0
+            record["thresholds"].append(1.0)
+            record["level_probabilities"].append(float(final.mean()))
+            record["gammas"][-1] = chain_correlation_factor(final.reshape(record["chains"]))
+            break
+        if not np.isfinite(threshold) or record["level"] + 1 >= MAX_LEVELS:
+            raise ValueError(f"subset simulation of structure {surrogate}: misfit threshold {threshold:.4g} at "
+                             f"level {record['level']} (expected to reach 1 within {MAX_LEVELS} levels; more than "
+                             f"{1 - settings.level_probability:.0%} of the designs not converged, or the region "
+                             "empty?)")
+        record["thresholds"].append(threshold)
+        record["level_probabilities"].append(fraction)
+        record["gammas"][-1] = chain_correlation_factor((misfits <= threshold).reshape(record["chains"]))
+        chains, chain_misfits, taken, used = conditional_chains(
+            misfit, surrogate, states[chosen], misfits[chosen], threshold, chain_length, record["scale"], rng)
+        record["scale"] = adapted_scale(record["scale"], taken)
+        states, misfits = chains.reshape(-1, dimension), chain_misfits.ravel()
+        families = np.repeat(families[chosen], chain_length)
+        record["evaluations"] += used
+        record["gammas"].append(0.0)
+        record["chains"] = [n_seeds, chain_length]
+        record["level"] += 1
+        _save_level(state_folder, key, record, states, misfits, families, rng)
+    probability, cov = _probability(record["level_probabilities"], record["gammas"], settings.n_per_level)
+    accepted = np.flatnonzero(misfits <= 1.0)
+    length = -(-settings.n_conditional // accepted.size)
+    chains, _, _, used = conditional_chains(misfit, surrogate, states[accepted], misfits[accepted], 1.0, length,
+                                            record["scale"], rng)
+    others = [structure for structure in range(n_structures) if structure != surrogate]
+    conditional = chains.reshape(-1, dimension)
+    acceptance = np.ones((conditional.shape[0], n_structures), dtype=bool)
+    acceptance[:, others] = misfit(ndtr(conditional), others) <= 1.0
+    evaluations = record["evaluations"] + used + conditional.shape[0] * len(others)
+    return Run(probability, cov, np.array(record["thresholds"]), np.array(record["level_probabilities"]),
+               acceptance, np.repeat(families[accepted], length), int(evaluations))
+
+
+def _probability(level_probabilities, gammas, n_per_level: int) -> tuple[float, float]:
+    """P = prod p_k and its coefficient of variation sqrt(sum (1 - p_k) / (p_k N) (1 + gamma_k))."""
+    p, gamma = np.asarray(level_probabilities), np.asarray(gammas)
+    return float(np.prod(p)), float(np.sqrt(np.sum((1.0 - p) / (p * n_per_level) * (1.0 + gamma))))
+
+
+def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
+    """SC_IJ (S,) from the acceptance (n, S) of conditional designs by each structure, its Clopper-Pearson interval
+    at the effective sample size, and that size (S,).
+
+    families: (n,) the level-0 design each conditional design descends from; designs of different families are
+    independent (their chains never met), those of one family are not. With y_b and n_b the accepted count and
+    size of family b (B families), SC = sum y_b / sum n_b and, as a ratio estimator over independent families,
+    Var(SC) = B / (B - 1) sum (y_b - SC n_b)^2 / n^2; the effective size is SC (1 - SC) / Var(SC) between B and n,
+    and B (each family counts as one design) where fewer than MIN_MINORITY_FAMILIES families hold a design of the
+    minority outcome (the variance of a rare outcome seen in one or two families is not estimable), times
+    (z / t_{B-1})^2 so that the interval widens as Student's t does for a variance estimated from B families."""
+    acceptance = np.asarray(acceptance, dtype=float)
+    _, family = np.unique(families, return_inverse=True)
+    n_families, n = family.max() + 1, acceptance.shape[0]
+    sizes = np.bincount(family, minlength=n_families).astype(float)
+    counts = np.stack([np.bincount(family, weights=column, minlength=n_families) for column in acceptance.T], axis=1)
+    confidence = counts.sum(axis=0) / n
+    deviations = np.sum((counts - confidence * sizes[:, None]) ** 2, axis=0)
+    variance = n_families / max(n_families - 1, 1) * deviations / n ** 2
+    binomial = confidence * (1.0 - confidence)
+    minority = np.where(confidence > 0.5, counts < sizes[:, None], counts > 0)  # (B, S) families holding one
+    estimable = (variance > 0) & (np.count_nonzero(minority, axis=0) >= MIN_MINORITY_FAMILIES)
+    effective = np.where(estimable, binomial / np.where(estimable, variance, 1.0), n_families)
+    effective = np.clip(effective, n_families, n)
+    if n_families > 1:  # the variance from B families has B - 1 degrees of freedom: Student's t for the normal
+        effective = effective * (norm.ppf(0.5 + level / 2) / student_t.ppf(0.5 + level / 2, n_families - 1)) ** 2
+    lower, upper = proportion_confint(confidence * effective, effective, alpha=1.0 - level, method=INTERVAL_METHOD)
+    return confidence, np.asarray(lower, float), np.asarray(upper, float), effective
+
+
+def study_misfit(exploration: Exploration, model: str, case: str, frequency_tolerance_hz: float,
+                 damping_tolerance: float, client=None) -> Misfit:
+    """The ``Misfit`` of a study's structures (``scaled_errors``) with linear damping case ``case``: in this
+    process (client None), or on a dask.distributed ``client``, each batch cut into one piece per worker thread
+    (a design's errors do not depend on the batch it is evaluated in, so the numbers are the serial ones)."""
+    if case not in exploration.damping_cases:
+        raise ValueError(f"damping case {case!r}: not a case of this study; expected one of "
+                         f"{list(exploration.damping_cases)}")
+    column = list(exploration.damping_cases).index(case)
+    bounds = (frequency_tolerance_hz, damping_tolerance)
+    if client is None:
+        return lambda unit, structures: scaled_errors(exploration, model, column, bounds, unit, structures)
+    shared = client.scatter(exploration, broadcast=True)
+    pieces = max(1, sum(client.nthreads().values()))
+
+    def misfit(unit, structures):
+        parts = [part for part in np.array_split(unit, pieces) if len(part)]
+        futures = [client.submit(scaled_errors, shared, model, column, bounds, part, list(structures), pure=False)
+                   for part in parts]
+        return np.vstack(client.gather(futures))
+
+    return misfit
+
+
+def scaled_errors(exploration: Exploration, model: str, column: int, bounds: tuple[float, float], unit,
+                  structures) -> np.ndarray:
+    """Scaled misfits (n, k) of unit designs (n, d) on the structures indexed by ``structures`` (k,): the designs
+    mapped by Table 3 (``nonlinear.joint.from_unit``), evaluated by the exploration's own evaluation
+    (``study.exploration.structure_errors``, the structures' modal splits formed once per process), the damping
+    error of case number ``column``, scaled by ``bounds`` (Hz, -) (``study.errors.scaled_misfit``)."""
+    designs = from_unit(unit, *parameter_limits(model, exploration.n_groups))
+    errors = structure_errors(exploration, model, designs, process_splits(exploration), list(structures))
+    return np.column_stack([scaled_misfit(error.frequency_error_hz, error.damping_error[:, column], *bounds)
+                            for error in errors])
+
+
+def study_subset_simulation(exploration: Exploration, model: str, surrogate: str, case: str,
+                            frequency_tolerance_hz: float, damping_tolerance: float, settings: Settings = Settings(),
+                            state_folder: Path | None = None, client=None) -> SubsetResult:
+    """``subset_simulation`` of one friction model's designs with ``surrogate`` (a structure's name) as I, at the
+    acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-); evaluations in this process or on a
+    dask.distributed ``client`` (``study_misfit``)."""
+    if surrogate not in exploration.names:
+        raise ValueError(f"surrogate {surrogate!r}: not a structure of this study; expected one of {exploration.names}")
+    if model not in exploration.models:
+        raise ValueError(f"model {model!r}: not a friction model of this study; expected one of {exploration.models}")
+    problem = json.dumps({"study_key": exploration.key(), "model": model, "case": case,
+                          "bounds": [frequency_tolerance_hz, damping_tolerance]})
+    misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance, client)
+    return subset_simulation(misfit, len(parameter_limits(model, exploration.n_groups)[0]), len(exploration.names),
+                             exploration.names.index(surrogate), settings, state_folder=state_folder, problem=problem)
+
+
+SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "effective_size", "families",
+                  "surrogate_probability", "surrogate_probability_cov", "surrogate_probability_lower",
+                  "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance", "runs",
+                  "n_conditional", "evaluations", "seed")
+
+
+def subset_table(result: SubsetResult, model: str, structures: Sequence[str], frequency_tolerance_hz: float,
+                 damping_tolerance: float) -> pd.DataFrame:
+    """One row per real structure J (``SUBSET_COLUMNS``): SC_IJ with its interval and effective sample size, and
+    the surrogate's P(accepted by I) with its c.o.v. and interval, the bounds, the evaluations and the seed."""
+    return pd.DataFrame({
+        "model": model, "surrogate": structures[result.surrogate], "real": list(structures),
+        "confidence": result.confidence, "lower": result.lower, "upper": result.upper,
+        "effective_size": result.effective_size, "families": result.families,
+        "surrogate_probability": result.probability,
+        "surrogate_probability_cov": result.probability_cov, "surrogate_probability_lower": result.probability_lower,
+        "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": frequency_tolerance_hz,
+        "damping_tolerance": damping_tolerance, "runs": len(result.run_probabilities),
+        "n_conditional": result.n_conditional,
+        "evaluations": result.evaluations, "seed": result.seed}, columns=list(SUBSET_COLUMNS))
+
+
+def write_subset_csv(table: pd.DataFrame, destination: Path) -> None:
+    """Write ``subset_table`` as CSV (full precision), atomically."""
+    with atomic_path(destination) as temporary:
+        table.to_csv(temporary, index=False, columns=list(SUBSET_COLUMNS))

@@ -1,0 +1,208 @@
+"""Surrogacy confidence by subset simulation: on acceptance boxes in the unit space, where P(accepted by I) and
+SC_IJ are known exactly, the estimator's intervals cover the truth down to P(I) = 1e-6 at about their nominal rate;
+its correlation factors are exact on chains whose correlation is known; a killed run resumes to the same numbers;
+and on the ASB's measured backbones it agrees with brute-force Latin hypercube counts through the same
+evaluation as the exploration."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+from statsmodels.stats.proportion import proportion_confint
+
+from study.designs import design_chunk
+from study.errors import accepted, scaled_misfit
+from study.exploration import structure_errors
+from study.subset_simulation import (Settings, chain_correlation_factor, family_confidence, study_subset_simulation,
+                                     subset_simulation)
+from study.surrogacy import surrogacy_matrix
+
+DIMENSION = 5
+
+
+def boxes(probability: float):
+    """Three acceptance boxes of equal half-width h in [0, 1]^5, (2h)^5 = ``probability``: I; J shifted by h in
+    one coordinate and h / 2 in another (SC_IJ = (1/2)(3/4) = 3/8); K clear of I (SC_IK = 0). Returns the misfit
+    g_S(u) = max_i |u_i - c_S,i| / h (the box is g <= 1; smaller g, a smaller box about the same centre) and the
+    exact SC_I. (3,)."""
+    half = 0.5 * probability ** (1.0 / DIMENSION)
+    centres = np.array([[0.3, 0.6, 0.5, 0.4, 0.7], [0.3 + half, 0.6, 0.5 - 0.5 * half, 0.4, 0.7],
+                        [0.3, 0.6 + 3 * half, 0.5, 0.4, 0.7]])
+
+    def misfit(unit, structures):
+        return np.max(np.abs(unit[:, None, :] - centres[list(structures)]) / half, axis=2)
+
+    return misfit, np.array([1.0, 3.0 / 8.0, 0.0])
+
+
+@pytest.mark.parametrize("probability", [1e-2, 1e-6])
+def test_intervals_cover_the_exact_acceptance_probability_and_surrogacy(probability):
+    """200 seeded estimates with the default settings (4 runs of 2000 designs per level). Measured coverage of the
+    nominal 95 % intervals: P 0.945 and SC_IJ 0.960 at P = 1e-2, P 0.975 and SC_IJ 0.980 at P = 1e-6 (about 110
+    families); the estimates' spread of log P matches the stated c.o.v. within 30 %."""
+    misfit, exact = boxes(probability)
+    runs = [subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=seed)) for seed in range(200)]
+    covered_p = np.mean([run.probability_lower <= probability <= run.probability_upper for run in runs])
+    covered_sc = np.mean([run.lower[1] <= exact[1] <= run.upper[1] for run in runs])
+    print(f"P(I) {probability:g}: coverage of P {covered_p:.3f}, of SC_IJ {covered_sc:.3f}")
+    assert covered_p >= 0.88 and covered_sc >= 0.86, (covered_p, covered_sc)
+    spread = np.std(np.log([run.probability for run in runs]))
+    stated = np.mean([run.probability_cov for run in runs])
+    assert 0.7 < spread / stated < 1.3
+    assert abs(np.mean([run.confidence[1] for run in runs]) - exact[1]) < 0.01
+    for run in runs:
+        assert run.confidence[0] == 1.0 and run.confidence[2] == 0.0 and run.upper[2] < 0.5
+        assert set(run.levels) <= {round(-np.log10(probability)), round(-np.log10(probability)) + 1}  # p_0 = 0.1
+    if probability == 1e-6:  # brute force for the same interval width: n_eff / P designs of 3 structures
+        evaluations = np.mean([run.evaluations for run in runs])
+        brute_force = 3 * np.mean([run.effective_size[1] for run in runs]) / probability
+        assert evaluations < 1e5 and brute_force > 1e4 * evaluations
+
+
+def test_correlation_factor_of_independent_and_of_constant_chains():
+    rng = np.random.default_rng(3)
+    assert chain_correlation_factor(rng.random((400, 10)) < 0.3) == pytest.approx(0.0, abs=0.15)
+    constant = np.repeat(rng.random((400, 1)) < 0.3, 10, axis=1)  # each chain one design repeated
+    assert chain_correlation_factor(constant) == pytest.approx(9.0)
+
+
+def test_independent_designs_give_the_binomial_interval_and_clones_count_once():
+    rng = np.random.default_rng(4)
+    acceptance = np.column_stack([np.ones(500, bool), rng.random(500) < 0.3])
+    confidence, lower, upper, effective = family_confidence(acceptance, np.arange(500))
+    reference = surrogacy_matrix(acceptance)
+    assert confidence[1] == reference.confidence[0, 1]
+    assert effective[1] == pytest.approx(500, rel=0.01)  # B / (B - 1) of the ratio estimator
+    np.testing.assert_allclose([lower[1], upper[1]], [reference.lower[0, 1], reference.upper[0, 1]], atol=2e-3)
+    cloned = np.repeat(acceptance[:50], 10, axis=0)  # 50 families of 10 identical designs
+    _, lower, upper, effective = family_confidence(cloned, np.repeat(np.arange(50), 10))
+    families = 50 * (stats.norm.ppf(0.975) / stats.t.ppf(0.975, 49)) ** 2  # 50 designs, variance on 49 d.o.f.
+    assert effective[1] == pytest.approx(families, rel=0.05)
+    assert effective[0] == pytest.approx(families)  # every family accepts: each counts once
+    np.testing.assert_allclose(lower[0], proportion_confint(families, families, method="beta")[0])
+    rare = np.ones((800, 2), dtype=bool)
+    rare[3, 1] = False  # one design of one family of 8 rejected: its variance is not estimable from one family
+    _, _, _, effective = family_confidence(rare, np.repeat(np.arange(8), 100))
+    assert effective[1] == pytest.approx(8 * (stats.norm.ppf(0.975) / stats.t.ppf(0.975, 7)) ** 2)
+
+
+def test_killed_run_resumes_from_its_last_level_to_the_same_numbers(tmp_path):
+    misfit, _ = boxes(1e-4)
+    whole = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
+    levels = [sorted((tmp_path / "whole" / f"run-{run}").glob("level-*.json")) for run in range(4)]
+    assert [len(run) for run in levels] == list(whole.levels)  # level 0 and one per intermediate threshold
+    for path in levels[2][2:] + levels[3]:  # killed in the third run after its level 1
+        path.unlink()
+    resumed = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
+    for field, value in whole._asdict().items():
+        np.testing.assert_array_equal(getattr(resumed, field), value, err_msg=field)
+    with pytest.raises(ValueError, match="another subset simulation"):
+        subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=6), state_folder=tmp_path / "whole")
+
+
+def test_scaled_misfit_accepts_exactly_the_accepted_designs():
+    rng = np.random.default_rng(6)
+    frequency, damping = rng.uniform(0, 4, 1000), rng.uniform(0, 1e-2, 1000)
+    frequency[::7], damping[::11] = np.nan, np.nan
+    np.testing.assert_array_equal(scaled_misfit(frequency, damping, 2.0, 5e-3) <= 1.0,
+                                  accepted(frequency, damping, 2.0, 5e-3))
+    assert np.isinf(scaled_misfit(np.nan, 1e-3)) and np.isinf(scaled_misfit(0.1, np.nan))
+
+
+@pytest.fixture(scope="module")
+def asb():
+    """The ASB configurations C1-C3 with their measured backbones at 20 levels (skips where ../shared is absent)."""
+    from test_exploration import CONFIGURATIONS, asb_exploration, asb_files
+    for configuration in CONFIGURATIONS:
+        for path in asb_files(configuration):
+            if not path.exists():
+                pytest.skip(f"ASB data not available at {path} (shared data folder absent)")
+    return asb_exploration(n_levels=20)
+
+
+def test_agrees_with_brute_force_on_the_measured_asb(asb):
+    """iwan4 on C1-C3 at 2 Hz / 5e-3: 20,000 Latin hypercube designs accept 200 or more on every cell compared
+    (C1 for C2 and C3, C2 for C1 and C3); subset simulation (2 x about 15,000 evaluations) agrees with their
+    Clopper-Pearson counts within the two intervals. At 0.3 Hz / 5e-4 the same sample accepts 2 for C1, and subset
+    simulation (3000 designs per level) gives P(C1) within the brute-force interval and SC with an interval.
+    About 5 s (QSMA compiled)."""
+    model, case = "iwan4", "low"
+    designs = np.vstack([design_chunk(31, model, chunk, 5000, asb.n_groups) for chunk in range(4)])
+    errors = structure_errors(asb, model, designs)
+    frequency = np.column_stack([error.frequency_error_hz for error in errors])
+    damping = np.column_stack([error.damping_error[:, 0] for error in errors])
+    brute = surrogacy_matrix(accepted(frequency, damping, 2.0, 5e-3))
+    for surrogate, reals in ((0, (1, 2)), (1, (0, 2))):
+        result = study_subset_simulation(asb, model, asb.names[surrogate], case, 2.0, 5e-3, Settings(seed=7))
+        probability = brute.accepted_counts[surrogate] / len(designs)
+        assert result.probability_lower <= probability <= result.probability_upper
+        for real in reals:
+            assert brute.joint_counts[surrogate, real] >= 200
+            assert result.lower[real] <= brute.upper[surrogate, real]
+            assert brute.lower[surrogate, real] <= result.upper[real]
+    tight = surrogacy_matrix(accepted(frequency, damping, 0.3, 5e-4))
+    assert tight.accepted_counts[0] < 10
+    result = study_subset_simulation(asb, model, asb.names[0], case, 0.3, 5e-4, Settings(seed=8, n_per_level=3000))
+    assert result.families >= 10 and np.all(np.isfinite(result.confidence))
+    assert np.all(result.upper - result.lower < 0.6)
+    brute_lower, brute_upper = proportion_confint(tight.accepted_counts[0], len(designs), method="beta")
+    assert result.probability_lower <= brute_upper and brute_lower <= result.probability_upper
+    print(f"C1 at 0.3 Hz, 5e-4: brute force {tight.accepted_counts[0]} of {len(designs)}; subset simulation "
+          f"P = {result.probability:.3g} (c.o.v. {result.probability_cov:.2f}), SC {np.round(result.confidence, 3)} "
+          f"[{np.round(result.lower, 3)}, {np.round(result.upper, 3)}], {result.evaluations} evaluations")
+
+
+def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
+    """``surrogacy confidence`` on an ASB study folder (measurements only): its CSV holds the numbers of
+    ``study_subset_simulation`` with the same settings; killed after level 1 it resumes to the same file; the levels
+    of another seed in the same place are refused naming the file; two surrogates give their rows one after the
+    other, the first the same as alone."""
+    from locations import SHARED
+    from pipeline.cli import main as surrogacy
+    from study.workflow import read_study
+
+    data = SHARED / "data"
+    if not (data / "asb-reduced-models").exists():
+        pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
+    folder, out = tmp_path / "asb", tmp_path / "c1.csv"
+    assert surrogacy(["study", "--out", str(folder), "--set", "study.dataset=asb", "--data", str(data),
+                      "--reference", str(SHARED / "reference"), "--steps", "measurements"]) == 0
+    command = ["confidence", "--study", str(folder), "--model", "iwan4", "--surrogate", "ASB C1", "--frequency-bound",
+               "0.3", "--damping-bound", "5e-4", "--per-level", "500", "--conditional", "500", "--seed", "3",
+               "--out", str(out)]
+    assert surrogacy(command) == 0
+    written = pd.read_csv(out)
+    direct = study_subset_simulation(read_study(folder).exploration, "iwan4", "ASB C1", "measured", 0.3, 5e-4,
+                                     Settings(seed=3, n_per_level=500, n_conditional=500))
+    np.testing.assert_array_equal(written["confidence"], direct.confidence)
+    np.testing.assert_array_equal(written["upper"], direct.upper)
+    assert written["surrogate_probability"][0] == direct.probability and written["evaluations"][0] == direct.evaluations
+    levels = sorted((tmp_path / "c1.csv.levels" / "ASB C1" / "run-3").glob("level-*.json"))
+    assert len(levels) == direct.levels[3] >= 3
+    for path in levels[2:]:
+        path.unlink()
+    assert surrogacy(command) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(out), written)
+    assert surrogacy([*command[:-4], "--seed", "4", "--out", str(out)]) == 2
+    assert "level-" in capsys.readouterr().err
+    matrix = tmp_path / "matrix.csv"
+    assert surrogacy([*command[:6], "ASB C1", "ASB C2", *command[7:-1], str(matrix)]) == 0
+    rows = pd.read_csv(matrix)
+    assert list(rows["surrogate"].unique()) == ["ASB C1", "ASB C2"] and len(rows) == 12
+    pd.testing.assert_frame_equal(rows[rows["surrogate"] == "ASB C1"].reset_index(drop=True), written)
+
+
+def test_cluster_gives_the_serial_numbers(asb):
+    """Each batch spread over a LocalCluster of two worker processes: the same floats as in this process."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    bounds, settings = (0.3, 5e-4), Settings(seed=9, n_per_level=500, n_conditional=500, n_runs=2)
+    serial = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings)
+    with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client):
+        distributed = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings, client=client)
+    for field, value in serial._asdict().items():
+        np.testing.assert_array_equal(getattr(distributed, field), value, err_msg=field)
+    assert np.all(serial.levels >= 3)
