@@ -210,7 +210,7 @@ def test_slip_deficit_potential_is_integral_of_deficit(case):
                                atol=1e-9 * slip_force)
 
 
-@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck", "iwan4_core"])
 def test_tangential_force_is_stiffness_less_slip_deficit(model):
     """The backbone force of ``tangential_force`` equals K_T u - g(u) of the scaled slip law on Table 3 elements
     from stuck to 1e3 slip displacements, within the round-off of that difference (4 eps (K_T |u| + |g|))."""
