@@ -12,7 +12,7 @@ study reads only those files, whatever the source:
   measured backbones in ../shared/data; CD2 has no reduced model). Every patch in one group, so that one design
   is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:
   each configuration's damping at its lowest measured level. The middle-stuck model needs a middle patch and
-  is not defined on the ASB's single group: the ASB study runs Jenkins and both Iwan models.
+  is not defined on the ASB's single group: the ASB study runs Jenkins, both Iwan models and the stuck core.
 """
 
 from __future__ import annotations
