@@ -100,7 +100,7 @@ def test_vectorised_force_control_flags_macroslip():
     np.testing.assert_allclose(by_amplitude.force[0, 1:], critical, rtol=1e-12)
 
 
-@pytest.mark.parametrize("model", ["jenkins", "iwan4"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan4_core"])
 def test_vectorised_force_control_retraces_amplitude_control(model, cd1_space):
     """Each design loaded by the modal forces that amplitude control found returns the same amplitudes,
     frequencies and damping (the convex laws have one equilibrium per force below macroslip)."""

@@ -1,7 +1,8 @@
 """The stuck core (friction model iwan4_core): every patch's four-parameter Iwan element in parallel with a linear
 spring K_c that never slips.
 
-Checked against what does not share its formulation: the four-parameter Iwan model itself (K_c = 0), plain
+Checked against what does not share its formulation: the four-parameter Iwan model itself (K_c = 0), the closed
+form of two rigid bodies joined by one element (paper Eq. 18 plus K_c r, amplitude and force control), plain
 generalised eigen-solves of the whole superelement (M, K + B^T diag(k) B) with the joint's springs written out here
 (no slip: K_T + K_c tangentially; deep macroslip: the structure held by the cores alone), the many-slider element
 and a ring-down stepped in time with it, the single-design oracle and the 40-digit reference
@@ -15,14 +16,16 @@ import scipy.linalg
 
 from experiment.decay_cycles import decay_cycles
 from extended_precision import ReferenceDesign
+from nonlinear import iwan
 from nonlinear.condensation import joint_space, stuck_modes
 from nonlinear.friction_models import friction_model
 from nonlinear.joint import (parameter_limits, parameter_names, patch_elements, random_designs, slip_displacement,
                              stuck_stiffness, tangential_elements, tangential_force, tangential_rows)
-from nonlinear.qsma import qsma_reference
+from nonlinear.qsma import MACROSLIP, qsma_reference
 from nonlinear.qsma_vectorised import qsma_designs
 from nonlinear.sliders import initial_state, slider_response
 from nonlinear.transient import ring_down
+from test_qsma import REDUCED_MASS, two_body_space
 
 LINEAR_DAMPING = 1e-3
 CORE = 4  # K_c's place among a group's parameters (F_S, K_T, chi, beta, K_c, K_z)
@@ -220,3 +223,32 @@ def test_ring_down_of_a_slipping_joint_held_by_its_cores_follows_qsma(cd1):
     free_slip = qsma_designs(space, "iwan4", np.tile([10.0, 1e9, -0.5, 1.0, 1e10], 3)[None, :],
                              amplitudes=[amplitude])
     assert free_slip.frequency[0, 0] < 0.95 * start.frequency[0]
+
+
+def test_two_bodies_joined_by_a_core_follow_the_closed_form_under_amplitude_and_force_control():
+    """Two rigid bodies, one relative DOF r = q / sqrt(mu): omega^2 = f(r) / (mu r) with f = K_c r + f_Iwan(r) (paper
+    Eq. 18 plus the core), zeta = D_Iwan(r) / (2 pi r f(r)), from microslip to a hundred slip displacements. Under
+    force control iwan4 alone has no equilibrium above its macroslip force F_S / sqrt(mu); with the core every
+    force has one: r = (alpha sqrt(mu) - F_S) / K_c beyond macroslip."""
+    slip_force, stiffness, chi, beta, core = 300.0, 2.0e6, -0.4, 0.2, 5.0e5
+    iwan4 = [slip_force, stiffness, chi, beta, 1.0e7]
+    design = with_core(np.array([iwan4]), core)[0]
+    phi_max = slip_displacement(tangential_elements(patch_elements("iwan4", iwan4, patch_groups=(0,))))[0, 0]
+    r = phi_max * np.logspace(-3, 2, 16)
+    result = qsma_reference(two_body_space(), "iwan4_core", design, amplitudes=np.sqrt(REDUCED_MASS) * r,
+                            linear_damping=1e-3)
+    force = core * r + iwan.four_parameter_backbone(r, slip_force, stiffness, chi, beta)
+    assert result.converged.all()
+    np.testing.assert_allclose(result.frequency, np.sqrt(force / (REDUCED_MASS * r)), rtol=1e-9)
+    np.testing.assert_allclose(result.damping, iwan.four_parameter_dissipation(r, slip_force, stiffness, chi, beta)
+                               / (2 * np.pi * r * force) + 1e-3, rtol=1e-8)
+    assert result.stuck_frequency == pytest.approx(np.sqrt((stiffness + core) / REDUCED_MASS), rel=1e-12)
+
+    critical = slip_force / np.sqrt(REDUCED_MASS)
+    forces = critical * np.array([2.0, 10.0])
+    without_core = qsma_designs(two_body_space(), "iwan4", np.array([iwan4]), forces=forces)
+    assert without_core.reason[0].tolist() == [MACROSLIP, MACROSLIP]
+    by_force = qsma_designs(two_body_space(), "iwan4_core", design[None, :], forces=forces)
+    assert by_force.converged.all()
+    np.testing.assert_allclose(by_force.amplitude[0],
+                               np.sqrt(REDUCED_MASS) * (forces * np.sqrt(REDUCED_MASS) - slip_force) / core, rtol=1e-9)
