@@ -11,9 +11,10 @@ its uncertainty, as in ``discrepancy.loop``); its residual is what the study's b
 
 Effects. The friction effects change the friction model and refit by choosing again among the study's designs:
 microslip = the Iwan element (iwan4), microslip with stiction = iwan5 (theta < 1), microslip with a stuck core =
-iwan4_core (K_c, a spring beside each element that never slips); each counts its model's parameters in the BIC. The effects outside the joint act on the chosen design's backbone f(q), zeta(q) and are
-fitted by weighted least squares on the candidates closest to the measurement in frequency, in damping and in both
-(``shortlist``; the best pair is kept):
+iwan4_core (K_c, a spring beside each element that never slips); each counts its model's parameters in the BIC.
+The effects outside the joint act on the chosen design's backbone f(q), zeta(q) and are fitted by weighted least
+squares on the candidates closest to the measurement in frequency, in damping and in both (``shortlist``; the best
+pair is kept):
 
     linear_damping     zeta(q) - zeta_0 + zeta_0'          (a structure-specific linear damping, zeta_0' free)
     stiffness_change   f(q) (1 + s)                         (a linear stiffness or mass change outside the joint;

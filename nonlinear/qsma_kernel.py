@@ -408,8 +408,9 @@ def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, tabl
     is known only as well as the condensed equations hold and are known, |R_i| + CONDENSATION_ACCURACY max|r|: the
     floor_j = sum_i |d_ji| K_T,i (|R_i| + CONDENSATION_ACCURACY max|r|) over these holding elements (those taking
     part in d_j, PARTICIPATION, and within that uncertainty of macroslip: a Jenkins element at its kink holds any
-    force up to F_S), with K_c,i in place of K_T,i beyond macroslip and added to it below where a core holds, is what the condensed problem resolves (a stiff holding element next to elements that slid 1e5
-    slip displacements, its own equation a difference of terms 1e5 times its motion); it is zero along a
+    force up to F_S), with K_c,i in place of K_T,i beyond macroslip and added to it below where a core holds, is
+    what the condensed problem resolves (a stiff holding element next to elements that slid 1e5 slip
+    displacements, its own equation a difference of terms 1e5 times its motion); it is zero along a
     mechanism on which every element slides, the run-off iterate's case, and where a stuck element holds the
     largest motion itself it is CONDENSATION_ACCURACY of that element's force. The load alpha rigid_j^T psi carries the round-off of alpha = lambda_1 q - b^T g,
     8 eps (lambda_1 q + sum |b_i g_i|) (modal_force_terms), large where g ~ K_T r of elements 1e9 slip

@@ -5,8 +5,8 @@ random Table 3 designs, as a study's Pareto set would hold it.
 
 - no effect beyond the Jenkins reference: nothing added;
 - each effect (a structure-specific linear damping put in through QSMA's own linear damping; microslip,
-  stiction and a stuck core as the true Iwan element; a stiffness change, damping growing with amplitude, cubic stiffening put
-  on the backbone): the loop names it and the error of what it acts on falls to at most half;
+  stiction and a stuck core as the true Iwan element; a stiffness change, damping growing with amplitude, cubic
+  stiffening put on the backbone): the loop names it and the error of what it acts on falls to at most half;
 - a ripple outside the library: "unexplained".
 """
 
@@ -31,7 +31,8 @@ IWAN4 = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, 
 IWAN5 = np.array([4e3, 2e8, -0.4, 0.5, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 0.5, 5e9, 8e3, 4e8, -0.5, 0.3, 0.5, 5e9])
 # The stuck core: weak Iwan elements (the Jenkins joint's slip forces) deep in macroslip at the top levels, each
 # with a core K_c = K_T / 2 that never slips.
-IWAN4_CORE = np.array([12.0, 2e8, -0.4, 0.5, 1e8, 5e9, 18.0, 3e8, -0.3, 1.0, 1.5e8, 5e9, 24.0, 4e8, -0.5, 0.3, 2e8, 5e9])
+IWAN4_CORE = np.array([12.0, 2e8, -0.4, 0.5, 1e8, 5e9, 18.0, 3e8, -0.3, 1.0, 1.5e8, 5e9,
+                       24.0, 4e8, -0.5, 0.3, 2e8, 5e9])
 TRUTH = {"jenkins": JENKINS, "iwan4": IWAN4, "iwan5": IWAN5, "iwan4_core": IWAN4_CORE}
 
 

@@ -264,10 +264,10 @@ def test_branch_free_tangent_force_and_dissipation_are_the_closed_forms(model):
     """``tangential_tangent``, ``_force`` and ``_dissipation`` (one scaled slip law, ``nonlinear.slip_laws``)
     equal the closed forms of Eqs. 14-22 on Table 3 elements from stuck to deep macroslip. Both sides sum a few
     terms with the same constants phi_max, r, s; a sum is within a few eps of the sum of its terms' magnitudes,
-    bounded by K_T for a tangent, K_T min(|u|, phi_max) for a force (plus K_c and K_c |u| of a core) and 4 K_T phi_max (theta |u| + phi_max)
-    for a dissipation beyond macroslip (none of the closed dissipation's terms cancel in microslip). So they
-    agree to 1e-12 of that scale, 4500 eps (measured: at most 5 eps; relative to the value itself 5e-14, where
-    the closed five-parameter tangent cancels near macroslip with a small spike beta)."""
+    bounded by K_T for a tangent, K_T min(|u|, phi_max) for a force (plus K_c and K_c |u| of a core) and
+    4 K_T phi_max (theta |u| + phi_max) for a dissipation beyond macroslip (none of the closed dissipation's terms
+    cancel in microslip). So they agree to 1e-12 of that scale, 4500 eps (measured: at most 5 eps; relative to the
+    value itself 5e-14, where the closed five-parameter tangent cancels near macroslip with a small spike beta)."""
     elements, u = table3_elements_from_stuck_to_deep_macroslip(model, 5)
     phi_max = np.where(elements.stuck, np.inf, slip_displacement(elements))
     beyond = np.abs(u) > phi_max
