@@ -324,8 +324,9 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
 
 
 def flagged(trial: Fit, effects) -> list[str]:
-    """The reasons ``trial`` gives for parameters of ``effects`` at a bound or undetermined."""
-    return [f"{name} {trial.undetermined[name]}" for effect in effects for name, _, _ in EFFECTS[effect]
+    """The reasons ``trial`` gives for parameters of ``effects`` at a bound or undetermined (an effect that lives
+    in a friction model's design, as the superelement route's stuck core, has no parameter of the library)."""
+    return [f"{name} {trial.undetermined[name]}" for effect in effects for name, _, _ in EFFECTS.get(effect, ())
             if name in trial.undetermined]
 
 

@@ -20,8 +20,9 @@ measurement's uncertainty. The model's backbone is QSMA's omega_j(q), zeta_j(q) 
     amplitude_damping  zeta(q) + c q / q_max
     cubic_stiffening   sqrt(f(q)^2 + gamma f(q_min)^2 (q / q_max)^2)
 
-The friction effects change the friction model (microslip = iwan4, microslip with stiction = iwan5), each
-counting its model's parameters in the BIC. The first fit of a friction model starts from its candidates closest
+The friction effects change the friction model (microslip = iwan4, microslip with stiction = iwan5, microslip
+with a stuck core = iwan4_core: K_c, a spring beside each element that never slips), each counting its model's
+parameters in the BIC. The first fit of a friction model starts from its candidates closest
 to the measurement in frequency, in damping and in both (``shortlist``, two each); every later fit of it starts
 from that optimum, from the closest candidate of each ranking and from the previous step's optimum, with the new
 effect at its library start (a fit that absorbed an effect into the joint's parameters can be a poor start for the

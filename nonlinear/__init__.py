@@ -7,7 +7,7 @@ Friction elements (:mod:`nonlinear.jenkins`, :mod:`nonlinear.iwan`, :mod:`nonlin
     iwan.four_parameter_*, iwan.five_parameter_*      Segalman's 4-parameter and the 5-parameter Iwan element
     jenkins_sliders, iwan_sliders, slider_response    the same elements as parallel sliders, for time stepping
 Friction models (:mod:`nonlinear.friction_models`, the registry every other module asks)
-    FRICTION_MODELS, friction_model   jenkins, iwan4, iwan5, iwan4_stuck: parameters, Table 3 limits, slip law
+    FRICTION_MODELS, friction_model   jenkins, iwan4, iwan5, iwan4_stuck, iwan4_core: parameters, limits, slip law
 Joint (:mod:`nonlinear.joint`, :mod:`nonlinear.parameters`)
     patch_elements, random_designs, stuck_stiffness   a design's elements on the patches (Table 3 parameters)
 Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuck_modes`)

@@ -14,6 +14,16 @@ several equilibria, and how the paper and the discrepancy loop name it. Adding a
                                                        equilibria
     iwan4_stuck    iwan4 groups, but the stuck group (the BRB's middle patch 3, the last group by default) is a
                    linear spring (K_T, K_z)
+    iwan4_core     (F_S, K_T, chi, beta, K_c, K_z)     every patch's iwan4 element in parallel with a linear spring
+                                                       K_c that never slips (the stuck core of the contact under
+                                                       the bolt, as in the whole-joint Iwan models fitted to the
+                                                       ASB): tangent K_T + K_c stuck, K_c beyond macroslip
+
+The core spring K_c (N/m) is not in the paper's Table 3; its limits are K_T's (1e2 to 1e14 N/m, logarithmic), so
+that the core ranges from negligible beside the structure to as stiff as the stiffest Iwan element. With the core
+the tangential force is f = K_c u + K_T u - g(u), g the Iwan element's slip deficit (``nonlinear.slip_laws``) with
+its own constants: the core enters only the stuck tangent K_T + K_c (the condensation's joint stiffness), never the
+slip law, and no joint mechanism is left free in macroslip (the core holds it).
 
 Convention: parameters are per patch pair, in N and N/m, not scaled by patch area.
 """
@@ -25,19 +35,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from nonlinear.iwan import segalman_constants
-from nonlinear.parameters import FrictionParameterError, check_iwan, check_jenkins, check_positive
-from nonlinear.sliders import Sliders, iwan_sliders, jenkins_sliders
+from nonlinear.parameters import (FrictionParameterError, check_iwan, check_jenkins, check_non_negative,
+                                  check_positive)
+from nonlinear.sliders import Sliders, iwan_sliders, jenkins_sliders, with_linear_spring
 
 TABLE3_LIMITS = {
     "F_S": (1e1, 1e11, True), "K_T": (1e2, 1e14, True), "chi": (-0.99, -0.01, False),
     "beta": (1e-4, 1e4, True), "theta": (0.0, 1.0, False), "K_z": (1e2, 1e14, True),
+    "K_c": (1e2, 1e14, True),
 }
-"""Paper Table 3: (minimum, maximum, logarithmic sampling) of each parameter (N, N/m or dimensionless)."""
+"""Paper Table 3: (minimum, maximum, logarithmic sampling) of each parameter (N, N/m or dimensionless); the core
+stiffness K_c, not in the paper, takes K_T's limits (module docstring)."""
 STUCK_GROUP_PARAMETERS = ("K_T", "K_z")
 """Parameters of a stuck patch group: its tangential and normal stiffness (N/m)."""
-ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0}
+ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0, "K_c": 0.0}
 """Values of the element parameters a model does not have (chi of Jenkins, F_S of a stuck patch): they make every
-slip law well defined and are never read for those elements."""
+slip law well defined and are never read for those elements; K_c = 0 is no core."""
+ELEMENT_PARAMETERS = ("F_S", "K_T", "chi", "beta", "theta", "K_z", "K_c")
+"""Every element parameter, in the order of ``nonlinear.joint.PatchElements``' fields."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +63,8 @@ class FrictionModel:
     element: the closed-form element of paper Table 2 its friction elements follow ("jenkins", "iwan4" or
     "iwan5"). stuck_group: one patch group is a linear spring (``STUCK_GROUP_PARAMETERS``). paper_name: its name
     in the paper's tables. discrepancy_effects: what it adds to the macroslip reference in the discrepancy loop's
-    effect library (``discrepancy.superelement_route``), or None where the loop does not use it.
+    effect library (``discrepancy.superelement_route``), or None where the loop does not use it. in_paper: one of
+    paper Table 2's models (the beams' study runs those by default, so that its ANOVA and Table 5 compare).
     """
 
     name: str
@@ -57,6 +73,7 @@ class FrictionModel:
     stuck_group: bool = False
     paper_name: str | None = None
     discrepancy_effects: tuple[str, ...] | None = None
+    in_paper: bool = True
 
     @property
     def min_groups(self) -> int:
@@ -84,9 +101,15 @@ class FrictionModel:
         return [f"{name}[{group}]" for group in range(n_groups)
                 for name in (STUCK_GROUP_PARAMETERS if group == stuck else self.group_parameters)]
 
-    def check(self, slip_force, stiffness, chi, beta, theta, normal_stiffness) -> None:
+    @property
+    def core(self) -> bool:
+        """Whether every patch's tangential element has a linear spring K_c in parallel that never slips."""
+        return "K_c" in self.group_parameters
+
+    def check(self, slip_force, stiffness, chi, beta, theta, normal_stiffness, core_stiffness) -> None:
         """Raise FrictionParameterError naming a parameter outside its physical range."""
         check_positive(normal_stiffness, "normal stiffness K_z")
+        check_non_negative(core_stiffness, "core stiffness K_c")
         if self.element == "jenkins":
             check_jenkins(stiffness, slip_force)
         else:
@@ -99,11 +122,13 @@ class FrictionModel:
             return slip_force / stiffness, np.zeros_like(slip_force), slip_force
         return segalman_constants(slip_force, stiffness, chi, beta)
 
-    def sliders(self, slip_force: float, stiffness: float, chi: float, beta: float, theta: float) -> Sliders:
-        """One element (scalar parameters) as a set of parallel sliders for time stepping (``nonlinear.sliders``)."""
-        if self.element == "jenkins":
-            return jenkins_sliders(stiffness, slip_force)
-        return iwan_sliders(slip_force, stiffness, chi, beta, theta)
+    def sliders(self, slip_force: float, stiffness: float, chi: float, beta: float, theta: float,
+                core_stiffness: float = 0.0) -> Sliders:
+        """One element (scalar parameters) as a set of parallel sliders for time stepping (``nonlinear.sliders``),
+        with the core (``core``) as one more slider of infinite strength."""
+        element = (jenkins_sliders(stiffness, slip_force) if self.element == "jenkins"
+                   else iwan_sliders(slip_force, stiffness, chi, beta, theta))
+        return with_linear_spring(element, core_stiffness) if self.core else element
 
 
 FRICTION_MODELS = {model.name: model for model in (
@@ -113,6 +138,8 @@ FRICTION_MODELS = {model.name: model for model in (
                   discrepancy_effects=("microslip", "stiction")),
     FrictionModel("iwan4_stuck", ("F_S", "K_T", "chi", "beta", "K_z"), "iwan4", stuck_group=True,
                   paper_name="iwan4_middle_stuck"),
+    FrictionModel("iwan4_core", ("F_S", "K_T", "chi", "beta", "K_c", "K_z"), "iwan4",
+                  discrepancy_effects=("microslip", "stuck_core"), in_paper=False),
 )}
 """Every friction model by name, in the order the study seeds them (``study.designs``)."""
 MODEL_NAMES = tuple(FRICTION_MODELS)
@@ -126,6 +153,8 @@ def friction_model(name: str) -> FrictionModel:
         raise FrictionParameterError(f"unknown friction model {name!r}; choose one of {MODEL_NAMES}") from None
 
 
-def models_for(n_groups: int) -> tuple[str, ...]:
-    """The models a structure with ``n_groups`` patch groups can carry (a stuck group needs two groups)."""
-    return tuple(name for name, model in FRICTION_MODELS.items() if n_groups >= model.min_groups)
+def models_for(n_groups: int, in_paper: bool = False) -> tuple[str, ...]:
+    """The models a structure with ``n_groups`` patch groups can carry (a stuck group needs two groups); only the
+    paper's where ``in_paper``."""
+    return tuple(name for name, model in FRICTION_MODELS.items()
+                 if n_groups >= model.min_groups and (model.in_paper or not in_paper))

@@ -4,7 +4,9 @@ Each patch pair p carries, on the relative virtual-node translation (top minus b
 each tangential direction x and y (same parameters in both) and a linear spring K_z in the normal direction.
 Patches share parameters by symmetry group (``patch_groups``, one group index per patch; the BRB's five
 patches form groups {1, 5}, {2, 4}, {3}). A design is one vector of group parameters, concatenated group by
-group, in the order of its friction model (``nonlinear.friction_models``: jenkins, iwan4, iwan5, iwan4_stuck).
+group, in the order of its friction model (``nonlinear.friction_models``: jenkins, iwan4, iwan5, iwan4_stuck,
+iwan4_core). A core spring K_c (iwan4_core) acts in parallel with each tangential element: it adds K_c u to the
+element's force and K_c to its tangent, and nothing to its slip deficit or dissipation.
 
 Convention: parameters are per patch pair, in N and N/m, not scaled by patch area (the authors' code scaled
 F_S, K_T and K_z by the patch area; Table 3's limits are then per m^2). Units: forces N, displacements m.
@@ -17,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from nonlinear import slip_laws
-from nonlinear.friction_models import ELEMENT_DEFAULTS, TABLE3_LIMITS, FrictionModel, friction_model
+from nonlinear.friction_models import ELEMENT_DEFAULTS, ELEMENT_PARAMETERS, TABLE3_LIMITS, FrictionModel, friction_model
 from nonlinear.parameters import FrictionParameterError
 
 BRB_PATCH_GROUPS = (0, 1, 2, 1, 0)
@@ -37,7 +39,8 @@ class ScaledLaw(NamedTuple):
 class PatchElements(NamedTuple):
     """Element parameters of every patch for a batch of designs; arrays of shape (n_designs, n_patches).
 
-    model: the friction model (``nonlinear.friction_models``); stuck: (n_patches,) bool, patches whose tangential
+    model: the friction model (``nonlinear.friction_models``); core_stiffness: K_c (N/m), the linear spring in
+    parallel with each tangential element (0: none); stuck: (n_patches,) bool, patches whose tangential
     elements are linear springs K_T. Unused entries (chi for Jenkins, F_S of a stuck patch) hold values that make
     the laws well defined and are never read for those patches.
     """
@@ -49,6 +52,7 @@ class PatchElements(NamedTuple):
     beta: np.ndarray
     theta: np.ndarray
     normal_stiffness: np.ndarray
+    core_stiffness: np.ndarray
     stuck: np.ndarray
 
 
@@ -111,7 +115,7 @@ def patch_elements(model: str, designs, patch_groups=BRB_PATCH_GROUPS, stuck_gro
     for column, name in enumerate(names):
         parameter, group = name[:-1].split("[")
         per_group[parameter][:, int(group)] = designs[:, column]
-    ordered = [per_group[name] for name in ("F_S", "K_T", "chi", "beta", "theta", "K_z")]
+    ordered = [per_group[name] for name in ELEMENT_PARAMETERS]
     friction.check(*ordered)
     stuck = groups == friction.stuck_group_index(n_groups, stuck_group)
     return PatchElements(friction, *(values[:, groups] for values in ordered), stuck)
@@ -134,25 +138,26 @@ def slip_displacement(elements: PatchElements) -> np.ndarray:
 
 
 def tangential_tangent(elements: PatchElements, displacement) -> np.ndarray:
-    """Tangent stiffness df/du = K_T - g'(u) (N/m) of the tangential elements, from the scaled slip law
-    (``nonlinear.slip_laws.backbone_force_slope``): K_T at zero displacement, 0 beyond macroslip; K_T for
+    """Tangent stiffness df/du = K_c + K_T - g'(u) (N/m) of the tangential elements, from the scaled slip law
+    (``nonlinear.slip_laws.backbone_force_slope``): K_c + K_T at zero displacement, K_c beyond macroslip; K_T for
     stuck patches."""
     law = scaled_law(elements)
     tangent = slip_laws.backbone_force_slope(displacement / law.phi_max, law.r, law.s, law.chi, law.theta) / law.phi_max
-    return np.where(elements.stuck, elements.stiffness, tangent)
+    return elements.core_stiffness + np.where(elements.stuck, elements.stiffness, tangent)
 
 
 def tangential_force(elements: PatchElements, displacement) -> np.ndarray:
-    """Force f = K_T u - g(u) (N) of the tangential elements at displacement (m), their backbones (paper Eqs. 14,
-    18, 21) from the scaled slip law (``nonlinear.slip_laws.backbone_force``): constant beyond macroslip (no
-    K_T u - g cancellation there); K_T u for stuck patches."""
+    """Force f = K_c u + K_T u - g(u) (N) of the tangential elements at displacement (m), their backbones (paper
+    Eqs. 14, 18, 21) from the scaled slip law (``nonlinear.slip_laws.backbone_force``) plus the core's K_c u:
+    K_c u + constant beyond macroslip (no K_T u - g cancellation there); K_T u for stuck patches."""
     law = scaled_law(elements)
     force = slip_laws.backbone_force(displacement / law.phi_max, law.r, law.s, law.chi, law.theta)
-    return np.where(elements.stuck, elements.stiffness * displacement, force)
+    return elements.core_stiffness * displacement + np.where(elements.stuck, elements.stiffness * displacement, force)
 
 
 def tangential_slip_deficit(elements: PatchElements, displacement) -> np.ndarray:
-    """Force lost to slip, K_T u - f(u) (N), of the tangential elements; zero for stuck patches."""
+    """Force lost to slip, (K_c + K_T) u - f(u) = K_T u - f_Iwan(u) (N), of the tangential elements (the core
+    loses nothing); zero for stuck patches."""
     law = scaled_law(elements)
     return slip_laws.slip_deficit(displacement / law.phi_max, law.r, law.s, law.chi, law.theta)
 
@@ -194,6 +199,8 @@ def tangential_rows(n_patches: int) -> np.ndarray:
 
 
 def stuck_stiffness(elements: PatchElements) -> np.ndarray:
-    """Initial tangents of all joint springs (N/m), (n_designs, 3 n_patches) ordered x, y, z per patch."""
-    return np.stack([elements.stiffness, elements.stiffness, elements.normal_stiffness], axis=-1).reshape(
+    """Initial tangents of all joint springs (N/m), (n_designs, 3 n_patches) ordered x, y, z per patch: K_T + K_c
+    tangentially, K_z normally."""
+    tangential = elements.stiffness + elements.core_stiffness
+    return np.stack([tangential, tangential, elements.normal_stiffness], axis=-1).reshape(
         elements.stiffness.shape[0], -1)

@@ -27,6 +27,12 @@ def check_positive(value, name: str) -> None:
     _require(np.isfinite(value) & (value > 0.0), name, "finite and positive", value)
 
 
+def check_non_negative(value, name: str) -> None:
+    """A stiffness that may vanish (a core spring K_c: 0 is no core): finite and >= 0."""
+    value = np.asarray(value, dtype=float)
+    _require(np.isfinite(value) & (value >= 0.0), name, "finite and >= 0", value)
+
+
 def check_jenkins(stiffness, slip_force) -> None:
     """Jenkins element (K_T, F_S)."""
     check_positive(stiffness, "tangential stiffness K_T")

@@ -20,7 +20,8 @@ alpha (amplitude control) eliminates alpha:
 
     r_t = q b_t + (C_tt - b_t b_t^T / lambda_1) g(r_t),
 
-which has a solution at every amplitude, while force control has none above the macroslip force. Then
+which has a solution at every amplitude, while force control has none above the macroslip force (unless a core
+spring K_c, iwan4_core, holds the joint: K_d = K_T + K_c, g the Iwan element's own slip deficit). Then
 (paper Eqs. 23-25) omega = sqrt(alpha / q), D = sum of element Masing dissipations + 2 pi q^2 omega^2 zeta_0
 and zeta = D / (2 pi q^2 omega^2).
 Units: q in m kg^0.5, alpha in N kg^-0.5 (= m kg^0.5 s^-2), omega in rad/s, r in m, D in J.
@@ -227,7 +228,8 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         if ok:
             r_levels[level], converged[level], reason[level] = r, True, CONVERGED
             x, previous_value = solution, value
-        elif not amplitude_control and np.all(tangential.stuck[0] | (np.abs(r) >= scale)):
+        elif not amplitude_control and not tangential.model.core and np.all(
+                tangential.stuck[0] | (np.abs(r) >= scale)):  # a core holds every force
             reason[level] = MACROSLIP
     if mac < UNAMBIGUOUS_MAC:
         converged[:], reason[:] = False, AMBIGUOUS_MODE

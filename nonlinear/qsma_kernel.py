@@ -6,7 +6,8 @@ x_i = r_i / phi_max_i, and the equations (``nonlinear.qsma``) are
 
     R(x) = r - linear - C g(r) = 0,   g the slip deficits (``nonlinear.slip_laws``),
 
-the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i),
+the stationarity condition of the potential energy E(r) = (r - linear)^T C^+ (r - linear) / 2 - sum G_i(r_i)
+(C the compliance of the structure with the stuck tangents K_T + K_c, K_c a core spring that never slips),
 convex for the Jenkins and four-parameter Iwan laws (docs/design.md section 5.1) and for the five-parameter one
 away from macroslip. Newton's step uses the slope of g, clipped at K_T only where the true one (a stiction
 backbone that softens) would make the Newton matrix indefinite, keeping it positive semi-definite so the step
@@ -373,7 +374,8 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _convex_between(x, trial, slope, trial_slope, table):
     """Whether E is convex on the segment from x to trial: it is wherever each element's tangent stiffness
-    K_T - g' stays >= 0 (C^+ - diag(g') >= 0, C^+ holding the stuck tangents K_T) and its deficit is continuous.
+    K_T - g' stays >= 0 (C^+ - diag(g') >= 0, C^+ holding the stuck tangents K_T + K_c) and its deficit is
+    continuous.
     Only an element with a stiction drop (five-parameter Iwan, theta < 1) can break either: its deficit jumps
     at |x| = 1 and its microslip slope, increasing with |x|, may exceed K_T near it (then clipped). Along the
     segment |x| is at most its larger end value, so both hold on it if, at both ends, |x| < 1 and the slope is
@@ -391,8 +393,8 @@ def _convex_between(x, trial, slope, trial_slope, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load, modal_force,
-                         modal_force_terms, force):
+def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, table, mechanisms, mechanism_load,
+                         modal_force, modal_force_terms, force):
     """How far the element forces are from balancing the load on the joint's mechanisms: the full equations
     (paper Eq. 10) projected on each relative rigid motion d_j that moves the joint only tangentially
     (``nonlinear.condensation.joint_mechanisms``) read d_j^T f = alpha rigid_j^T psi, in newtons, with no term
@@ -401,18 +403,21 @@ def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mec
     ran off along a mechanism, where the condensed residual is lost under the round-off of |r|, is off by a whole
     slip force here).
 
-    The element force f = K_T phi x - g (N) is formed without cancellation beyond macroslip, where it is the
-    constant K_T phi - r shape - stiction drop. Below macroslip it is K_T r, and r is known only as well as the
-    condensed equations hold and are known, |R_i| + CONDENSATION_ACCURACY max|r|: the floor_j = sum_i |d_ji|
-    K_T,i (|R_i| + CONDENSATION_ACCURACY max|r|) over these holding elements (those taking part in d_j,
-    PARTICIPATION, and within that uncertainty of macroslip: a Jenkins element at its kink holds any force up to
-    F_S) is what the condensed problem resolves (a stiff holding element next to elements that slid 1e5
-    slip displacements, its own equation a difference of terms 1e5 times its motion); it is zero along a
+    The element force f = (K_T + K_c) phi x - g (N) is formed without cancellation beyond macroslip, where it is
+    K_c phi x plus the constant K_T phi - r shape - stiction drop. Below macroslip it is K_T r (plus K_c r), and r
+    is known only as well as the condensed equations hold and are known, |R_i| + CONDENSATION_ACCURACY max|r|: the
+    floor_j = sum_i |d_ji| K_T,i (|R_i| + CONDENSATION_ACCURACY max|r|) over these holding elements (those taking
+    part in d_j, PARTICIPATION, and within that uncertainty of macroslip: a Jenkins element at its kink holds any
+    force up to F_S), with K_c,i in place of K_T,i beyond macroslip and added to it below where a core holds, is
+    what the condensed problem resolves (a stiff holding element next to elements that slid 1e5 slip
+    displacements, its own equation a difference of terms 1e5 times its motion); it is zero along a
     mechanism on which every element slides, the run-off iterate's case, and where a stuck element holds the
     largest motion itself it is CONDENSATION_ACCURACY of that element's force. The load alpha rigid_j^T psi carries the round-off of alpha = lambda_1 q - b^T g,
     8 eps (lambda_1 q + sum |b_i g_i|) (modal_force_terms), large where g ~ K_T r of elements 1e9 slip
     displacements deep: the floor holds that too. stiffness: K_T phi (N per unit scaled slip; K_T for stuck
-    elements, whose law constants vanish); phi: (m,) the elements' scales (m); residual: (m,) R / phi;
+    elements, whose law constants vanish); core: K_c phi (N per unit scaled slip), the core springs that never
+    slip, which hold a mechanism like a stuck element at every motion; phi: (m,) the elements' scales (m); residual:
+    (m,) R / phi;
     mechanisms: (k, m); mechanism_load: (k,) rigid_j^T psi; modal_force: alpha; force: (m,) work row for f."""
     size = 0.0
     largest_motion = 0.0
@@ -420,9 +425,9 @@ def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mec
         largest_motion = max(largest_motion, abs(x[i] * phi[i]))
     for i in range(x.size):
         if abs(x[i]) < 1.0 or table[i, MACROSLIP_SLOPE] == 0.0:
-            force[i] = stiffness[i] * x[i] - deficit[i]
+            force[i] = (stiffness[i] + core[i]) * x[i] - deficit[i]
         else:
-            force[i] = (table[i, MACROSLIP_SLOPE] - power[i] * table[i, 2] - table[i, STICTION]) * (
+            force[i] = core[i] * x[i] + (table[i, MACROSLIP_SLOPE] - power[i] * table[i, 2] - table[i, STICTION]) * (
                 1.0 if x[i] > 0.0 else -1.0)
         size += abs(force[i])
     for j in range(mechanisms.shape[0]):
@@ -437,21 +442,21 @@ def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mec
             total += mechanisms[j, i] * force[i]
             uncertainty = abs(residual[i]) + CONDENSATION_ACCURACY * largest_motion / phi[i]  # in scaled slip
             holding = abs(x[i]) < 1.0 + uncertainty or table[i, MACROSLIP_SLOPE] == 0.0
-            if holding and abs(mechanisms[j, i]) >= participation:
-                floor += abs(mechanisms[j, i]) * stiffness[i] * uncertainty
+            if abs(mechanisms[j, i]) >= participation:
+                floor += abs(mechanisms[j, i]) * ((stiffness[i] if holding else 0.0) + core[i]) * uncertainty
         worst = max(worst, abs(total) - floor)
     return max(worst, 0.0) / max(size, 1e-300)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _solve_level(linear, compliance, phi, table, work, matrix, active, compliance_pinv, pinv_formed, stiffness,
-                 mechanisms, mechanism_load, joint_shape, stuck_force, amplitude_control):
+                 core, mechanisms, mechanism_load, joint_shape, stuck_force, amplitude_control):
     """Damped Newton for one design at one level from work[X] (the start) to work[X]; table: the elements'
     ``law_constants`` (m, N_LAW). Returns (status, pinv_formed): C^+ is formed into compliance_pinv (m, m) the
     first time the energy is needed (pinv_formed False until then) and carried from level to level.
 
     Converged means both: the condensed residual within ACCEPT_TOLERANCE of its largest term, and the element
-    forces balancing the load on every mechanism within FORCE_ACCEPT (``_mechanism_imbalance``; stiffness,
+    forces balancing the load on every mechanism within FORCE_ACCEPT (``_mechanism_imbalance``; stiffness, core,
     mechanisms, mechanism_load as there; the modal force is stuck_force - b^T g under amplitude control, with
     stuck_force = lambda_1 q, and stuck_force itself under force control)."""
     m = linear.size
@@ -474,8 +479,8 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     for _ in range(MAX_ITERATIONS):
         if error <= TARGET_TOLERANCE:
             modal_force, modal_force_terms = _modal_force(stuck_force, joint_shape, deficit, amplitude_control)
-            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms, mechanism_load,
-                                             modal_force, modal_force_terms, work[FORCE])
+            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, table, mechanisms,
+                                             mechanism_load, modal_force, modal_force_terms, work[FORCE])
             if imbalance <= FORCE_TARGET:
                 break
         singular = _newton_step(residual, compliance, phi, slope, step, work[NEWTON_SLOPE], matrix, work[RIGHT], active,
@@ -542,26 +547,27 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     if error <= ACCEPT_TOLERANCE:
         if imbalance < 0.0:
             modal_force, modal_force_terms = _modal_force(stuck_force, joint_shape, deficit, amplitude_control)
-            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, table, mechanisms,
+            imbalance = _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, table, mechanisms,
                                              mechanism_load, modal_force, modal_force_terms, work[FORCE])
         if imbalance > FORCE_ACCEPT:
             return UNBALANCED, pinv_formed
-        if _sliding_mechanism(x, table, mechanisms) and not _newton_resolved(
+        if _sliding_mechanism(x, table, core, mechanisms) and not _newton_resolved(
                 residual, compliance, phi, work, matrix, active, x, table):
             return FLAT, pinv_formed
         return CONVERGED, pinv_formed
     beyond_macroslip = True
     for i in range(m):
-        if table[i, MACROSLIP_SLOPE] > 0.0 and linear[i] != 0.0 and abs(x[i]) < 1.0:
+        if (table[i, MACROSLIP_SLOPE] > 0.0 and linear[i] != 0.0 and abs(x[i]) < 1.0) or core[i] > 0.0:
             beyond_macroslip = False
     return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, pinv_formed
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _sliding_mechanism(x, table, mechanisms):
-    """Whether every element taking part in some joint mechanism d_j (``PARTICIPATION``) slides beyond macroslip:
-    then none holds it, each element's force is its constant sliding force, and the energy is flat along d_j but
-    for alpha's coupling (amplitude control) and the elements entering macroslip."""
+def _sliding_mechanism(x, table, core, mechanisms):
+    """Whether every element taking part in some joint mechanism d_j (``PARTICIPATION``) slides beyond macroslip
+    with no core spring (core: K_c phi, 0 where none): then none holds it, each element's force is its constant
+    sliding force, and the energy is flat along d_j but for alpha's coupling (amplitude control) and the elements
+    entering macroslip."""
     for j in range(mechanisms.shape[0]):
         largest = 0.0
         for i in range(x.size):
@@ -569,7 +575,7 @@ def _sliding_mechanism(x, table, mechanisms):
         sliding = True
         for i in range(x.size):
             if abs(mechanisms[j, i]) >= PARTICIPATION * largest and (
-                    abs(x[i]) <= 1.0 or table[i, MACROSLIP_SLOPE] == 0.0):
+                    abs(x[i]) <= 1.0 or table[i, MACROSLIP_SLOPE] == 0.0 or core[i] > 0.0):
                 sliding = False
                 break
         if sliding:
@@ -619,7 +625,7 @@ def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
-                 amplitude_control, linear_damping, stiffness, mechanisms, mechanism_load):
+                 amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load):
     """All designs, all levels, and their modal backbone.
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
@@ -629,7 +635,8 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     chi, theta: (n_designs, m) slip-law constants; stuck: (m,) bool, the linear elements (slip ratio 0);
     eigenvalue: (n_designs,) lambda_1;
     joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; stiffness: (n_designs, m) the elements' stuck
-    tangents K_T (N/m); mechanisms: (k, m) the joint's tangential mechanisms d_j and mechanism_load:
+    tangents K_T (N/m); core: (n_designs, m) the core springs K_c in parallel with them (N/m, 0 where none; the
+    compliance already holds them); mechanisms: (k, m) the joint's tangential mechanisms d_j and mechanism_load:
     (n_designs, k) rigid_j^T psi (``nonlinear.condensation.joint_mechanisms``), for the force balance on them.
     Each level starts from the parabola through the last three converged levels, or fewer, never across a level
     that failed (after one, from the last converged level scaled to this one); a level that fails from there is
@@ -656,6 +663,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
+    core_scaled = np.empty(m)
     active = np.empty(m, dtype=np.int64)
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
@@ -665,6 +673,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
             stiction = stiction or table[i, STICTION] > 0.0
         for i in range(m):
             stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
+            core_scaled[i] = core[d, i] * phi[d, i]
         mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
         for i in range(m):
             for j in range(m):
@@ -705,8 +714,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 code = NOT_CONVERGED  # the start already jumped: straight to the loading path's substeps
             else:
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                                 compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
-                                                 mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
+                                                 compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
+                                                 mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
+                                                 amplitude_control)
             if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
                 # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last
                 # equilibrium reached (a substep that fails is passed: the next one starts where it started).
@@ -721,7 +731,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                         linear[i] = linear_per_level[d, i] * substep
                     code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
                                                      active, compliance_pinv, pinv_formed, stiffness_scaled,
-                                                     mechanisms, mechanism_load[d], joint_shape[d],
+                                                     core_scaled, mechanisms, mechanism_load[d], joint_shape[d],
                                                      eigenvalue[d] * substep if amplitude_control else substep,
                                                      amplitude_control)
                     if code == CONVERGED:
@@ -733,8 +743,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 for i in range(m):
                     x[i] = linear[i] / phi[d, i]
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                                 compliance_pinv, pinv_formed, stiffness_scaled, mechanisms,
-                                                 mechanism_load[d], joint_shape[d], stuck_force, amplitude_control)
+                                                 compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
+                                                 mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
+                                                 amplitude_control)
             status[d, level] = code
             if code != CONVERGED and code != JUMPED:
                 earliest, before = -1, -1

@@ -62,7 +62,8 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
         *map(kernel_array, (levels, linear_per_level, modes.compliance, *(np.broadcast_to(a, b.shape) for a in law),
                             tangential.stuck, modes.eigenvalue, b)),
         amplitude_control, float(linear_damping),
-        *map(kernel_array, (tangential.stiffness, mechanisms.tangential, modes.shape @ mechanisms.rigid.T)))
+        *map(kernel_array, (tangential.stiffness, tangential.core_stiffness, mechanisms.tangential,
+                            modes.shape @ mechanisms.rigid.T)))
 
     converged = (status == qsma_kernel.CONVERGED) | (status == qsma_kernel.JUMPED)
     code = np.where(converged, 0, 1).astype(np.int8)

@@ -5,7 +5,7 @@ theta f_j while sliding (stiction ratio, paper Eq. 20; theta = 1 is plain Coulom
 position p_j (m) and the direction d_j in {-1, 0, +1} in which it last slid (0: never). The element force is
 sum_j k_j (u - p_j).
 
-- A Jenkins element (paper 4.3.1) is one slider.
+- A Jenkins element (paper 4.3.1) is one slider; a linear spring is a slider of infinite strength.
 - An Iwan element (paper Eq. 16) is discretised into sliders that split the continuous part of the
   slip-displacement density R phi^chi into intervals, each slider placed at the stiffness-weighted mean
   slip displacement of its interval (so the macroslip force is exact), plus one slider for the spike
@@ -65,6 +65,12 @@ def iwan_sliders(slip_force, stiffness, chi, beta, theta=1.0, count: int = 200, 
     slip_displacement = phi_max * np.append(position, 1.0)
     present = slider_stiffness > 0.0  # beta = 0: no spike
     return Sliders(slider_stiffness[present], (slider_stiffness * slip_displacement)[present], theta)
+
+
+def with_linear_spring(sliders: Sliders, stiffness: float) -> Sliders:
+    """An element's sliders with a linear spring of ``stiffness`` (N/m) in parallel: one more slider of infinite
+    strength, which never slips (a stuck core)."""
+    return Sliders(np.append(sliders.stiffness, stiffness), np.append(sliders.strength, np.inf), sliders.theta)
 
 
 def initial_state(sliders: Sliders):

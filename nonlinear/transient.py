@@ -59,7 +59,7 @@ class TransientResponse(NamedTuple):
 
 def element_sliders(model: str, design, patch_groups, stuck_group: int | None = None) -> list[Sliders]:
     """The tangential joint elements of one design as slider sets, ordered (x, y) per patch; a stuck patch
-    is a single slider that never slips."""
+    is a single slider that never slips, and so is a core spring (iwan4_core) beside an element's sliders."""
     tangential = tangential_elements(patch_elements(model, design, patch_groups, stuck_group))
     sliders = []
     for j in range(tangential.stiffness.shape[1]):
@@ -68,7 +68,8 @@ def element_sliders(model: str, design, patch_groups, stuck_group: int | None = 
             sliders.append(Sliders(np.array([stiffness]), np.array([np.inf])))
         else:
             sliders.append(tangential.model.sliders(slip_force, stiffness, tangential.chi[0, j],
-                                                    tangential.beta[0, j], tangential.theta[0, j]))
+                                                    tangential.beta[0, j], tangential.theta[0, j],
+                                                    tangential.core_stiffness[0, j]))
     return sliders
 
 

@@ -13,8 +13,9 @@ study reads only those files, whatever the source:
   measured backbones; CD2 has no reduced model). Every patch in one group, so that one design
   is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:
   each configuration's damping at its lowest measured level, less each design's own joint damping there
-  (``study.errors`` rule "outside_joint": the measured damping already holds the joint's). The middle-stuck model needs a middle patch and
-  is not defined on the ASB's single group: the ASB study runs Jenkins and both Iwan models.
+  (``study.errors`` rule "outside_joint": the measured damping already holds the joint's). The middle-stuck model
+  needs a middle patch and is not defined on the ASB's single group: the ASB study runs Jenkins, both Iwan models
+  and the stuck core.
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ DATASETS = ("beams", "asb")
 DATASET_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1), "asb": models_for(1)}
 """The friction models each dataset's structures can carry: the beams' three patch groups, the ASB's one (every
 patch in one group, ``study.structures.asb_superelement``)."""
+DEFAULT_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1, in_paper=True), "asb": DATASET_MODELS["asb"]}
+"""The models a study runs unless told: the paper's four on the beams (Table 5 and the ANOVA of Table 6 compare),
+every model the ASB can carry (its single group rules out the middle-stuck one)."""
 DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
 DAMPING_RULE = {"beams": "added", "asb": "outside_joint"}
 """How each dataset's damping cases become zeta_0 (``study.errors.DAMPING_RULES``, module docstring)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from study.datasets import DATASET_MODELS, DATASETS
+from study.datasets import DATASET_MODELS, DATASETS, DEFAULT_MODELS
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
 from study.exploration import Sample
 from study.structures import N_LEVELS
@@ -13,7 +13,7 @@ from study.structures import N_LEVELS
 
 @dataclass(frozen=True)
 class StudyParameters:
-    """[study]: dataset ("beams" or "asb"), friction models (default: all the dataset allows), levels per
+    """[study]: dataset ("beams" or "asb"), friction models (default: ``study.datasets.DEFAULT_MODELS``), levels per
     structure. The beams' superelements are the unstressed halves (``reduction.superelement.beam_superelement``)."""
 
     dataset: str = "beams"
@@ -32,7 +32,7 @@ class StudyParameters:
 
     @property
     def friction_models(self) -> tuple[str, ...]:
-        return self.models or DATASET_MODELS[self.dataset]
+        return self.models or DEFAULT_MODELS[self.dataset]
 
 
 @dataclass(frozen=True)

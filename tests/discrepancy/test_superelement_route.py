@@ -4,9 +4,9 @@ measurement's uncertainty. The candidates are the truth's design (in the frictio
 random Table 3 designs, as a study's Pareto set would hold it.
 
 - no effect beyond the Jenkins reference: nothing added;
-- each effect (a structure-specific linear damping put in through QSMA's own linear damping; microslip as the
-  true Iwan element; a stiffness change, damping growing with amplitude, cubic stiffening put on the backbone):
-  the loop names it and the error of what it acts on falls to at most half;
+- each effect (a structure-specific linear damping put in through QSMA's own linear damping; microslip and a
+  stuck core as the true Iwan element; a stiffness change, damping growing with amplitude, cubic stiffening put on
+  the backbone): the loop names it and the error of what it acts on falls to at most half;
 - a stiction truth: microslip named, the residual at the noise (the refitted Iwan element needs no theta here);
 - a ripple outside the library: "unexplained".
 """
@@ -31,7 +31,11 @@ ZETA0 = 1.6659e-3  # the borrowed (BRB Table 1) linear damping
 JENKINS = np.array([12.0, 2e8, 5e9, 18.0, 3e8, 5e9, 24.0, 4e8, 5e9])
 IWAN4 = np.array([4e3, 2e8, -0.4, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 5e9, 8e3, 4e8, -0.5, 0.3, 5e9])
 IWAN5 = np.array([4e3, 2e8, -0.4, 0.5, 0.5, 5e9, 6e3, 3e8, -0.3, 1.0, 0.5, 5e9, 8e3, 4e8, -0.5, 0.3, 0.5, 5e9])
-TRUTH = {"jenkins": JENKINS, "iwan4": IWAN4, "iwan5": IWAN5}
+# The stuck core: weak Iwan elements (the Jenkins joint's slip forces) deep in macroslip at the top levels, each
+# with a core K_c = K_T / 2 that never slips.
+IWAN4_CORE = np.array([12.0, 2e8, -0.4, 0.5, 1e8, 5e9, 18.0, 3e8, -0.3, 1.0, 1.5e8, 5e9,
+                       24.0, 4e8, -0.5, 0.3, 2e8, 5e9])
+TRUTH = {"jenkins": JENKINS, "iwan4": IWAN4, "iwan5": IWAN5, "iwan4_core": IWAN4_CORE}
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +108,13 @@ def test_stiction_truth_is_explained_without_naming_more_than_the_points_carry(b
     verdict = structure_discrepancy_loop(measured(brb, "iwan5"), candidates, ZETA0, brb)
     assert "microslip" in verdict.effects and set(verdict.effects) <= {"microslip", "stiction"}
     assert not verdict.unexplained and verdict.steps[-1].reduced_chi_squared < 1.5
+
+
+def test_a_stuck_core_is_named_with_the_microslip_it_comes_with(brb):
+    candidates = candidates_with(brb, "iwan4_core", ("jenkins", "iwan4", "iwan4_core"))
+    verdict = structure_discrepancy_loop(measured(brb, "iwan4_core"), candidates, ZETA0, brb)
+    assert sorted(verdict.effects) == ["microslip", "stuck_core"] and not verdict.unexplained
+    assert verdict.steps[-1].fit.parameters["design"] == "iwan4_core, refitted from design 0"
 
 
 def test_two_effects_are_both_named(brb):

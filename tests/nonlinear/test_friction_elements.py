@@ -210,24 +210,27 @@ def test_slip_deficit_potential_is_integral_of_deficit(case):
                                atol=1e-9 * slip_force)
 
 
-@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck", "iwan4_core"])
 def test_tangential_force_is_stiffness_less_slip_deficit(model):
-    """The backbone force of ``tangential_force`` equals K_T u - g(u) of the scaled slip law on Table 3 elements
-    from stuck to 1e3 slip displacements, within the round-off of that difference (4 eps (K_T |u| + |g|))."""
+    """The backbone force of ``tangential_force`` equals (K_T + K_c) u - g(u) of the scaled slip law on Table 3
+    elements from stuck to 1e3 slip displacements (K_c = 0 but for the stuck core), within the round-off of that
+    difference (4 eps ((K_T + K_c) |u| + |g|))."""
     elements = tangential_elements(patch_elements(model, random_designs(model, 200, 3, np.random.default_rng(3))))
     rng = np.random.default_rng(4)
     scaled = rng.choice([-1, 1], elements.stiffness.shape) * np.geomspace(1e-6, 1e3, elements.stiffness.size).reshape(
         elements.stiffness.shape)
     displacement = scaled * np.where(elements.stuck, 1e-3, slip_displacement(elements))
     deficit = tangential_slip_deficit(elements, displacement)
-    difference = elements.stiffness * displacement - deficit
-    round_off = 4 * np.finfo(float).eps * (elements.stiffness * np.abs(displacement) + np.abs(deficit))
+    stuck_tangent = elements.stiffness + elements.core_stiffness
+    difference = stuck_tangent * displacement - deficit
+    round_off = 4 * np.finfo(float).eps * (stuck_tangent * np.abs(displacement) + np.abs(deficit))
     assert np.all(np.abs(tangential_force(elements, displacement) - difference) <= round_off + 1e-12 * np.abs(difference))
 
 
 def closed_forms(elements, u):
     """Tangent (N/m), force (N) and Masing dissipation (J) at u of paper Eqs. 14-22 in closed form
-    (``nonlinear.jenkins``, ``nonlinear.iwan``), dispatched on the law; stuck patches K_T, K_T u, 0."""
+    (``nonlinear.jenkins``, ``nonlinear.iwan``), dispatched on the law; stuck patches K_T, K_T u, 0; a core spring
+    in parallel adds K_c and K_c u."""
     e = elements
     if e.model.element == "jenkins":
         forms = (jenkins.tangent(u, e.stiffness, e.slip_force), jenkins.backbone(u, e.stiffness, e.slip_force),
@@ -240,8 +243,9 @@ def closed_forms(elements, u):
         args = (e.slip_force, e.stiffness, e.chi, e.beta, e.theta)
         forms = (iwan.five_parameter_tangent(u, *args), iwan.five_parameter_backbone(u, *args),
                  iwan.five_parameter_dissipation(u, *args))
-    return tuple(np.where(e.stuck, stuck, form) for stuck, form in
-                 zip((e.stiffness, e.stiffness * u, 0.0), forms))
+    tangent, force, dissipation = (np.where(e.stuck, stuck, form) for stuck, form in
+                                   zip((e.stiffness, e.stiffness * u, 0.0), forms))
+    return tangent + e.core_stiffness, force + e.core_stiffness * u, dissipation
 
 
 def table3_elements_from_stuck_to_deep_macroslip(model, seed):
@@ -260,14 +264,15 @@ def test_branch_free_tangent_force_and_dissipation_are_the_closed_forms(model):
     """``tangential_tangent``, ``_force`` and ``_dissipation`` (one scaled slip law, ``nonlinear.slip_laws``)
     equal the closed forms of Eqs. 14-22 on Table 3 elements from stuck to deep macroslip. Both sides sum a few
     terms with the same constants phi_max, r, s; a sum is within a few eps of the sum of its terms' magnitudes,
-    bounded by K_T for a tangent, K_T min(|u|, phi_max) for a force and 4 K_T phi_max (theta |u| + phi_max)
-    for a dissipation beyond macroslip (none of the closed dissipation's terms cancel in microslip). So they
-    agree to 1e-12 of that scale, 4500 eps (measured: at most 5 eps; relative to the value itself 5e-14, where
-    the closed five-parameter tangent cancels near macroslip with a small spike beta)."""
+    bounded by K_T for a tangent, K_T min(|u|, phi_max) for a force (plus K_c and K_c |u| of a core) and
+    4 K_T phi_max (theta |u| + phi_max) for a dissipation beyond macroslip (none of the closed dissipation's terms
+    cancel in microslip). So they agree to 1e-12 of that scale, 4500 eps (measured: at most 5 eps; relative to the
+    value itself 5e-14, where the closed five-parameter tangent cancels near macroslip with a small spike beta)."""
     elements, u = table3_elements_from_stuck_to_deep_macroslip(model, 5)
     phi_max = np.where(elements.stuck, np.inf, slip_displacement(elements))
     beyond = np.abs(u) > phi_max
-    scales = (elements.stiffness, elements.stiffness * np.minimum(np.abs(u), phi_max),
+    scales = (elements.stiffness + elements.core_stiffness,
+              elements.stiffness * np.minimum(np.abs(u), phi_max) + elements.core_stiffness * np.abs(u),
               np.where(beyond, 4.0 * elements.stiffness * phi_max * (elements.theta * np.abs(u) + phi_max), 0.0))
     branch_free = (tangential_tangent(elements, u), tangential_force(elements, u), tangential_dissipation(elements, u))
     for name, value, closed, scale in zip(("tangent", "force", "dissipation"), branch_free, closed_forms(elements, u),

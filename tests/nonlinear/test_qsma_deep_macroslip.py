@@ -77,14 +77,16 @@ def mechanism_imbalance(space, model, designs, result):
     not the kernel's slip law): an iterate that slid away along a mechanism is off by whole slip forces. The floor
     is what the condensed problem resolves at the elements that hold the mechanism (below macroslip, within their
     motion's uncertainty of it, or stuck, and taking part in d_j): K_T times the condensation's accuracy and the
-    residual's acceptance, of the largest motion (``qsma_kernel._mechanism_imbalance``, written again here)."""
+    residual's acceptance, of the largest motion, and K_c so of every core spring taking part
+    (``qsma_kernel._mechanism_imbalance``, written again here)."""
     elements = patch_elements(model, designs, space.superelement.patch_groups)
     tangential = tangential_elements(elements)
     rows = tangential_rows(space.superelement.n_patches)
     modes = stuck_modes(space, stuck_stiffness(elements), rows=rows)
     mechanisms = joint_mechanisms(space)
     per_level = tangential._replace(**{name: getattr(tangential, name)[:, None, :] for name in
-                                       ("slip_force", "stiffness", "chi", "beta", "theta", "normal_stiffness")})
+                                       ("slip_force", "stiffness", "chi", "beta", "theta", "normal_stiffness",
+                                        "core_stiffness")})
     r = result.joint_displacement
     force = tangential_force(per_level, r)
     load = result.force[..., None] * (modes.shape @ mechanisms.rigid.T)[:, None, :]
@@ -95,8 +97,8 @@ def mechanism_imbalance(space, model, designs, result):
     holding = tangential.stuck | (np.abs(r) < slip + uncertainty)
     taking_part = np.abs(mechanisms.tangential) >= qsma_kernel.PARTICIPATION * np.abs(mechanisms.tangential).max(
         axis=1, keepdims=True)
-    floor = (np.where(holding, per_level.stiffness * uncertainty, 0.0)) @ (np.abs(mechanisms.tangential)
-                                                                         * taking_part).T
+    floor = ((np.where(holding, per_level.stiffness, 0.0) + per_level.core_stiffness) * uncertainty) @ (
+        np.abs(mechanisms.tangential) * taking_part).T
     return (np.maximum(imbalance - floor, 0.0).max(axis=-1)
             / (np.abs(force).sum(axis=-1) + np.abs(load).sum(axis=-1)))
 
@@ -175,8 +177,8 @@ def test_an_iterate_run_off_along_the_slide_is_not_accepted(beam_spaces):
         error, _ = qsma_kernel._residual(x, joint_shape * levels[-1], compliance, phi, deficit, residual)
         force, terms = qsma_kernel._modal_force(modes.eigenvalue[0] * levels[-1], joint_shape, deficit, True)
         imbalance = qsma_kernel._mechanism_imbalance(x, phi, residual, deficit, power, elements.stiffness[0] * phi,
-                                                     table, mechanisms.tangential, modes.shape[0] @ mechanisms.rigid.T,
-                                                     force, terms, np.empty(10))
+                                                     np.zeros(10), table, mechanisms.tangential,
+                                                     modes.shape[0] @ mechanisms.rigid.T, force, terms, np.empty(10))
         return error, imbalance
 
     error, imbalance = check(solved.joint_displacement[0, -1])
@@ -193,7 +195,7 @@ def deep_levels(space, model, design, n_levels=20):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("beam", ["BRB", "LBRB", "SBRB"])
-@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck", "iwan4_core"])
 def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces, beam, model):
     """40 Table 3 designs per beam and model at 20 levels each. Every level the kernel reports converged balances
     the slip forces on the joint's mechanisms within FORCE_ACCEPT (checked here in numpy with the elements'

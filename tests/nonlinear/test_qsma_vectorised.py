@@ -41,7 +41,8 @@ def unique_equilibrium(model, designs, result, patch_groups):
         return np.ones(result.converged.shape, dtype=bool)
     tangential = tangential_elements(patch_elements(model, designs, patch_groups))
     per_level = tangential._replace(**{name: getattr(tangential, name)[:, None, :] for name in
-                                       ("slip_force", "stiffness", "chi", "beta", "theta", "normal_stiffness")})
+                                       ("slip_force", "stiffness", "chi", "beta", "theta", "normal_stiffness",
+                                        "core_stiffness")})
     rising = np.all(tangential_tangent(per_level, np.nan_to_num(result.joint_displacement)) > 0.0, axis=-1)
     return np.cumprod(rising, axis=1).astype(bool)
 
@@ -67,14 +68,14 @@ def compare_with_oracle(space, model, n_designs, seed):
         assert getattr(vectorised, name).shape[0] == n_designs
 
 
-@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck", "iwan4_core"])
 def test_vectorised_qsma_equals_oracle_on_table3_designs(model, cd1_space):
     """60 designs per model (about 10 s in all)."""
     compare_with_oracle(cd1_space, model, 60, seed=11)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan5", "iwan4_stuck", "iwan4_core"])
 def test_vectorised_qsma_equals_oracle_on_1000_table3_designs(model, cd1_space):
     """1,000 designs per model: 11 s (Jenkins) to 45 s (five-parameter Iwan) per model on one core, nearly all
     of it the oracle."""
@@ -99,7 +100,7 @@ def test_vectorised_force_control_flags_macroslip():
     np.testing.assert_allclose(by_amplitude.force[0, 1:], critical, rtol=1e-12)
 
 
-@pytest.mark.parametrize("model", ["jenkins", "iwan4"])
+@pytest.mark.parametrize("model", ["jenkins", "iwan4", "iwan4_core"])
 def test_vectorised_force_control_retraces_amplitude_control(model, cd1_space):
     """Each design loaded by the modal forces that amplitude control found returns the same amplitudes,
     frequencies and damping (the convex laws have one equilibrium per force below macroslip)."""
