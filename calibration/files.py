@@ -7,6 +7,7 @@
     front_<model>.csv          every structure's calibrated front: structure, source (global or polished w=...),
                                the design's parameters (N, N/m, -), zeta_0, frequency_error_hz, damping_error
     fits_<model>.png           the measurement and the best compromise's backbone, per structure
+    bounds.csv                 acceptance bounds from the data per model and structure (``calibration.bounds``)
     calibration.md             the tables of every model and structure
 
 Hypervolume. Both fronts of a structure (the study's sample and NSGA-II fronts together, and the calibrated one)
@@ -23,6 +24,7 @@ import numpy as np
 import pandas as pd
 from pymoo.indicators.hv import HV
 
+from calibration.bounds import MULTIPLE, NOISE_MULTIPLE
 from calibration.calibrate import Calibration
 from calibration.objectives import physical
 from pipeline.files import atomic_path
@@ -92,8 +94,9 @@ def plot_fits(path: Path, model: str, curves: list) -> None:
                            f"{model}: the calibration's best compromise against the measurement")
 
 
-def markdown(records: list[dict]) -> str:
-    """calibration.md: one table row per model and structure."""
+def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
+    """calibration.md: one table row per model and structure, then the acceptance bounds from the data
+    (``calibration.bounds``)."""
     lines = ["# Calibration (surrogacy fit)", "",
              "Best L-infinity errors of the study's fronts (sample and NSGA-II) and of the calibrated front, their "
              "hypervolumes at a common reference point (larger is better), and the best compromise (least squares "
@@ -114,9 +117,17 @@ def markdown(records: list[dict]) -> str:
             f"{best['errors']['frequency_max_relative']:.2e} | {best['errors']['damping_max_relative']:.3f} | "
             f"{best['parameters']['zeta_0']:.3g} | {best['reduced_chi_squared']:.3g} | "
             f"{', '.join(best['undetermined']) or 'none'} | {record['global']['generations']} |")
+    lines += ["", "Acceptance bounds from the data (bounds.csv): each L-infinity error at most "
+                  f"{MULTIPLE:g} times the best compromise's and at least {NOISE_MULTIPLE:g} times the measurement's "
+                  "largest standard uncertainty (the paper's: 2 Hz and 5e-3 for every structure).", "",
+              "| model | structure | f bound (Hz) | zeta bound | best e_f (Hz) | best e_zeta | noise f (Hz) | noise zeta |",
+              "|---" * 8 + "|"]
+    lines += [f"| {row.model} | {row.structure} | {row.frequency_bound_hz:.4g} | {row.damping_bound:.3g} | "
+              f"{row.best_frequency_error_hz:.4g} | {row.best_damping_error:.3g} | {row.noise_frequency_hz:.3g} | "
+              f"{row.noise_damping:.3g} |" for row in bounds.itertuples()]
     return "\n".join(lines) + "\n"
 
 
-def write_markdown(path: Path, records: list[dict]) -> None:
+def write_markdown(path: Path, records: list[dict], bounds: pd.DataFrame) -> None:
     with atomic_path(path) as temporary:
-        temporary.write_text(markdown(records))
+        temporary.write_text(markdown(records, bounds))

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from calibration.bounds import bounds_table, write_bounds
 from calibration.calibrate import MAX_GENERATIONS, calibrate
 from calibration.files import calibration_record, plot_fits, read_calibration, write_fronts, write_markdown
 from calibration.objectives import fit_space
@@ -76,5 +77,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
             plot_fits(out / f"fits_{model}.png", model, [
                 (structure_of[r["structure"]], ["best compromise"], [[r["best"]["parameters"][n] for n in names]],
                  r["best"]["parameters"]["zeta_0"]) for r in model_records])
-        write_markdown(out / "calibration.md", [r for model_records in records.values() for r in model_records])
+        every = [r for model_records in records.values() for r in model_records]
+        bounds = bounds_table(every, {name: s.measurement for name, s in structure_of.items()})
+        write_bounds(bounds, out / "bounds.csv")
+        write_markdown(out / "calibration.md", every, bounds)
     return out

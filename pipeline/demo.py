@@ -5,8 +5,9 @@ their data is absent.
 Order. The ASB study needs nothing of ours but the installed tool (its superelements are ABAQUS's), while the
 geometry, FE and reduction stages compute on one core: it runs beside them (its progress in
 ``results/study-asb.log``) and compiles the QSMA kernel into numba's cache for the beams' study as well. Its
-calibration (``surrogacy fit``) then runs beside the beams' study and the discrepancy loops, and the report waits
-for it. A failed stage stops the demo with its exit status; Ctrl-C
+calibration (``surrogacy fit``) and the surrogacy confidence at the bounds it derives from the data (``surrogacy
+confidence --bounds``, each model) then run beside the beams' study and the discrepancy loops, and the report
+waits for them. A failed stage stops the demo with its exit status; Ctrl-C
 stops every stage still running (each exits 130, finished results kept).
 """
 
@@ -21,6 +22,7 @@ from pathlib import Path
 from experiment.backbone_files import freevib_stem
 from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
+from study.datasets import DEFAULT_MODELS
 
 STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "fit-asb", "study-beams", "discrepancy", "discrepancy-modal-asb",
          "report")
@@ -89,7 +91,11 @@ def plan(options: DemoOptions) -> list[Step]:
                                        "--out", str(results / "freevib")),)))  # measured; its file does not say
     else:
         steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
-    steps.append(Step("fit-asb", (("fit", "--study", str(results / "study-asb"), "--out", str(results / "fit-asb")),))
+    fit = results / "fit-asb"
+    confidence = tuple(("confidence", "--study", str(results / "study-asb"), "--model", model, "--bounds",
+                        str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv"))
+                       for model in DEFAULT_MODELS["asb"])
+    steps.append(Step("fit-asb", (("fit", "--study", str(results / "study-asb"), "--out", str(fit)), *confidence))
                  if backbones.is_dir() else Step("fit-asb", skipped=f"{backbones} not found"))
     if table1.is_file():
         steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),

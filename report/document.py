@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
@@ -180,7 +181,29 @@ def calibration_section(results: Path, out: Path) -> list[str]:
         body = table.read_text().splitlines()[1:]  # without its own title
         lines += [f"Calibration of {table.parent.name.removeprefix('fit-')} ({_relative(table, out)}):", *body, ""]
         lines += [_image(path, path.stem, out) for path in sorted(table.parent.glob("fits_*.png"))]
+        for path in sorted(table.parent.glob("confidence_*.csv")):
+            lines += confidence_matrix(path, out)
     return lines + ([] if tables else ["_calibration not run_"])
+
+
+def confidence_matrix(path: Path, out: Path) -> list[str]:
+    """A ``surrogacy confidence`` CSV as a matrix: rows the surrogate I (with its bounds), columns the real
+    structure J, each cell SC_IJ [95 % interval] by subset simulation, and the study's own sample's count at the
+    same bounds where it accepted any design."""
+    table = pd.read_csv(path)
+    names = list(dict.fromkeys(table["real"]))
+    lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({_relative(path, out)}; "
+             "subset simulation, in brackets its 95 % interval; after the slash the study's sample at the same "
+             "bounds, - where it accepted nothing):", "",
+             "| surrogate I (f bound Hz, zeta bound) | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for surrogate, rows in table.groupby("surrogate", sort=False):
+        first = rows.iloc[0]
+        cells = [f"{row.confidence:.2f} [{row.lower:.2f}, {row.upper:.2f}] / "
+                 + (f"{row.sample_confidence:.2f}" if row.sample_accepted_surrogate > 0 else "-")
+                 for row in rows.itertuples()]
+        lines.append(f"| {surrogate} ({first.surrogate_frequency_tolerance_hz:.3g}, "
+                     f"{first.surrogate_damping_tolerance:.2g}) | " + " | ".join(cells) + " |")
+    return lines + [""]
 
 
 def discrepancy_section(results: Path, out: Path) -> list[str]:

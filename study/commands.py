@@ -25,14 +25,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
 from study.datasets import DEFAULT_DAMPING_CASE
+from study.analysis import model_errors
+from study.errors import accepted
 from study.parameters import defaults
 from study.subset_simulation import Settings, study_subset_simulation, subset_table, write_subset_csv
+from study.surrogacy import surrogacy_matrix
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -80,25 +84,65 @@ spreads each batch of evaluations over a dask.distributed cluster, with the same
 """
 
 
+def read_bounds(path: Path, model: str, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Each structure's acceptance bounds (Hz, -), in ``names``' order, for ``model`` from a bounds CSV
+    (``surrogacy fit``'s bounds.csv, docs/formats.md); ValueError naming the file and the field otherwise."""
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path}: not a readable bounds CSV ({error})") from None
+    missing = [column for column in ("model", "structure", "frequency_bound_hz", "damping_bound")
+               if column not in table]
+    if missing:
+        raise ValueError(f"{path}: field {missing[0]!r}: missing (expected the columns of surrogacy fit's bounds.csv)")
+    rows = table[table["model"] == model].set_index("structure")
+    absent = [name for name in names if name not in rows.index]
+    if absent:
+        raise ValueError(f"{path}: field 'structure': no row for model {model!r} and structure(s) {absent}")
+    frequency, damping = (rows.loc[names, column].to_numpy(float) for column in ("frequency_bound_hz", "damping_bound"))
+    if not (np.all(frequency > 0) and np.all(damping > 0)):
+        raise ValueError(f"{path}: fields frequency_bound_hz, damping_bound: expected positive values")
+    return frequency, damping
+
+
+def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds):
+    """SC_IJ counted on the study's own sample (brute force) at the same bounds, where the exploration holds the
+    model (``study.surrogacy.surrogacy_matrix``); None where it does not."""
+    if not (folder.paths.designs / model).is_dir():
+        return None
+    errors = model_errors(folder.paths.designs, model, folder.exploration.names, case)
+    return surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, frequency_bounds,
+                                     damping_bounds))
+
+
 def run_confidence(arguments: argparse.Namespace) -> None:
-    """Subset simulation of each surrogate; writes the CSV and prints its main columns."""
+    """Subset simulation of each surrogate; writes the CSV (with the study's own sample counted at the same
+    bounds beside it where the sample exists) and prints its main columns."""
     folder = workflow.read_study(arguments.study)
     exploration = folder.exploration
+    if (arguments.bounds is None) == (arguments.frequency_bound is None or arguments.damping_bound is None):
+        raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
+    if arguments.bounds is not None:
+        frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names)
+    else:
+        frequency_bounds, damping_bounds = (np.full(len(exploration.names), value)
+                                            for value in (arguments.frequency_bound, arguments.damping_bound))
     case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
     out = Path(arguments.out)
+    sample = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds)
     tables = []
     with workflow.cluster_client(arguments.scheduler) as client:
         for surrogate in arguments.surrogate or exploration.names:
-            result = study_subset_simulation(exploration, arguments.model, surrogate, case, arguments.frequency_bound,
-                                             arguments.damping_bound, settings,
+            result = study_subset_simulation(exploration, arguments.model, surrogate, case, frequency_bounds,
+                                             damping_bounds, settings,
                                              out.with_name(out.name + ".levels") / surrogate, client)
-            tables.append(subset_table(result, arguments.model, exploration.names, arguments.frequency_bound,
-                                       arguments.damping_bound))
+            tables.append(subset_table(result, arguments.model, exploration.names, frequency_bounds, damping_bounds,
+                                       sample))
     table = pd.concat(tables, ignore_index=True)
     write_subset_csv(table, out)
-    print(table[["surrogate", "real", "confidence", "lower", "upper", "families", "surrogate_probability",
-                 "evaluations"]].to_string(index=False))
+    print(table[["surrogate", "real", "confidence", "lower", "upper", "sample_confidence", "families",
+                 "surrogate_probability", "evaluations"]].to_string(index=False))
     print(f"wrote {out}")
 
 
@@ -111,8 +155,10 @@ def register_confidence(subparsers) -> None:
     command.add_argument("--study", type=Path, required=True, help="folder of a study (surrogacy study --out)")
     command.add_argument("--model", required=True, help="friction model of the study")
     command.add_argument("--surrogate", nargs="+", help="structures I (names in the study; default: every one)")
-    command.add_argument("--frequency-bound", type=float, required=True, help="acceptance bound of e_f (Hz)")
-    command.add_argument("--damping-bound", type=float, required=True, help="acceptance bound of e_zeta (-)")
+    command.add_argument("--frequency-bound", type=float, help="acceptance bound of e_f (Hz), every structure")
+    command.add_argument("--damping-bound", type=float, help="acceptance bound of e_zeta (-), every structure")
+    command.add_argument("--bounds", type=Path, help="each structure's bounds from a bounds CSV (surrogacy fit's "
+                                                     "bounds.csv: from the calibrated optimum and the measurement)")
     command.add_argument("--damping-case", help="linear damping case of the study (default: the study's default)")
     command.add_argument("--seed", type=int, default=settings.seed, help="seed of the sampler's numpy Generator")
     command.add_argument("--per-level", type=int, default=settings.n_per_level, help="designs per level")

@@ -364,16 +364,26 @@ def family_confidence(acceptance, families, level: float = CONFIDENCE_LEVEL):
     return confidence, np.asarray(lower, float), np.asarray(upper, float), effective
 
 
-def study_misfit(exploration: Exploration, model: str, case: str, frequency_tolerance_hz: float,
-                 damping_tolerance: float, client=None) -> Misfit:
-    """The ``Misfit`` of a study's structures (``scaled_errors``) with linear damping case ``case``: in this
+def structure_bounds(exploration: Exploration, frequency_tolerance_hz, damping_tolerance) -> np.ndarray:
+    """(k, 2) acceptance bounds (Hz, -) of the study's k structures: one value for all, or one per structure."""
+    bounds = np.column_stack([np.broadcast_to(np.asarray(value, dtype=float), (len(exploration.names),))
+                              for value in (frequency_tolerance_hz, damping_tolerance)])
+    if not np.all(bounds > 0):
+        raise ValueError(f"acceptance bounds {bounds.tolist()}: expected positive values")
+    return bounds
+
+
+def study_misfit(exploration: Exploration, model: str, case: str, frequency_tolerance_hz,
+                 damping_tolerance, client=None) -> Misfit:
+    """The ``Misfit`` of a study's structures (``scaled_errors``) with linear damping case ``case`` and
+    acceptance bounds (Hz, -) the same for every structure or one per structure (``structure_bounds``): in this
     process (client None), or on a dask.distributed ``client``, each batch cut into one piece per worker thread
     (a design's errors do not depend on the batch it is evaluated in, so the numbers are the serial ones)."""
     if case not in exploration.damping_cases:
         raise ValueError(f"damping case {case!r}: not a case of this study; expected one of "
                          f"{list(exploration.damping_cases)}")
     column = list(exploration.damping_cases).index(case)
-    bounds = (frequency_tolerance_hz, damping_tolerance)
+    bounds = structure_bounds(exploration, frequency_tolerance_hz, damping_tolerance)
     if client is None:
         return lambda unit, structures: scaled_errors(exploration, model, column, bounds, unit, structures)
     shared = client.scatter(exploration, broadcast=True)
@@ -388,30 +398,33 @@ def study_misfit(exploration: Exploration, model: str, case: str, frequency_tole
     return misfit
 
 
-def scaled_errors(exploration: Exploration, model: str, column: int, bounds: tuple[float, float], unit,
+def scaled_errors(exploration: Exploration, model: str, column: int, bounds: np.ndarray, unit,
                   structures) -> np.ndarray:
     """Scaled misfits (n, k) of unit designs (n, d) on the structures indexed by ``structures`` (k,): the designs
     mapped by Table 3 (``nonlinear.joint.from_unit``), evaluated by the exploration's own evaluation
     (``study.exploration.structure_errors``, the structures' modal splits formed once per process), the damping
-    error of case number ``column``, scaled by ``bounds`` (Hz, -) (``study.errors.scaled_misfit``)."""
+    error of case number ``column``, scaled by each structure's ``bounds`` ((k_all, 2), Hz and -;
+    ``study.errors.scaled_misfit``)."""
     designs = from_unit(unit, *parameter_limits(model, exploration.n_groups))
     errors = structure_errors(exploration, model, designs, process_splits(exploration), list(structures))
-    return np.column_stack([scaled_misfit(error.frequency_error_hz, error.damping_error[:, column], *bounds)
-                            for error in errors])
+    return np.column_stack([scaled_misfit(error.frequency_error_hz, error.damping_error[:, column], *bounds[index])
+                            for index, error in zip(structures, errors)])
 
 
 def study_subset_simulation(exploration: Exploration, model: str, surrogate: str, case: str,
-                            frequency_tolerance_hz: float, damping_tolerance: float, settings: Settings = Settings(),
+                            frequency_tolerance_hz, damping_tolerance, settings: Settings = Settings(),
                             state_folder: Path | None = None, client=None) -> SubsetResult:
     """``subset_simulation`` of one friction model's designs with ``surrogate`` (a structure's name) as I, at the
-    acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-); evaluations in this process or on a
+    acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-), each one value or one per structure;
+    evaluations in this process or on a
     dask.distributed ``client`` (``study_misfit``)."""
     if surrogate not in exploration.names:
         raise ValueError(f"surrogate {surrogate!r}: not a structure of this study; expected one of {exploration.names}")
     if model not in exploration.models:
         raise ValueError(f"model {model!r}: not a friction model of this study; expected one of {exploration.models}")
     problem = json.dumps({"study_key": exploration.key(), "model": model, "case": case,
-                          "bounds": [frequency_tolerance_hz, damping_tolerance]})
+                          "bounds": structure_bounds(exploration, frequency_tolerance_hz,
+                                                     damping_tolerance).tolist()})
     misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance, client)
     return subset_simulation(misfit, len(parameter_limits(model, exploration.n_groups)[0]), len(exploration.names),
                              exploration.names.index(surrogate), settings, state_folder=state_folder, problem=problem)
@@ -419,23 +432,36 @@ def study_subset_simulation(exploration: Exploration, model: str, surrogate: str
 
 SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", "effective_size", "families",
                   "surrogate_probability", "surrogate_probability_cov", "surrogate_probability_lower",
-                  "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance", "runs",
-                  "n_conditional", "evaluations", "seed")
+                  "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance",
+                  "surrogate_frequency_tolerance_hz", "surrogate_damping_tolerance", "sample_confidence",
+                  "sample_lower", "sample_upper", "sample_accepted_surrogate", "runs", "n_conditional", "evaluations",
+                  "seed")
 
 
-def subset_table(result: SubsetResult, model: str, structures: Sequence[str], frequency_tolerance_hz: float,
-                 damping_tolerance: float) -> pd.DataFrame:
+def subset_table(result: SubsetResult, model: str, structures: Sequence[str], frequency_tolerance_hz,
+                 damping_tolerance, sample=None) -> pd.DataFrame:
     """One row per real structure J (``SUBSET_COLUMNS``): SC_IJ with its interval and effective sample size, and
-    the surrogate's P(accepted by I) with its c.o.v. and interval, the bounds, the evaluations and the seed."""
+    the surrogate's P(accepted by I) with its c.o.v. and interval, J's and I's bounds (each one value or one per
+    structure), SC_IJ counted on a sample at the same bounds where ``sample`` (a ``study.surrogacy``
+    SurrogacyMatrix) is given (NaN otherwise), the evaluations and the seed."""
+    bounds = np.column_stack([np.broadcast_to(np.asarray(value, dtype=float), (len(structures),))
+                              for value in (frequency_tolerance_hz, damping_tolerance)])
+    row = result.surrogate
+    missing = np.full(len(structures), np.nan)
     return pd.DataFrame({
-        "model": model, "surrogate": structures[result.surrogate], "real": list(structures),
+        "model": model, "surrogate": structures[row], "real": list(structures),
         "confidence": result.confidence, "lower": result.lower, "upper": result.upper,
         "effective_size": result.effective_size, "families": result.families,
         "surrogate_probability": result.probability,
         "surrogate_probability_cov": result.probability_cov, "surrogate_probability_lower": result.probability_lower,
-        "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": frequency_tolerance_hz,
-        "damping_tolerance": damping_tolerance, "runs": len(result.run_probabilities),
-        "n_conditional": result.n_conditional,
+        "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": bounds[:, 0],
+        "damping_tolerance": bounds[:, 1], "surrogate_frequency_tolerance_hz": bounds[row, 0],
+        "surrogate_damping_tolerance": bounds[row, 1],
+        "sample_confidence": missing if sample is None else sample.confidence[row],
+        "sample_lower": missing if sample is None else sample.lower[row],
+        "sample_upper": missing if sample is None else sample.upper[row],
+        "sample_accepted_surrogate": -1 if sample is None else int(sample.accepted_counts[row]),
+        "runs": len(result.run_probabilities), "n_conditional": result.n_conditional,
         "evaluations": result.evaluations, "seed": result.seed}, columns=list(SUBSET_COLUMNS))
 
 

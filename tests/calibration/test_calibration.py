@@ -229,3 +229,51 @@ def test_fit_refuses_a_study_without_its_analysis_naming_the_file(small_study, t
     assert surrogacy(["fit", "--study", str(copy), "--out", str(tmp_path / "fit")]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and f"{copy / 'analysis' / 'fronts_jenkins.csv'}: missing" in error[0]
+
+
+def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp_path, capsys):
+    """bounds.csv holds the documented rule (twice the best compromise's L-infinity errors, at least twice the
+    measurement's largest uncertainty), recomputed here from the records and the study's measurements;
+    ``surrogacy confidence --bounds`` refuses a file without a row for every structure, naming the file and the
+    field; with a row for each, its CSV holds each structure's bounds and, beside the estimate, SC counted on the
+    study's own sample at the same bounds (recomputed here from the exploration's errors)."""
+    import pandas as pd
+
+    from calibration.bounds import MULTIPLE, NOISE_MULTIPLE
+    from study.analysis import model_errors
+    from study.errors import accepted
+    from study.surrogacy import surrogacy_matrix
+    from study.workflow import read_study
+
+    out = tmp_path / "fit"
+    assert surrogacy(["fit", "--study", str(small_study), "--structures", "ASB C1", "ASB CD1", "--max-generations",
+                      "5", "--out", str(out)]) == 0
+    bounds = pd.read_csv(out / "bounds.csv")
+    folder = read_study(small_study)
+    measurements = {s.name: s.measurement for s in folder.exploration.structures}
+    for row in bounds.itertuples():
+        best = json.loads((out / row.model / f"{row.structure.replace(' ', '_')}.json").read_text())["best"]["errors"]
+        sigma = measurements[row.structure]
+        assert row.frequency_bound_hz == max(MULTIPLE * best["frequency_linf_hz"],
+                                             NOISE_MULTIPLE * float(np.max(sigma.sigma_frequency)))
+        assert row.damping_bound == max(MULTIPLE * best["damping_linf"],
+                                        NOISE_MULTIPLE * float(np.max(sigma.sigma_damping)))
+    command = ["confidence", "--study", str(small_study), "--model", "jenkins", "--surrogate", "ASB C1",
+               "--per-level", "300", "--conditional", "300", "--seed", "2"]
+    assert surrogacy([*command, "--bounds", str(out / "bounds.csv"), "--out", str(tmp_path / "refused.csv")]) == 2
+    assert f"{out / 'bounds.csv'}: field 'structure': no row for model 'jenkins'" in capsys.readouterr().err
+    names = folder.exploration.names
+    complete = pd.DataFrame({"model": "jenkins", "structure": names,
+                             "frequency_bound_hz": np.linspace(0.5, 2.0, len(names)),
+                             "damping_bound": np.linspace(1e-3, 5e-3, len(names))})
+    complete.to_csv(tmp_path / "bounds.csv", index=False)
+    assert surrogacy([*command, "--bounds", str(tmp_path / "bounds.csv"), "--out", str(tmp_path / "c1.csv")]) == 0
+    written = pd.read_csv(tmp_path / "c1.csv")
+    np.testing.assert_array_equal(written["frequency_tolerance_hz"], complete["frequency_bound_hz"])
+    assert (written["surrogate_damping_tolerance"] == complete["damping_bound"][0]).all()
+    errors = model_errors(folder.paths.designs, "jenkins", names, "measured")
+    counted = surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error,
+                                        complete["frequency_bound_hz"].to_numpy(), complete["damping_bound"].to_numpy()))
+    assert counted.accepted_counts[0] > 0 and np.isfinite(written["sample_confidence"]).all()
+    np.testing.assert_array_equal(written["sample_confidence"], counted.confidence[0])
+    assert (written["sample_accepted_surrogate"] == counted.accepted_counts[0]).all()

@@ -47,8 +47,10 @@ def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_pa
     assert steps["study-asb"].runs == (("study", "--out", str(tmp_path / "results" / "study-asb"), "--data",
                                         str(tmp_path / "data"), "--set", "study.dataset=asb", *shared),)
     assert steps["study-beams"].runs[0][-len(shared):] == shared
-    assert steps["fit-asb"].runs == (("fit", "--study", str(tmp_path / "results" / "study-asb"), "--out",
-                                      str(tmp_path / "results" / "fit-asb")),)
+    fit, study = tmp_path / "results" / "fit-asb", str(tmp_path / "results" / "study-asb")
+    assert steps["fit-asb"].runs == (("fit", "--study", study, "--out", str(fit)), *(
+        ("confidence", "--study", study, "--model", model, "--bounds", str(fit / "bounds.csv"), "--out",
+         str(fit / f"confidence_{model}.csv")) for model in ("jenkins", "iwan4", "iwan5", "iwan4_core")))
     loops = steps["discrepancy"].runs
     assert steps["freevib"].runs == (("freevib", str(tmp_path / "hits.mat"), "--mode-hz", "80.5", "--per-channel",
                                       "--provenance", "measured", "--out", str(tmp_path / "results" / "freevib")),)

@@ -1,0 +1,58 @@
+"""Acceptance bounds from the data: for each friction model and structure, the L-infinity errors (paper Eqs.
+26-27) a design may have and still count as fitting that measurement about as well as the joint model can.
+
+Rule. With e_f*, e_zeta* the errors of the calibrated best compromise (``calibration.calibrate``: the lowest
+chi^2 of frequency and damping together, so one design reaches both at once) and sigma_f, sigma_zeta the
+measurement's standard uncertainties (``study.structures.Measurement``),
+
+    f_b    = max(MULTIPLE e_f*,    NOISE_MULTIPLE max_i sigma_f,i)       (Hz)
+    zeta_b = max(MULTIPLE e_zeta*, NOISE_MULTIPLE max_i sigma_zeta,i)    (-)
+
+each quantity on its own: a design is accepted where it misses the measurement by at most twice what the best
+design of its model misses it by, and never by less than the measurement's own noise allows. The calibrated
+optimum is inside the box, so every structure's acceptance region holds at least one design and its surrogacy
+row is defined. The paper's fixed 2 Hz and 5e-3 (``study.errors``) stay the study's bounds for the comparison
+with its Table 5; these are read by ``surrogacy confidence --bounds`` (``bounds.csv``, docs/formats.md).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pipeline.files import atomic_path
+from study.structures import Measurement
+
+MULTIPLE = 2.0
+"""Bound as a multiple of the calibrated best compromise's L-infinity error."""
+NOISE_MULTIPLE = 2.0
+"""Smallest bound as a multiple of the measurement's largest standard uncertainty."""
+BOUNDS_COLUMNS = ("model", "structure", "frequency_bound_hz", "damping_bound", "best_frequency_error_hz",
+                  "best_damping_error", "noise_frequency_hz", "noise_damping", "multiple", "noise_multiple")
+
+
+def acceptance_bounds(best_errors: dict, measurement: Measurement) -> dict:
+    """The bounds of one model on one structure from its best compromise's ``errors`` (a calibration record's
+    best errors: frequency_linf_hz, damping_linf) and the structure's measurement (module docstring)."""
+    noise_frequency = float(np.max(measurement.sigma_frequency))
+    noise_damping = float(np.max(measurement.sigma_damping))
+    return {"frequency_bound_hz": max(MULTIPLE * best_errors["frequency_linf_hz"], NOISE_MULTIPLE * noise_frequency),
+            "damping_bound": max(MULTIPLE * best_errors["damping_linf"], NOISE_MULTIPLE * noise_damping),
+            "best_frequency_error_hz": best_errors["frequency_linf_hz"], "best_damping_error": best_errors["damping_linf"],
+            "noise_frequency_hz": noise_frequency, "noise_damping": noise_damping, "multiple": MULTIPLE,
+            "noise_multiple": NOISE_MULTIPLE}
+
+
+def bounds_table(records: list[dict], measurements: dict) -> pd.DataFrame:
+    """One row per calibration record (``BOUNDS_COLUMNS``); measurements: structure name -> Measurement."""
+    return pd.DataFrame([{"model": record["model"], "structure": record["structure"],
+                          **acceptance_bounds(record["best"]["errors"], measurements[record["structure"]])}
+                         for record in records], columns=list(BOUNDS_COLUMNS))
+
+
+def write_bounds(table: pd.DataFrame, destination: Path) -> None:
+    """bounds.csv (full precision), atomically."""
+    with atomic_path(destination) as temporary:
+        table.to_csv(temporary, index=False, columns=list(BOUNDS_COLUMNS))
