@@ -193,14 +193,15 @@ def confidence_matrix(path: Path, out: Path) -> list[str]:
     table = pd.read_csv(path)
     names = list(dict.fromkeys(table["real"]))
     lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({_relative(path, out)}; "
-             "subset simulation, in brackets its 95 % interval; after the slash the study's sample at the same "
-             "bounds, - where it accepted nothing):", "",
+             "subset simulation, in brackets its 95 % interval, \"not reached\" where its chains did not reach I's "
+             "region within 40 levels; after the slash the study's sample at the same bounds, - where it accepted "
+             "nothing):", "",
              "| surrogate I (f bound Hz, zeta bound) | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
     for surrogate, rows in table.groupby("surrogate", sort=False):
         first = rows.iloc[0]
-        cells = [f"{row.confidence:.2f} [{row.lower:.2f}, {row.upper:.2f}] / "
-                 + (f"{row.sample_confidence:.2f}" if row.sample_accepted_surrogate > 0 else "-")
-                 for row in rows.itertuples()]
+        cells = [(f"{row.confidence:.2f} [{row.lower:.2f}, {row.upper:.2f}]" if np.isfinite(row.confidence)
+                  else "not reached") + " / " + (f"{row.sample_confidence:.2f}" if row.sample_accepted_surrogate > 0
+                                                 else "-") for row in rows.itertuples()]
         lines.append(f"| {surrogate} ({first.surrogate_frequency_tolerance_hz:.3g}, "
                      f"{first.surrogate_damping_tolerance:.2g}) | " + " | ".join(cells) + " |")
     return lines + [""]

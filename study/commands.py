@@ -35,7 +35,8 @@ from study.datasets import DEFAULT_DAMPING_CASE
 from study.analysis import model_errors
 from study.errors import accepted
 from study.parameters import defaults
-from study.subset_simulation import Settings, study_subset_simulation, subset_table, write_subset_csv
+from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
+                                     write_subset_csv)
 from study.surrogacy import surrogacy_matrix
 
 def run(arguments: argparse.Namespace) -> None:
@@ -134,9 +135,15 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     tables = []
     with workflow.cluster_client(arguments.scheduler) as client:
         for surrogate in arguments.surrogate or exploration.names:
-            result = study_subset_simulation(exploration, arguments.model, surrogate, case, frequency_bounds,
-                                             damping_bounds, settings,
-                                             out.with_name(out.name + ".levels") / surrogate, client)
+            try:
+                result = study_subset_simulation(exploration, arguments.model, surrogate, case, frequency_bounds,
+                                                 damping_bounds, settings,
+                                                 out.with_name(out.name + ".levels") / surrogate, client)
+            except RegionNotReached as reason:
+                print(f"{surrogate}: not estimated: {reason}")
+                tables.append(subset_table(None, arguments.model, exploration.names, frequency_bounds,
+                                           damping_bounds, sample, exploration.names.index(surrogate), str(reason)))
+                continue
             tables.append(subset_table(result, arguments.model, exploration.names, frequency_bounds, damping_bounds,
                                        sample))
     table = pd.concat(tables, ignore_index=True)

@@ -98,6 +98,11 @@ class Settings(NamedTuple):
                 raise ValueError(f"{name} must be at least 1; got {getattr(self, name)}")
 
 
+class RegionNotReached(ValueError):
+    """The chains did not reach the surrogate's acceptance region within ``MAX_LEVELS`` levels: the region is
+    too small or too narrow for the sampler (or the designs near it do not converge); SC is then not estimated."""
+
+
 class SubsetResult(NamedTuple):
     """Subset simulation of one surrogate I against S structures.
 
@@ -297,7 +302,7 @@ def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int
             record["gammas"][-1] = chain_correlation_factor(final.reshape(record["chains"]))
             break
         if not np.isfinite(threshold) or record["level"] + 1 >= MAX_LEVELS:
-            raise ValueError(f"subset simulation of structure {surrogate}: misfit threshold {threshold:.4g} at "
+            raise RegionNotReached(f"subset simulation of structure {surrogate}: misfit threshold {threshold:.4g} at "
                              f"level {record['level']} (expected to reach 1 within {MAX_LEVELS} levels; more than "
                              f"{1 - settings.level_probability:.0%} of the designs not converged, or the region "
                              "empty?)")
@@ -435,34 +440,39 @@ SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", 
                   "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance",
                   "surrogate_frequency_tolerance_hz", "surrogate_damping_tolerance", "sample_confidence",
                   "sample_lower", "sample_upper", "sample_accepted_surrogate", "runs", "n_conditional", "evaluations",
-                  "seed")
+                  "seed", "note")
 
 
-def subset_table(result: SubsetResult, model: str, structures: Sequence[str], frequency_tolerance_hz,
-                 damping_tolerance, sample=None) -> pd.DataFrame:
+def subset_table(result: SubsetResult | None, model: str, structures: Sequence[str], frequency_tolerance_hz,
+                 damping_tolerance, sample=None, surrogate: int | None = None, note: str = "") -> pd.DataFrame:
     """One row per real structure J (``SUBSET_COLUMNS``): SC_IJ with its interval and effective sample size, and
     the surrogate's P(accepted by I) with its c.o.v. and interval, J's and I's bounds (each one value or one per
     structure), SC_IJ counted on a sample at the same bounds where ``sample`` (a ``study.surrogacy``
-    SurrogacyMatrix) is given (NaN otherwise), the evaluations and the seed."""
+    SurrogacyMatrix) is given (NaN otherwise), the evaluations and the seed. Without a ``result`` (the region not
+    reached) the estimate's columns are NaN, ``surrogate`` says which structure I is and ``note`` why."""
     bounds = np.column_stack([np.broadcast_to(np.asarray(value, dtype=float), (len(structures),))
                               for value in (frequency_tolerance_hz, damping_tolerance)])
-    row = result.surrogate
+    row = result.surrogate if result is not None else surrogate
     missing = np.full(len(structures), np.nan)
+
+    def estimate(name):
+        return np.nan if result is None else getattr(result, name)
+
     return pd.DataFrame({
         "model": model, "surrogate": structures[row], "real": list(structures),
-        "confidence": result.confidence, "lower": result.lower, "upper": result.upper,
-        "effective_size": result.effective_size, "families": result.families,
-        "surrogate_probability": result.probability,
-        "surrogate_probability_cov": result.probability_cov, "surrogate_probability_lower": result.probability_lower,
-        "surrogate_probability_upper": result.probability_upper, "frequency_tolerance_hz": bounds[:, 0],
+        "confidence": estimate("confidence"), "lower": estimate("lower"), "upper": estimate("upper"),
+        "effective_size": estimate("effective_size"), "families": estimate("families"),
+        "surrogate_probability": estimate("probability"), "surrogate_probability_cov": estimate("probability_cov"),
+        "surrogate_probability_lower": estimate("probability_lower"),
+        "surrogate_probability_upper": estimate("probability_upper"), "frequency_tolerance_hz": bounds[:, 0],
         "damping_tolerance": bounds[:, 1], "surrogate_frequency_tolerance_hz": bounds[row, 0],
         "surrogate_damping_tolerance": bounds[row, 1],
         "sample_confidence": missing if sample is None else sample.confidence[row],
         "sample_lower": missing if sample is None else sample.lower[row],
         "sample_upper": missing if sample is None else sample.upper[row],
         "sample_accepted_surrogate": -1 if sample is None else int(sample.accepted_counts[row]),
-        "runs": len(result.run_probabilities), "n_conditional": result.n_conditional,
-        "evaluations": result.evaluations, "seed": result.seed}, columns=list(SUBSET_COLUMNS))
+        "runs": np.nan if result is None else len(result.run_probabilities), "n_conditional": estimate("n_conditional"),
+        "evaluations": estimate("evaluations"), "seed": estimate("seed"), "note": note}, columns=list(SUBSET_COLUMNS))
 
 
 def write_subset_csv(table: pd.DataFrame, destination: Path) -> None:

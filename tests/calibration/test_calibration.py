@@ -277,3 +277,10 @@ def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp
     assert counted.accepted_counts[0] > 0 and np.isfinite(written["sample_confidence"]).all()
     np.testing.assert_array_equal(written["sample_confidence"], counted.confidence[0])
     assert (written["sample_accepted_surrogate"] == counted.accepted_counts[0]).all()
+    assert written["note"].isna().all()
+    complete.loc[0, "frequency_bound_hz"] = 1e-9  # no design fits C1 to a nanohertz: the chains cannot get there
+    complete.to_csv(tmp_path / "bounds.csv", index=False)
+    assert surrogacy([*command, "--bounds", str(tmp_path / "bounds.csv"), "--out", str(tmp_path / "none.csv")]) == 0
+    unreached = pd.read_csv(tmp_path / "none.csv")
+    assert unreached["confidence"].isna().all() and unreached["note"].str.contains("within 40 levels").all()
+    assert "ASB C1: not estimated" in capsys.readouterr().out
