@@ -13,8 +13,13 @@ amplitude, so that only the amplitude dependence is questioned).
 output, analysed), with its superelement and the study's Pareto designs of each friction model as the reference
 (``discrepancy.superelement_route``): what the study's best fit misses, and which effect explains it.
 
-Writes to ``--out``: ``discrepancy.md`` (the effect found at each step, the evidence: chi^2 per degree of
-freedom, BIC of every candidate, L-infinity and RMS errors of frequency and damping before and after),
+A backbone CSV written by ``surrogacy freevib`` carries the findings of the ring-down's signal checks (a second
+mode, a drift over the hits, clipping, no pre-trigger, a truncated record); one outside the effect library makes the
+verdict "unexplained" with the finding named, whatever the backbone's residual.
+
+Writes to ``--out``: ``discrepancy.md`` (the findings of the signal checks, the effect found at each step, the
+evidence: chi^2 per degree of freedom, BIC of every candidate, L-infinity and RMS errors of frequency and damping
+before and after),
 ``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same numbers and
 the fitted parameters).
 """
@@ -26,7 +31,7 @@ from functools import partial
 from pathlib import Path
 
 from discrepancy.files import write_verdict
-from discrepancy.loop import discrepancy_loop
+from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
 from pipeline.files import stage_folder
@@ -48,6 +53,7 @@ def run(arguments: argparse.Namespace) -> None:
                   "borrowed_damping": loaded.borrowed_damping,
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
         loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping)
+        findings = {}
     else:
         measured = read_mode_backbone(arguments.file)
         measurement = measured_levels(measured, arguments.levels, str(arguments.file))
@@ -57,11 +63,14 @@ def run(arguments: argparse.Namespace) -> None:
         record = {"source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
                   "nominal_damping": damping}
         loop = partial(discrepancy_loop, measurement, frequency, damping)
+        findings = measured.findings
     with stage_folder(arguments.out) as out:
-        verdict = loop()
+        verdict = with_findings(loop(), findings.get("found", []))
+        record["signal_checks"] = findings.get("checked", [])
         write_verdict(out, verdict, measurement, source, record)
-    print(f"{source}: effects {verdict.effects or 'none'}"
-          f"{' (residual unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
+    seen = [entry["name"] for entry in verdict.findings]
+    print(f"{source}: effects {verdict.effects or 'none'}{'; findings ' + ', '.join(seen) if seen else ''}"
+          f"{' (unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
 
 
 def register(subparsers) -> None:

@@ -29,7 +29,7 @@ effect, the parameters, chi^2, BIC, and the L-infinity and RMS errors of frequen
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -200,12 +200,23 @@ class Step(NamedTuple):
 
 @dataclass
 class Verdict:
-    """The loop's answer: the effects found in order, the steps with their evidence, and whether a residual
-    above the noise remains unexplained."""
+    """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
+    checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), and whether something
+    remains unexplained: a residual above the noise, or a finding outside the library."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     unexplained: bool = False
+    findings: list = field(default_factory=list)
+
+
+def with_findings(verdict: Verdict, findings: list) -> Verdict:
+    """The verdict with the findings of the ring-down's signal checks (``experiment.signal_checks``: JSON-ready
+    dicts with ``name``, ``outside_library``, ``summary``, ``evidence``): one outside any backbone library (a
+    second mode, a drift, clipping) makes it unexplained whatever the backbone's residual, since no effect fitted
+    to the backbone can stand for it; the others (no pre-trigger, a truncated record) are named beside it."""
+    return replace(verdict, findings=list(findings),
+                   unexplained=verdict.unexplained or any(entry["outside_library"] for entry in findings))
 
 
 def errors(measurement: Measurement, model: Fit) -> dict:

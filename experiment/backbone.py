@@ -314,6 +314,8 @@ class ModeBackbone:
     mass-normalised modal amplitude is in m kg^0.5). provenance: one of :data:`PROVENANCES`. source: what it
     was obtained from (file, or model and design). backbone: the points with their spread. settings: how the
     backbone was estimated (e.g. the band and windows of :func:`ringdown_backbone`; empty where not recorded).
+    findings: what the checks of the ring-down's signals saw beside the backbone, ``{"checked": [names],
+    "found": [findings]}`` (:func:`experiment.signal_checks.ringdown_findings`; empty where not checked).
     """
 
     structure: str
@@ -323,15 +325,17 @@ class ModeBackbone:
     source: str
     backbone: Backbone = field(repr=False)
     settings: dict = field(default_factory=dict, repr=False)
+    findings: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         if self.provenance not in PROVENANCES:
             raise ValueError(f"provenance '{self.provenance}' is not one of {PROVENANCES}")
 
 
-def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None
-                  ) -> ModeBackbone:
+def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None,
+                  findings: dict | None = None) -> ModeBackbone:
     """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study, with the
-    ``settings`` it was estimated with."""
+    ``settings`` it was estimated with and the ``findings`` of the signal checks beside it."""
     return ModeBackbone(structure, float(low_amplitude_reference(measured.hilbert.natural_frequency_hz)),
-                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}))
+                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}),
+                        dict(findings or {}))

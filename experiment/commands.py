@@ -2,8 +2,8 @@
 
 ``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
 measured ring-down (paper section 3.1, Fig. 3), written as the backbone CSV that the study, the discrepancy loop
-and the report read (the settings recorded in it), a table of both estimators, a PNG plot and a JSON sidecar with
-the resolved settings.
+and the report read (the settings and the findings of the signal checks recorded in it), a table of both
+estimators, a PNG plot and a JSON sidecar with the resolved settings.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from experiment.backbone_files import freevib_stem, plot_backbone, write_backbon
 from experiment.hilbert import freevib
 from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
 from experiment.ringdown_files import read_mode_shapes
+from experiment.signal_checks import ringdown_findings
 from pipeline.files import check_output_folder, sha256_file, write_json
 
 
@@ -58,7 +59,8 @@ def resolved_provenance(source: Path, declared: str | None) -> str:
 
 
 def run_freevib(arguments: argparse.Namespace) -> None:
-    """Extract, write and plot the backbone of one mode of a ring-down file."""
+    """Extract, write and plot the backbone of one mode of a ring-down file, and check its signals for what the
+    backbone hides (a second mode, a drift over the hits, clipping, no pre-trigger, a truncated record)."""
     band = check_options(arguments)
     source = Path(arguments.file)
     hits = read_ringdown(source)
@@ -75,16 +77,20 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
-    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}),
-                   out / f"{stem}_backbone.csv")
+    findings = ringdown_findings(hits, backbone, band)
+    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256},
+                                 findings), out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
     write_json(out / f"{stem}.json", {
         "source": str(source), "source_sha256": source_sha256, "settings": settings,
         "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
-        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}})
+        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": findings})
+    for entry in findings["found"]:
+        print(f"finding {entry['name']}: {entry['summary']}")
     print(f"wrote {out / stem}_backbone.csv (the backbone the study and the discrepancy loop read), "
-          f"{stem}.csv (both estimators), .png, .json ({len(backbone.records)} records)")
+          f"{stem}.csv (both estimators), .png, .json ({len(backbone.records)} records; checked "
+          f"{', '.join(findings['checked'])}: {len(findings['found'])} finding(s))")
 
 
 def register(subparsers) -> None:
