@@ -35,7 +35,23 @@ from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
 from pipeline.files import stage_folder
+from reduction.superelement import StructureError
 from study.structures import N_LEVELS, measured_levels
+
+
+def backbone_levels(measured, levels: int, path: Path):
+    """The measured backbone binned to ``levels`` (``study.structures.measured_levels``); a backbone it refuses
+    raises its error with the findings outside the library that the ring-down's signal checks saw, which may be
+    why (a second mode's beating can drive a level's damping below zero)."""
+    try:
+        return measured_levels(measured, levels, str(path))
+    except StructureError as error:
+        outside = [f"{entry['name']}: {entry['summary']}" for entry in measured.findings.get("found", [])
+                   if entry["outside_library"]]
+        if not outside:
+            raise
+        raise StructureError(f"{error}; the ring-down's signal checks found what no backbone effect stands for: "
+                             + "; ".join(outside)) from error
 
 
 def run(arguments: argparse.Namespace) -> None:
@@ -56,7 +72,7 @@ def run(arguments: argparse.Namespace) -> None:
         findings = {}
     else:
         measured = read_mode_backbone(arguments.file)
-        measurement = measured_levels(measured, arguments.levels, str(arguments.file))
+        measurement = backbone_levels(measured, arguments.levels, arguments.file)
         frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
         damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
         source = f"{arguments.file} ({measured.provenance})"
