@@ -9,7 +9,9 @@ stated in the file as the points' standard errors (as FreeVib states its estimat
 Ring-down: the free decay of the same backbone by the averaged (slow-flow) equations of a weakly damped
 oscillator with amplitude-dependent frequency and damping, da/dt = -zeta(a) omega(a) a, dphi/dt = omega(a),
 sampled as the mode's displacement a cos(phi) (one sensor of unit mode shape, so its amplitude in m is the modal
-amplitude in m kg^0.5), with white sensor noise ``noise_db`` below the initial amplitude. A user's ring-down
+amplitude in m kg^0.5), with white sensor noise ``noise_db`` below the initial amplitude. Content outside any
+backbone, for the signal checks (``experiment.signal_checks``): several hits with a pre-trigger, a second close
+mode, a drift of the frequency over the hits (:func:`undeclared_ringdown`). A user's ring-down
 processed by FreeVib (``experiment.ringdown_backbone``) gives the backbone back, so the loop sees the effects
 through the whole measurement path.
 """

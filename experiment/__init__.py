@@ -20,6 +20,8 @@ Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
     write_backbone, read_backbone
                              the documented backbone CSV
     read_asb_backbone        measured ASB backbone (.mat) -> ModeBackbone
+What a backbone hides (:mod:`experiment.signal_checks`)
+    ringdown_findings        a second mode, a drift over the hits, clipping, no pre-trigger, a truncated record
 Settings (:mod:`experiment.backbone`)
     checked_settings, check_nyquist   the band, grid and time scales refused before any signal is read
 Command (:mod:`experiment.commands`)

@@ -280,7 +280,9 @@ def still_decaying(medians: np.ndarray, false_alarm: float) -> bool:
 
 def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> list[dict]:
     """Clipping, no pre-trigger and a truncated record (module docstring), one finding each with the channels
-    where they are seen (empty if none)."""
+    where they are seen and a level per channel: the clipped value (signal unit), the first samples' mean
+    |x - median| relative to the peak, the envelope where the record ends relative to its peak (dB); empty if
+    none."""
     seen = {name: [] for name in ("clipping", "no_pretrigger", "truncated_record")}
     n_channels = sum(len(hit.channels) for hit in hits)
     levels = {name: [] for name in seen}
@@ -309,10 +311,11 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
                             f"channel(s), at {min(levels['clipping']):.4g} (signal unit) and above",
         "no_pretrigger": lambda: f"{len(seen['no_pretrigger'])} channel(s) already move at the first sample (up to "
                                  f"{100 * max(levels['no_pretrigger']):.3g} % of their peak)",
-        "truncated_record": lambda: f"{len(seen['truncated_record'])} channel(s) still decaying at the end, "
-                                    f"{max(levels['truncated_record']):.3g} dB below their peak at most",
+        "truncated_record": lambda: f"{len(seen['truncated_record'])} channel(s) still decaying where the record "
+                                    f"ends, their envelope there {-max(levels['truncated_record']):.3g} dB below its "
+                                    "peak or less",
     }
-    return [finding(name, summaries[name](), {"channels": channels, "worst": max(levels[name], key=abs)})
+    return [finding(name, summaries[name](), {"channels": channels, "levels": [float(v) for v in levels[name]]})
             for name, channels in seen.items() if channels]
 
 

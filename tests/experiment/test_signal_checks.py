@@ -77,7 +77,8 @@ def test_record_checks_name_clipping_a_missing_pretrigger_and_a_truncated_record
     short = undeclared_ringdown(pretrigger_s=0.05, duration_s=1.5)
     for hits, name in ((clipped, "clipping"), (late, "no_pretrigger"), (short, "truncated_record")):
         assert [entry["name"] for entry in record_findings(hits, MODE_HZ, BAND)] == [name]
-    assert named({"found": record_findings(short, MODE_HZ, BAND)}, "truncated_record")[0]["evidence"]["worst"] > -40
+    end_level = named({"found": record_findings(short, MODE_HZ, BAND)}, "truncated_record")[0]["evidence"]["levels"]
+    assert -40 < end_level[0] < -20  # 1.45 s of decay from the top: about 30 dB down, 30 dB above the noise
 
 
 def test_findings_travel_in_the_backbone_file(tmp_path):
