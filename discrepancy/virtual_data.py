@@ -78,7 +78,8 @@ def undeclared_ringdown(effects=(), seed: int = 0, noise_db: float = 60.0, sampl
     """Hammer hits on the reference joint's backbone with ``effects``, each a free decay from the largest
     amplitude of ``AMPLITUDES`` after ``pretrigger_s`` of rest (module docstring): displacement sensors with
     seeded noise. After a pre-trigger the decay starts from rest as an impulse leaves it (zero displacement);
-    without one the record starts at the decay's largest displacement (the impact itself not recorded). The hits follow one another without gap, hit k's time running from k ``duration_s``.
+    without one the record starts at the decay's largest displacement (the impact itself not recorded). The hits
+    follow one another without gap, hit k's time running from k ``duration_s``.
 
     Content outside the backbone, for the signal checks (``experiment.signal_checks``):
     second_mode: (frequency ratio, amplitude ratio) of a linear mode beside the target, with the target's
