@@ -18,8 +18,8 @@ then one header row of :data:`BACKBONE_COLUMNS` (``name [unit]``, comma separate
 in increasing amplitude:
 
     modal_amplitude [amplitude_unit]; natural_frequency [Hz]; natural_frequency_spread [Hz] (standard deviation
-    over hits or channels); natural_frequency_standard_error [Hz] (the estimator's noise within the point's
-    amplitude bin); damping_ratio [-] (fraction of critical); damping_ratio_spread [-];
+    over hits or channels); natural_frequency_standard_error [Hz] (the standard error of the point's mean, the
+    estimator's noise); damping_ratio [-] (fraction of critical); damping_ratio_spread [-];
     damping_ratio_standard_error [-]; records [-] (number of hits or channels behind the point).
 
 Unknown values are written ``nan`` (e.g. the spread of a single record). Numbers are written with Python's

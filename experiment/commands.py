@@ -71,7 +71,7 @@ def run_freevib(arguments: argparse.Namespace) -> None:
         mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
         mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
         grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
-        trim_periods=arguments.trim_periods, feldman=arguments.feldman)
+        trim_periods=arguments.trim_periods, feldman=arguments.feldman, seed=arguments.seed)
     out = Path(arguments.out)
     stem = freevib_stem(source, arguments.mode_hz)
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
@@ -119,6 +119,8 @@ def register(subparsers) -> None:
     command.add_argument("--trim-periods", type=float, default=defaults["trim_periods"],
                          help="periods trimmed at each end of a decay")
     command.add_argument("--feldman", action="store_true", help="use Feldman's FreeVib corrections")
+    command.add_argument("--seed", type=int, default=defaults["seed"],
+                         help="seed of the twin decays' noise, whose spread is the backbone's standard error")
     command.add_argument("--provenance", choices=("measured", "virtual"),
                          help="what the data are, where the file does not say (default: the file's statement, or "
                               "unknown); refused where the file says otherwise")

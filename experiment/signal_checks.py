@@ -46,7 +46,7 @@ import scipy.stats
 from scipy.optimize import least_squares
 
 from experiment.backbone import MeasuredBackbone, binned_means, binned_standard_error
-from experiment.hilbert import analytic_signal
+from experiment.hilbert import analytic_signal, slow_part
 from experiment.modal_filter import band_pass, dominant_shape, modal_coordinates
 from experiment.ringdown import RingDown
 
@@ -93,19 +93,6 @@ def decay_span(envelope: np.ndarray, block: int, noise_floor_factor: float = 3.0
     medians = block_medians(envelope[start:], block)
     above = np.flatnonzero(medians > noise_floor_factor * medians[-1])
     return start, start + (int(above[-1]) + 1) * block if above.size else envelope.size
-
-
-def fitted_mode(z: np.ndarray, sample_rate: float, cutoff_hz: float) -> np.ndarray:
-    """The slow part z_1 (n,) of an analytic signal z (n,): exp of the zero-phase low-pass (Butterworth, 4th order,
-    ``cutoff_hz``) of ln|z| + i psi, each about its straight line through the ends so the padding continues it."""
-    log = np.log(np.abs(z)) + 1j * np.unwrap(np.angle(z))
-    line = log[0] + (log[-1] - log[0]) * np.linspace(0.0, 1.0, z.size)
-    sections = scipy.signal.butter(4, cutoff_hz, btype="lowpass", fs=sample_rate, output="sos")
-    pad = min(int(3 * sample_rate / cutoff_hz), z.size - 1)
-    rest = log - line
-    smooth = (scipy.signal.sosfiltfilt(sections, rest.real, padtype="odd", padlen=pad)
-              + 1j * scipy.signal.sosfiltfilt(sections, rest.imag, padtype="odd", padlen=pad))
-    return np.exp(line + smooth)
 
 
 def damped_sinusoid(time: np.ndarray, residual: np.ndarray, frequency_hz: float, bounds_hz):
@@ -164,19 +151,19 @@ def target_removed(hit: RingDown, mode_frequency_hz: float, band_hz):
     Several channels: the target is the strongest component of the band-passed channels (its shape s from
     ``experiment.modal_filter.dominant_shape``, its coordinate q = s^+ y), removed channel by channel, y_c - s_c q:
     a mode of another shape stays in the residual whatever its size. One channel: the target is the slow part of
-    ln z (:func:`fitted_mode`), which follows the stronger of two beating modes."""
+    ln z (:func:`experiment.hilbert.slow_part`), which follows the stronger of two beating modes."""
     filtered = band_pass(hit.signals, hit.sample_rate, *band_hz)
     period = hit.sample_rate / mode_frequency_hz
     cutoff = TREND_BANDWIDTH * mode_frequency_hz
     if filtered.shape[0] == 1:
         start, stop = decay_span(np.abs(scipy.signal.hilbert(filtered[0])), int(BLOCK_PERIODS * period))
         z = analytic_signal(filtered[0, start:stop], period)
-        target = fitted_mode(z, hit.sample_rate, cutoff)
+        target = slow_part(z, hit.sample_rate, cutoff)
         return [(f"{hit.hit}: {hit.channels[0]}", hit.time[start:stop], z - target, target)]
     shape = dominant_shape(filtered)
     modal = modal_coordinates(filtered, shape)[0]
     start, stop = decay_span(np.abs(scipy.signal.hilbert(modal)), int(BLOCK_PERIODS * period))
-    target = fitted_mode(analytic_signal(modal[start:stop], period), hit.sample_rate, cutoff)
+    target = slow_part(analytic_signal(modal[start:stop], period), hit.sample_rate, cutoff)
     return [(f"{hit.hit}: {name}", hit.time[start:stop],
              analytic_signal(signal[start:stop] - value * modal[start:stop], period), value * target)
             for name, signal, value in zip(hit.channels, filtered, shape)]

@@ -154,10 +154,9 @@ def test_residual_features_carry_each_signature(tmp_path):
 @pytest.mark.parametrize("effects", [(), ("linear_damping",), ("microslip",)])
 def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
     """The whole measurement path: a virtual ring-down file of the reference joint with an undeclared effect,
-    FreeVib once by ``surrogacy freevib`` into a backbone CSV, the loop on that file. FreeVib's stated
-    uncertainties are 3.5 to 5 times the actual errors of its bin means on this clean decay (checked against the
-    known backbone), so only effects well above them are named: linear damping and microslip are; nothing is added
-    to the reference joint alone."""
+    FreeVib once by ``surrogacy freevib`` into a backbone CSV, the loop on that file (FreeVib's stated standard
+    errors from twin decays, checked against the known backbone in tests/experiment/test_twin_decays.py): linear
+    damping and microslip are named; nothing is added to the reference joint alone."""
     import json
 
     from pipeline.cli import main as surrogacy
