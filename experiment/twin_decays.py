@@ -22,6 +22,8 @@ their mean error against their known content (the estimator's bias on a decay of
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 import scipy.signal
 
@@ -38,13 +40,13 @@ def twin_mode(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, ba
     """The twin's noise-free signal (n,), the noise's standard deviation after the band-pass, and the known
     natural frequency (Hz) and damping ratio of its mode, as functions of time over the decay: (signal, level,
     decay time (m,), natural frequency (m,), damping (m,)). time, signal: one band-passed record (n,)."""
+    options = {name: parameter.default for name, parameter in inspect.signature(freevib).parameters.items()
+               if parameter.default is not inspect.Parameter.empty} | freevib_options
     step = time[1] - time[0]
     period = 1.0 / (step * mode_frequency_hz)
-    block = int(freevib_options.get("block_periods", 10.0) * period)
-    needed = 2 * freevib_options.get("trim_periods", 12.0) + 2 * freevib_options.get("block_periods", 10.0) \
-        + freevib_options.get("smoothing_periods", 2.0)
-    start, stop = decay_interval(np.abs(scipy.signal.hilbert(signal)), int(needed * period), block,
-                                 freevib_options.get("noise_floor_factor", 3.0))
+    needed = 2 * options["trim_periods"] + 2 * options["block_periods"] + options["smoothing_periods"]
+    start, stop = decay_interval(np.abs(scipy.signal.hilbert(signal)), int(needed * period),  # FreeVib's interval
+                                 int(options["block_periods"] * period), options["noise_floor_factor"])
     cutoff = TWIN_BANDWIDTH * mode_frequency_hz
     mode = slow_part(analytic_signal(signal[start:stop], period), 1.0 / step, cutoff)
     level = 1.4826 * np.median(np.abs(signal[start:stop] - mode.real)) / np.sqrt(
