@@ -61,6 +61,17 @@ def test_frequency_drift_over_the_hits_is_found_with_its_sign_and_rate(drift):
     assert abs(evidence["relative_change_over_span"] / drift - 1) < 0.1
 
 
+def test_drift_without_time_stamps_runs_on_the_order_of_the_hits():
+    """Hits that all start at t = 0 (a .mat struct with one time vector): the clock is their order, the rate per
+    hit, the change over the hits' span the same 1e-3 to within 10 % (each hit starts 4 s after the last)."""
+    hits = [replace(hit, time=hit.time - hit.time[0]) for hit in undeclared_ringdown(drift=1e-3, **HITS)]
+    findings = findings_of(hits)
+    assert [entry["name"] for entry in findings["found"]] == ["drift"]
+    evidence = findings["found"][0]["evidence"]
+    assert evidence["clock"] == "order of the hits" and evidence["span_hit"] == 4
+    assert abs(evidence["relative_change_over_span"] / (1e-3 * 4 / 5) - 1) < 0.1  # 4 of the 5 hit intervals
+
+
 @pytest.mark.parametrize("seed, effects", [(0, ()), (1, ()), (2, ("microslip",))])
 def test_clean_hits_give_no_finding(seed, effects):
     """Effects that live in the backbone (microslip here) are the loop's, not the signal checks'."""
