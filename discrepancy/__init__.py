@@ -5,6 +5,7 @@ a guess. ``surrogacy discrepancy`` runs it (:mod:`discrepancy.commands`).
 The loop and the one-mode route (:mod:`discrepancy.loop`)
     EFFECTS, model_backbone, fit             the effect library, the one-mode joint model, weighted least squares
     discrepancy_loop, select_effects         forward selection by BIC, stepwise swap and drop; Verdict
+    with_findings                            the ring-down's signal findings beside the verdict
 The superelement route (:mod:`discrepancy.superelement_route`)
     from_study, structure_discrepancy_loop   a study's structure and Pareto designs as the reference model
 Files (:mod:`discrepancy.files`)

@@ -13,8 +13,13 @@ amplitude, so that only the amplitude dependence is questioned).
 output, analysed), with its superelement and the study's Pareto designs of each friction model as the reference
 (``discrepancy.superelement_route``): what the study's best fit misses, and which effect explains it.
 
-Writes to ``--out``: ``discrepancy.md`` (the effect found at each step, the evidence: chi^2 per degree of
-freedom, BIC of every candidate, L-infinity and RMS errors of frequency and damping before and after),
+A backbone CSV written by ``surrogacy freevib`` carries the findings of the ring-down's signal checks (a second
+mode, a drift over the hits, clipping, no pre-trigger, a truncated record); one outside the effect library makes the
+verdict "unexplained" with the finding named, whatever the backbone's residual.
+
+Writes to ``--out``: ``discrepancy.md`` (the findings of the signal checks, the effect found at each step, the
+evidence: chi^2 per degree of freedom, BIC of every candidate, L-infinity and RMS errors of frequency and damping
+before and after),
 ``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same numbers and
 the fitted parameters).
 """
@@ -26,11 +31,27 @@ from functools import partial
 from pathlib import Path
 
 from discrepancy.files import write_verdict
-from discrepancy.loop import discrepancy_loop
+from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
 from pipeline.files import stage_folder
+from reduction.superelement import StructureError
 from study.structures import N_LEVELS, measured_levels
+
+
+def backbone_levels(measured, levels: int, path: Path):
+    """The measured backbone binned to ``levels`` (``study.structures.measured_levels``); a backbone it refuses
+    raises its error with the findings outside the library that the ring-down's signal checks saw, which may be
+    why (a second mode's beating can drive a level's damping below zero)."""
+    try:
+        return measured_levels(measured, levels, str(path))
+    except StructureError as error:
+        outside = [f"{entry['name']}: {entry['summary']}" for entry in measured.findings.get("found", [])
+                   if entry["outside_library"]]
+        if not outside:
+            raise
+        raise StructureError(f"{error}; the ring-down's signal checks found what no backbone effect stands for: "
+                             + "; ".join(outside)) from error
 
 
 def run(arguments: argparse.Namespace) -> None:
@@ -49,20 +70,24 @@ def run(arguments: argparse.Namespace) -> None:
                   "candidates": {model: len(c.labels) for model, c in loaded.candidates.items()}}
         loop = partial(structure_discrepancy_loop, measurement, loaded.candidates, loaded.borrowed_damping,
                        loaded.space, loaded.damping_rule)
+        findings = {}
     else:
         measured = read_mode_backbone(arguments.file)
-        measurement = measured_levels(measured, arguments.levels, str(arguments.file))
+        measurement = backbone_levels(measured, arguments.levels, arguments.file)
         frequency = arguments.nominal_frequency_hz or float(measurement.frequency_hz[0])
         damping = arguments.nominal_damping if arguments.nominal_damping is not None else float(measurement.damping[0])
         source = f"{arguments.file} ({measured.provenance})"
         record = {"source": str(arguments.file), "provenance": measured.provenance, "nominal_frequency_hz": frequency,
                   "nominal_damping": damping}
         loop = partial(discrepancy_loop, measurement, frequency, damping)
+        findings = measured.findings
     with stage_folder(arguments.out) as out:
-        verdict = loop()
+        verdict = with_findings(loop(), findings.get("found", []))
+        record["signal_checks"] = findings.get("checked", [])
         write_verdict(out, verdict, measurement, source, record)
-    print(f"{source}: effects {verdict.effects or 'none'}"
-          f"{' (residual unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
+    seen = [entry["name"] for entry in verdict.findings]
+    print(f"{source}: effects {verdict.effects or 'none'}{'; findings ' + ', '.join(seen) if seen else ''}"
+          f"{' (unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
 
 
 def register(subparsers) -> None:

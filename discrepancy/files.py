@@ -23,16 +23,33 @@ def assumed_noise(measurement: Measurement) -> list[str]:
     silent = np.isnan(measurement.frequency_uncertainty_hz) | np.isnan(measurement.damping_uncertainty)
     if not silent.any():
         return []
-    return ["", f"The measurement states no uncertainty at {int(silent.sum())} of {silent.size} levels: there the fit "
-                f"assumed a standard uncertainty of {FREQUENCY_FLOOR:.0e} of the frequency and "
-                f"{100 * DAMPING_FLOOR:.0f} % of the damping."]
+    return [f"The measurement states no uncertainty at {int(silent.sum())} of {silent.size} levels: there the fit "
+            f"assumed a standard uncertainty of {FREQUENCY_FLOOR:.0e} of the frequency and "
+            f"{100 * DAMPING_FLOOR:.0f} % of the damping.", ""]
 
 
-def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: Measurement) -> str:
-    """The loop's steps as a Markdown table with the evidence and the errors before and after, after the
-    features of the reference model's residual (``discrepancy.loop.residual_features``) and the noise the fit
-    assumed where the measurement states none."""
-    lines = [f"Discrepancy loop on {source}.", *assumed_noise(measurement), "",
+def findings_markdown(findings: list, checked: list) -> list[str]:
+    """The signal checks' findings as Markdown lines: each named with its summary, and whether it is outside the
+    effect library (the verdict cannot be "explained" with it)."""
+    if not checked:
+        return ["Signal checks: none apply (a backbone without its ring-down: no second mode, drift or record "
+                "check).", ""]
+    lines = [f"Signal checks beside the backbone ({', '.join(checked)}): "
+             + ("nothing found." if not findings else f"{len(findings)} finding(s)."), ""]
+    if findings:
+        lines += ["| finding | outside the library | what the signals show |", "|---|---|---|"]
+        lines += [f"| {entry['name']} | {'yes: unexplained' if entry['outside_library'] else 'no: a caveat'} | "
+                  f"{entry['summary']} |" for entry in findings] + [""]
+    return lines
+
+
+def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: Measurement,
+                     checked: list = ()) -> str:
+    """The noise the fit assumed where the measurement states none, the signal checks' findings, then the loop's
+    steps as a Markdown table with the evidence and the errors before and after, after the features of the
+    reference model's residual (``discrepancy.loop.residual_features``)."""
+    lines = [f"Discrepancy loop on {source}.", "", *assumed_noise(measurement),
+             *findings_markdown(verdict.findings, list(checked)),
              "Residual of the reference model, in units of the measurement's uncertainty:", "",
              "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
     lines += [f"| {name} | {f['offset']:.3g} | {f['slope_per_decade']:.3g} | {f['curvature_per_decade2']:.3g} | "
@@ -59,9 +76,12 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
         lines += ["", "At its bound: not determined (not counted as found): " + "; ".join(
             f"{effect} ({reason})" for effect, reason in verdict.not_determined.items())]
     found = ", ".join(verdict.effects) or "none"
-    lines += ["", f"Effects found: {found}. " + ("A residual above the measurement's noise remains UNEXPLAINED "
-                                                  "by the library." if verdict.unexplained else
-                                                  "The residual is at the measurement's noise.")]
+    outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
+    lines += ["", f"Effects found: {found}. " + (
+        f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
+        "stands for (chi^2/dof of the backbone's fit in the table above)." if outside else
+        "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
+        "The residual is at the measurement's noise.")]
     return "\n".join(lines) + "\n"
 
 
@@ -86,10 +106,11 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     """discrepancy.md, .png and .json (``record`` and the steps with their evidence) into ``out``."""
     features = residual_features(measurement, verdict.steps[0].fit)
     with atomic_path(out / "discrepancy.md") as temporary:
-        temporary.write_text(verdict_markdown(verdict, source, features, measurement))
+        temporary.write_text(verdict_markdown(verdict, source, features, measurement,
+                                              record.get("signal_checks", [])))
     plot_verdict(verdict, measurement, out / "discrepancy.png")
     write_json(out / "discrepancy.json", {
-        **record, "effects": verdict.effects, "unexplained": verdict.unexplained,
+        **record, "effects": verdict.effects, "unexplained": verdict.unexplained, "findings": verdict.findings,
         "not_determined": verdict.not_determined,
         "reference_residual_features": features,
         "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)

@@ -47,7 +47,7 @@ BIC, the L-infinity and RMS errors of frequency and damping, and the candidates 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -248,14 +248,26 @@ class Step(NamedTuple):
 
 @dataclass
 class Verdict:
-    """The loop's answer: the effects found in order, the steps with their evidence, whether a residual above the
-    noise remains unexplained, and the effects of the final model whose parameters the points leave at a bound or
-    undetermined (effect -> reason; not counted as found)."""
+    """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
+    checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
+    unexplained (a residual above the noise, or a finding outside the library), and the effects of the final
+    model whose parameters the points leave at a bound or undetermined (effect -> reason; not counted as
+    found)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     unexplained: bool = False
     not_determined: dict = field(default_factory=dict)
+    findings: list = field(default_factory=list)
+
+
+def with_findings(verdict: Verdict, findings: list) -> Verdict:
+    """The verdict with the findings of the ring-down's signal checks (``experiment.signal_checks``: JSON-ready
+    dicts with ``name``, ``outside_library``, ``summary``, ``evidence``): one outside any backbone library (a
+    second mode, a drift, clipping) makes it unexplained whatever the backbone's residual, since no effect fitted
+    to the backbone can stand for it; the others (no pre-trigger, a truncated record) are named beside it."""
+    return replace(verdict, findings=list(findings),
+                   unexplained=verdict.unexplained or any(entry["outside_library"] for entry in findings))
 
 
 def errors(measurement: Measurement, model: Fit) -> dict:

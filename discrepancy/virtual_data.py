@@ -9,7 +9,9 @@ stated in the file as the points' standard errors (as FreeVib states its estimat
 Ring-down: the free decay of the same backbone by the averaged (slow-flow) equations of a weakly damped
 oscillator with amplitude-dependent frequency and damping, da/dt = -zeta(a) omega(a) a, dphi/dt = omega(a),
 sampled as the mode's displacement a cos(phi) (one sensor of unit mode shape, so its amplitude in m is the modal
-amplitude in m kg^0.5), with white sensor noise ``noise_db`` below the initial amplitude. A user's ring-down
+amplitude in m kg^0.5), with white sensor noise ``noise_db`` below the initial amplitude. Content outside any
+backbone, for the signal checks (``experiment.signal_checks``): several hits with a pre-trigger, a second close
+mode, a drift of the frequency over the hits (:func:`undeclared_ringdown`). A user's ring-down
 processed by FreeVib (``experiment.ringdown_backbone``) gives the backbone back, so the loop sees the effects
 through the whole measurement path.
 """
@@ -70,29 +72,60 @@ def write_undeclared_backbone(destination: Path, effects=(), seed: int = 0, **op
 
 
 def undeclared_ringdown(effects=(), seed: int = 0, noise_db: float = 60.0, sample_rate_hz: float = 4096.0,
-                        duration_s: float = 4.0) -> RingDown:
-    """The free decay of the reference joint's backbone with ``effects`` from the largest amplitude of
-    ``AMPLITUDES`` (module docstring): one displacement channel, seeded noise."""
+                        duration_s: float = 4.0, pretrigger_s: float = 0.0, hits: int = 1,
+                        second_mode: tuple[float, float] | None = None, shapes=((1.0,), (1.0,)),
+                        drift: float = 0.0) -> list[RingDown]:
+    """Hammer hits on the reference joint's backbone with ``effects``, each a free decay from the largest
+    amplitude of ``AMPLITUDES`` after ``pretrigger_s`` of rest (module docstring): displacement sensors with
+    seeded noise. After a pre-trigger the decay starts from rest as an impulse leaves it (zero displacement);
+    without one the record starts at the decay's largest displacement (the impact itself not recorded). The hits
+    follow one another without gap, hit k's time running from k ``duration_s``.
+
+    Content outside the backbone, for the signal checks (``experiment.signal_checks``):
+    second_mode: (frequency ratio, amplitude ratio) of a linear mode beside the target, with the target's
+    low-amplitude damping, excited by the same impulse (its initial amplitude the ratio times the target's).
+    shapes: the target's and the second mode's shapes at the sensors (one entry per sensor; the default: one
+    sensor that sees both alike; orthogonal shapes, e.g. (1, 1) and (1, -1), are what a modal filter projects the
+    second mode out of).
+    drift: relative change of the target's frequency over all the hits, linear in time (a temperature drift):
+    omega(a, t) = omega(a) (1 + drift t / (hits duration_s)).
+    """
     grid = np.geomspace(AMPLITUDES[0] / 20, AMPLITUDES[-1], 400)  # the effects scale with AMPLITUDES[-1]
     frequency, damping = true_backbone(effects, amplitudes=grid)
     omega, log_grid = 2 * np.pi * frequency, np.log(grid)
-
-    def slow_flow(_, state):  # state: log amplitude, phase
-        omega_now = np.interp(state[0], log_grid, omega)
-        return [-np.interp(state[0], log_grid, damping) * omega_now, omega_now]
-
-    time = np.arange(0.0, duration_s, 1.0 / sample_rate_hz)
-    # tight: the phase after ~700 periods must be right to far below the sensor noise's 1e-3 of the amplitude
-    flow = solve_ivp(slow_flow, (0.0, duration_s), [np.log(AMPLITUDES[-1]), 0.0], t_eval=time, rtol=1e-10,
-                     atol=1e-12, method="DOP853")
-    displacement = np.exp(flow.y[0]) * np.cos(flow.y[1])
+    total_s = hits * duration_s
     rng = np.random.default_rng(seed)
-    noise = AMPLITUDES[-1] * 10 ** (-noise_db / 20) * rng.standard_normal(time.size)
-    return RingDown(time, (displacement + noise)[None, :], ("sensor",), "displacement",
-                    f"virtual ring-down for the discrepancy loop (seed {seed})", "1")
+    records = []
+    for number in range(hits):
+        start = number * duration_s
+        time = start + np.arange(0.0, duration_s, 1.0 / sample_rate_hz)
+        moving = time >= start + pretrigger_s
+
+        def slow_flow(t, state):  # state: log amplitude, phase
+            omega_now = np.interp(state[0], log_grid, omega) * (1.0 + drift * t / total_s)
+            return [-np.interp(state[0], log_grid, damping) * omega_now, omega_now]
+
+        # tight: the phase after ~700 periods must be right to far below the sensor noise's 1e-3 of the amplitude
+        flow = solve_ivp(slow_flow, (time[moving][0], time[-1]), [np.log(AMPLITUDES[-1]), 0.0], t_eval=time[moving],
+                         rtol=1e-10, atol=1e-12, method="DOP853")
+        modal = np.zeros((2, time.size))
+        onset = -np.pi / 2 if pretrigger_s > 0 else 0.0  # from rest, an impulse; else the top of the decay
+        modal[0, moving] = np.exp(flow.y[0]) * np.cos(flow.y[1] + onset)
+        if second_mode is not None:
+            ratio, amplitude_ratio = second_mode
+            omega_2, elapsed = ratio * omega[0], time[moving] - time[moving][0]
+            modal[1, moving] = (amplitude_ratio * AMPLITUDES[-1] * np.exp(-damping[0] * omega_2 * elapsed)
+                                * np.cos(omega_2 * elapsed + onset))
+        displacement = np.column_stack(shapes) @ modal
+        noise = AMPLITUDES[-1] * 10 ** (-noise_db / 20) * rng.standard_normal(displacement.shape)
+        names = ("sensor",) if len(shapes[0]) == 1 else tuple(f"sensor {k + 1}" for k in range(len(shapes[0])))
+        records.append(RingDown(time, displacement + noise, names, "displacement",
+                                f"virtual ring-down for the discrepancy loop (seed {seed})", str(number + 1)))
+    return records
 
 
 def write_undeclared_ringdown(destination: Path, effects=(), seed: int = 0, **options) -> None:
     """Write :func:`undeclared_ringdown` as a ring-down CSV (the effects appear nowhere in the file)."""
-    ring_down = undeclared_ringdown(effects, seed, **options)
-    write_ringdown_csv([ring_down], Path(destination), comment=f"VIRTUAL data: {ring_down.source}")
+    ring_downs = undeclared_ringdown(effects, seed, **options)
+    write_ringdown_csv(ring_downs, Path(destination), comment=f"VIRTUAL data: {ring_downs[0].source}",
+                       provenance="virtual")

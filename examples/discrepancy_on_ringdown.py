@@ -14,10 +14,11 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from discrepancy.loop import discrepancy_loop
+from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
-from experiment.backbone import mode_backbone, ringdown_backbone
+from experiment.backbone import checked_settings, mode_backbone, ringdown_backbone
 from experiment.measured_files import read_ringdown, stated_provenance
+from experiment.signal_checks import ringdown_findings
 from study.structures import measured_levels
 
 
@@ -36,15 +37,21 @@ def main(argv=None):
         print(f"virtual ring-down (microslip put in): {arguments.ringdown}")
     elif arguments.mode_hz is None:
         parser.error("a ring-down file needs --mode-hz")
-    measured = mode_backbone(ringdown_backbone(read_ringdown(arguments.ringdown), arguments.mode_hz),
-                             arguments.ringdown.stem, stated_provenance(arguments.ringdown))  # as the file says
+    hits = read_ringdown(arguments.ringdown)
+    backbone = ringdown_backbone(hits, arguments.mode_hz)
+    findings = ringdown_findings(hits, backbone, checked_settings(arguments.mode_hz))  # the default band
+    measured = mode_backbone(backbone, arguments.ringdown.stem, stated_provenance(arguments.ringdown))  # as it says
     measurement = measured_levels(measured, path=str(arguments.ringdown))
-    verdict = discrepancy_loop(measurement, arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
-                               arguments.nominal_damping or float(measurement.damping[0]))
+    verdict = with_findings(discrepancy_loop(measurement,
+                                             arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
+                                             arguments.nominal_damping or float(measurement.damping[0])),
+                            findings["found"])
+    for entry in verdict.findings:
+        print(f"signal finding {entry['name']}: {entry['summary']}")
     for step in verdict.steps:
         print(f"{step.effect or 'reference model':<22} chi^2/dof {step.reduced_chi_squared:8.3g}   "
               f"L-inf f {step.errors['frequency_linf_hz']:.4f} Hz   L-inf zeta {step.errors['damping_linf']:.2e}")
-    print("effects found:", verdict.effects or "none", "(residual unexplained)" if verdict.unexplained else "")
+    print("effects found:", verdict.effects or "none", "(unexplained)" if verdict.unexplained else "")
     return verdict
 
 

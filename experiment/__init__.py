@@ -15,11 +15,14 @@ Estimators on one filtered decay (:mod:`experiment.hilbert`, :mod:`experiment.de
     decay_cycles             zero-crossing period and logarithmic decrement, cycle by cycle
 Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
     ringdown_backbone        hits (and channels, mode shapes when known) -> both estimators averaged with spread
+    twin_standard_errors     standard errors of the bin means: FreeVib on twin decays (:mod:`experiment.twin_decays`)
     average_backbones        records -> mean, spread and standard error on an amplitude grid
     mode_backbone            ringdown_backbone's result -> ModeBackbone (structure, provenance) for a study
     write_backbone, read_backbone
                              the documented backbone CSV
     read_asb_backbone        measured ASB backbone (.mat) -> ModeBackbone
+What a backbone hides (:mod:`experiment.signal_checks`)
+    ringdown_findings        a second mode, a drift over the hits, clipping, no pre-trigger, a truncated record
 Settings (:mod:`experiment.backbone`)
     checked_settings, check_nyquist   the band, grid and time scales refused before any signal is read
 Command (:mod:`experiment.commands`)

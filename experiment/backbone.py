@@ -23,6 +23,7 @@ from experiment.decay_cycles import decay_cycles
 from experiment.hilbert import OPTION_MINIMA, InstantaneousBackbone, RingDownSignalError, freevib
 from experiment.modal_filter import ModalFilterError, band_pass, dominant_shape, modal_coordinates
 from experiment.ringdown import RingDown, RingDownError, selected_channels
+from experiment.twin_decays import twin_estimates
 
 PROVENANCES = ("measured", "virtual", "unknown")
 """Where a backbone comes from: a physical test, or a simulated test of a model (a virtual experiment)."""
@@ -35,9 +36,9 @@ class Backbone:
     amplitude: (n_grid,) grid amplitudes. natural_frequency_hz, damping_ratio: (n_grid,) means over the records
     that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations of the
     records' bin means (NaN where fewer than two): the hit-to-hit (or sensor-to-sensor) variation.
-    *_standard_error: (n_grid,) standard error of the bin mean from the scatter of all instantaneous estimates
-    in the bin, pooled over the records, with the number of independent estimates (each record's count divided
-    by its correlated_samples): the estimator's own noise. n_records: (n_grid,) records contributing.
+    *_standard_error: (n_grid,) standard error of the bin mean: the estimator's own noise (from twin decays of the
+    records, :func:`twin_standard_errors`, or the pooled scatter, :func:`binned_standard_error`).
+    n_records: (n_grid,) records contributing.
     """
 
     amplitude: np.ndarray
@@ -86,7 +87,8 @@ def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent
     """Standard error of the mean of ``values`` (n,) within each grid bin of ``amplitude`` (n,); NaN if empty.
 
     independent: (n,) weight of each estimate as an independent one (1 / correlated_samples of its record); the
-    bin's scatter is divided by the square root of the summed weights (at least one).
+    bin's scatter is divided by the square root of the summed weights (at least one). For derivative estimates
+    (FreeVib's) this overstates the error (docs/design.md section 6): the fallback of :func:`average_backbones`.
     """
     mean = binned_means(amplitude, values, grid)
     index = np.clip(np.digitize(amplitude, amplitude_bins(grid)) - 1, 0, grid.size - 1)
@@ -96,11 +98,13 @@ def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent
     return scatter / np.sqrt(np.maximum(n_independent, 1.0))
 
 
-def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray) -> Backbone:
+def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray, standard_errors=None) -> Backbone:
     """Backbone on an amplitude grid (n_grid,), averaged over records (paper Fig. 3: seven hammer hits).
 
     Each record is first averaged within the grid's bins (geometric midpoints), then the records are averaged
-    with the sample standard deviation as spread; the standard error pools all instantaneous estimates of a bin.
+    with the sample standard deviation as spread. standard_errors: (frequency (n_grid,) Hz, damping (n_grid,)) of
+    the mean, e.g. from the records' twins (:func:`twin_standard_errors`); where they are NaN or not given, the
+    standard error pools all instantaneous estimates of a bin (:func:`binned_standard_error`, which overstates it).
     """
     grid = np.asarray(grid, dtype=float)
     amplitude, frequency_hz, damping_ratio = (np.concatenate([getattr(r, name) for r in records])
@@ -110,9 +114,10 @@ def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray) ->
         np.array([binned_means(r.amplitude, r.natural_frequency_hz, grid) for r in records]))
     damping, damping_spread, _ = record_statistics(
         np.array([binned_means(r.amplitude, r.damping_ratio, grid) for r in records]))
-    return Backbone(grid, frequency, frequency_spread,
-                    binned_standard_error(amplitude, frequency_hz, independent, grid), damping, damping_spread,
-                    binned_standard_error(amplitude, damping_ratio, independent, grid), count)
+    pooled = [binned_standard_error(amplitude, values, independent, grid) for values in (frequency_hz, damping_ratio)]
+    errors = pooled if standard_errors is None else [np.where(np.isfinite(given), given, fallback)
+                                                    for given, fallback in zip(standard_errors, pooled)]
+    return Backbone(grid, frequency, frequency_spread, errors[0], damping, damping_spread, errors[1], count)
 
 
 def record_statistics(values: np.ndarray):
@@ -137,11 +142,13 @@ def amplitude_grid(records: list[InstantaneousBackbone], n_points: int) -> np.nd
 
 @dataclass(frozen=True)
 class ModeRecord:
-    """One filtered decay of the mode (one hit, one channel or the modal coordinate) and both estimates."""
+    """One filtered decay of the mode (one hit, one channel or the modal coordinate), both estimates, and the
+    Hilbert estimates of its twins with their known content (:func:`experiment.twin_decays.twin_estimates`)."""
 
     label: str
     hilbert: InstantaneousBackbone
     cycles: InstantaneousBackbone
+    twins: list = field(default_factory=list, repr=False)
 
 
 @dataclass(frozen=True)
@@ -188,14 +195,38 @@ def mode_signals(record: RingDown, band_hz: tuple[float, float], mode_shapes: np
 
 
 def estimate_record(source: str, label: str, time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float,
-                    quantity: str, cycles: int, freevib_options: dict) -> ModeRecord:
-    """Both estimators on one filtered decay; the cycle estimator sees the interval the Hilbert one kept."""
+                    quantity: str, cycles: int, freevib_options: dict, band_hz, seed: int) -> ModeRecord:
+    """Both estimators on one filtered decay (the cycle estimator on the interval the Hilbert one kept), and FreeVib
+    on its twins (:mod:`experiment.twin_decays`, drawn from ``seed``)."""
     try:
         hilbert = freevib(time, signal, mode_frequency_hz, quantity=quantity, **freevib_options)
         kept = (time >= hilbert.time[0]) & (time <= hilbert.time[-1])
-        return ModeRecord(label, hilbert, decay_cycles(time[kept], signal[kept], quantity=quantity, cycles=cycles))
+        return ModeRecord(label, hilbert, decay_cycles(time[kept], signal[kept], quantity=quantity, cycles=cycles),
+                          twin_estimates(time, signal, mode_frequency_hz, band_hz, quantity, freevib_options, seed))
     except RingDownSignalError as error:
         raise RingDownError(source, label, str(error)) from error
+
+
+def twin_standard_errors(records: list[ModeRecord], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors (n_grid,) of the Hilbert backbone's natural frequency (Hz) and damping ratio, the mean over
+    records of their bin means, from each record's twins (:mod:`experiment.twin_decays`): per record, the
+    standard deviation of the twins' bin means in quadrature with their mean error against their known content;
+    over records, sqrt(sum se_r^2) / n. NaN where no record has two twins in the bin."""
+    per_record = []
+    for record in records:
+        binned = np.array([[binned_means(twin.amplitude, values, grid) for values in
+                            (twin.natural_frequency_hz, twin.damping_ratio, frequency, damping)]
+                           for twin, frequency, damping in record.twins]).reshape(-1, 4, grid.size)
+        reached = np.sum(np.isfinite(binned[:, 0]), axis=0) >= 2
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            spread = np.nanstd(binned[:, :2], axis=0, ddof=1)
+            bias = np.nanmean(binned[:, :2] - binned[:, 2:], axis=0)
+        per_record.append(np.where(reached, np.hypot(spread, bias), np.nan))
+    per_record = np.array(per_record)
+    count = np.sum(np.isfinite(per_record), axis=0)
+    combined = np.where(count > 0, np.sqrt(np.nansum(per_record ** 2, axis=0)) / np.maximum(count, 1), np.nan)
+    return combined[0], combined[1]
 
 
 def check_identified(record: ModeRecord, band_hz: tuple[float, float], source: str) -> None:
@@ -260,7 +291,7 @@ def check_nyquist(hits: list[RingDown], band_hz: tuple[float, float],
 def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                       band_hz: tuple[float, float] | None = None, mode_shapes: np.ndarray | None = None,
                       mode_index: int = 0, per_channel: bool = False, channels: list[str] | None = None,
-                      grid_points: int = 25, cycles: int = 4, **freevib_options) -> MeasuredBackbone:
+                      grid_points: int = 25, cycles: int = 4, seed: int = 0, **freevib_options) -> MeasuredBackbone:
     """Backbone of one mode from ring-downs (several hits, each with one or more channels), with its spread.
 
     hits: ring-downs of one structure with the same channels, measured or simulated. mode_frequency_hz: guess
@@ -269,6 +300,8 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
     the shape. mode_index: column of ``mode_shapes`` that is the mode. per_channel: each channel (divided by
     its shape entry) is a record of its own instead of one modal coordinate per hit. channels: names to use
     (default all). grid_points: size of the log-spaced amplitude grid. cycles: window of the cycle estimator.
+    seed: of the twins' noise (:mod:`experiment.twin_decays`; record k draws from seed + k), whose spread is the
+    Hilbert backbone's standard error (:func:`twin_standard_errors`).
     freevib_options: passed to :func:`~experiment.hilbert.freevib` (smoothing_periods, trim_periods, feldman,
     ...). Returns both estimators averaged over the records on one grid (:func:`average_backbones`). Settings
     are checked first (:func:`checked_settings`, :func:`check_nyquist`).
@@ -290,13 +323,14 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
         shapes.append(shape)
         for label, signal in signals:
             records.append(estimate_record(hit.source, label, hit.time, signal, mode_frequency_hz, hit.quantity,
-                                           cycles, freevib_options))
+                                           cycles, freevib_options, band_hz, seed + len(records)))
             check_identified(records[-1], band_hz, hit.source)
     grid = amplitude_grid([record.hilbert for record in records], grid_points)
     return MeasuredBackbone(", ".join(dict.fromkeys(hit.source for hit in hits)), mode_frequency_hz,
                             "m" if mode_shapes is None else "m / shape unit",
                             dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
-                            average_backbones([record.hilbert for record in records], grid),
+                            average_backbones([record.hilbert for record in records], grid,
+                                              twin_standard_errors(records, grid)),
                             average_backbones([record.cycles for record in records], grid))
 
 
@@ -314,6 +348,8 @@ class ModeBackbone:
     mass-normalised modal amplitude is in m kg^0.5). provenance: one of :data:`PROVENANCES`. source: what it
     was obtained from (file, or model and design). backbone: the points with their spread. settings: how the
     backbone was estimated (e.g. the band and windows of :func:`ringdown_backbone`; empty where not recorded).
+    findings: what the checks of the ring-down's signals saw beside the backbone, ``{"checked": [names],
+    "found": [findings]}`` (:func:`experiment.signal_checks.ringdown_findings`; empty where not checked).
     """
 
     structure: str
@@ -323,15 +359,17 @@ class ModeBackbone:
     source: str
     backbone: Backbone = field(repr=False)
     settings: dict = field(default_factory=dict, repr=False)
+    findings: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         if self.provenance not in PROVENANCES:
             raise ValueError(f"provenance '{self.provenance}' is not one of {PROVENANCES}")
 
 
-def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None
-                  ) -> ModeBackbone:
+def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None,
+                  findings: dict | None = None) -> ModeBackbone:
     """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study, with the
-    ``settings`` it was estimated with."""
+    ``settings`` it was estimated with and the ``findings`` of the signal checks beside it."""
     return ModeBackbone(structure, float(low_amplitude_reference(measured.hilbert.natural_frequency_hz)),
-                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}))
+                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}),
+                        dict(findings or {}))

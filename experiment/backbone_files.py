@@ -12,13 +12,14 @@ Comment lines ``# key: value`` first, in this order::
     # provenance: <measured | virtual>
     # source: <file (and hash) or model and design it was obtained from>
     # settings: <optional: the estimation's settings as one JSON object, e.g. those of surrogacy freevib>
+    # findings: <optional: the signal checks beside the backbone as one JSON object {"checked": [...], "found": [...]}>
 
 then one header row of :data:`BACKBONE_COLUMNS` (``name [unit]``, comma separated) and one row per amplitude,
 in increasing amplitude:
 
     modal_amplitude [amplitude_unit]; natural_frequency [Hz]; natural_frequency_spread [Hz] (standard deviation
-    over hits or channels); natural_frequency_standard_error [Hz] (the estimator's noise within the point's
-    amplitude bin); damping_ratio [-] (fraction of critical); damping_ratio_spread [-];
+    over hits or channels); natural_frequency_standard_error [Hz] (the standard error of the point's mean, the
+    estimator's noise); damping_ratio [-] (fraction of critical); damping_ratio_spread [-];
     damping_ratio_standard_error [-]; records [-] (number of hits or channels behind the point).
 
 Unknown values are written ``nan`` (e.g. the spread of a single record). Numbers are written with Python's
@@ -82,8 +83,9 @@ def write_backbone(mode: ModeBackbone, destination: Path) -> None:
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         stream.write(f"# {BACKBONE_TITLE}\n")
         stream.writelines(f"# {key}: {values.get(key, getattr(mode, key))}\n" for key in BACKBONE_KEYS)
-        if mode.settings:
-            stream.write(f"# settings: {json.dumps(mode.settings, sort_keys=True)}\n")
+        for key in ("settings", "findings"):
+            if getattr(mode, key):
+                stream.write(f"# {key}: {json.dumps(getattr(mode, key), sort_keys=True)}\n")
         writer = csv.writer(stream)
         writer.writerow(backbone_header(mode.amplitude_unit))
         writer.writerows(zip(*(getattr(mode.backbone, field).tolist() for _, _, field in BACKBONE_COLUMNS)))
@@ -112,12 +114,26 @@ def read_backbone(path: Path) -> ModeBackbone:
         raise file_error(path, "rows", f"not a table of {len(BACKBONE_COLUMNS)} numbers per row: {error}") from error
     columns = dict(zip((field for _, _, field in BACKBONE_COLUMNS), table.T))
     columns["n_records"] = columns["n_records"].astype(int)
-    try:
-        settings = json.loads(header.get("settings", "{}"))
-    except json.JSONDecodeError as error:
-        raise file_error(path, "settings", f"not one JSON object: {error}") from error
+    settings, findings = (json_line(path, header, key) for key in ("settings", "findings"))
+    if findings and not (isinstance(findings.get("checked"), list) and isinstance(findings.get("found"), list)
+                         and all({"name", "outside_library", "summary", "evidence"} <= set(entry)
+                                 for entry in findings["found"])):
+        raise file_error(path, "findings", "expected {\"checked\": [names], \"found\": [{\"name\", "
+                                           "\"outside_library\", \"summary\", \"evidence\"}, ...]}")
     return ModeBackbone(header["structure"], float(header["low_amplitude_frequency_hz"]), header["amplitude_unit"],
-                        header["provenance"], header["source"], Backbone(**columns), settings)
+                        header["provenance"], header["source"], Backbone(**columns), settings, findings)
+
+
+def json_line(path: Path, header: dict, key: str) -> dict:
+    """The JSON object of an optional ``# <key>: {...}`` header line ({} where the line is absent); a line that is
+    not one JSON object raises a ValueError naming the file and the key."""
+    try:
+        value = json.loads(header.get(key, "{}"))
+    except json.JSONDecodeError as error:
+        raise file_error(path, key, f"not one JSON object: {error}") from error
+    if not isinstance(value, dict):
+        raise file_error(path, key, "not one JSON object")
+    return value
 
 
 def read_asb_backbone(path: Path) -> ModeBackbone:

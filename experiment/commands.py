@@ -2,8 +2,8 @@
 
 ``surrogacy freevib FILE --mode-hz F``: amplitude-dependent natural frequency and damping of one mode from a
 measured ring-down (paper section 3.1, Fig. 3), written as the backbone CSV that the study, the discrepancy loop
-and the report read (the settings recorded in it), a table of both estimators, a PNG plot and a JSON sidecar with
-the resolved settings.
+and the report read (the settings and the findings of the signal checks recorded in it), a table of both
+estimators, a PNG plot and a JSON sidecar with the resolved settings.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from experiment.backbone_files import freevib_stem, plot_backbone, write_backbon
 from experiment.hilbert import freevib
 from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
 from experiment.ringdown_files import read_mode_shapes
+from experiment.signal_checks import ringdown_findings
 from pipeline.files import check_output_folder, sha256_file, write_json
 
 
@@ -58,7 +59,8 @@ def resolved_provenance(source: Path, declared: str | None) -> str:
 
 
 def run_freevib(arguments: argparse.Namespace) -> None:
-    """Extract, write and plot the backbone of one mode of a ring-down file."""
+    """Extract, write and plot the backbone of one mode of a ring-down file, and check its signals for what the
+    backbone hides (a second mode, a drift over the hits, clipping, no pre-trigger, a truncated record)."""
     band = check_options(arguments)
     source = Path(arguments.file)
     hits = read_ringdown(source)
@@ -69,22 +71,26 @@ def run_freevib(arguments: argparse.Namespace) -> None:
         mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
         mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
         grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
-        trim_periods=arguments.trim_periods, feldman=arguments.feldman)
+        trim_periods=arguments.trim_periods, feldman=arguments.feldman, seed=arguments.seed)
     out = Path(arguments.out)
     stem = freevib_stem(source, arguments.mode_hz)
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
-    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}),
-                   out / f"{stem}_backbone.csv")
+    findings = ringdown_findings(hits, backbone, band)
+    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256},
+                                 findings), out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
     write_json(out / f"{stem}.json", {
         "source": str(source), "source_sha256": source_sha256, "settings": settings,
         "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
-        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}})
+        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": findings})
+    for entry in findings["found"]:
+        print(f"finding {entry['name']}: {entry['summary']}")
     print(f"wrote {out / stem}_backbone.csv (the backbone the study and the discrepancy loop read), "
-          f"{stem}.csv (both estimators), .png, .json ({len(backbone.records)} records)")
+          f"{stem}.csv (both estimators), .png, .json ({len(backbone.records)} records; checked "
+          f"{', '.join(findings['checked'])}: {len(findings['found'])} finding(s))")
 
 
 def register(subparsers) -> None:
@@ -113,6 +119,8 @@ def register(subparsers) -> None:
     command.add_argument("--trim-periods", type=float, default=defaults["trim_periods"],
                          help="periods trimmed at each end of a decay")
     command.add_argument("--feldman", action="store_true", help="use Feldman's FreeVib corrections")
+    command.add_argument("--seed", type=int, default=defaults["seed"],
+                         help="seed of the twin decays' noise, whose spread is the backbone's standard error")
     command.add_argument("--provenance", choices=("measured", "virtual"),
                          help="what the data are, where the file does not say (default: the file's statement, or "
                               "unknown); refused where the file says otherwise")

@@ -108,6 +108,20 @@ def analytic_signal(signal: np.ndarray, period: float) -> np.ndarray:
     return scipy.signal.hilbert(np.concatenate([head, signal, tail]))[n_extend:n_extend + signal.size]
 
 
+def slow_part(z: np.ndarray, sample_rate: float, cutoff_hz: float) -> np.ndarray:
+    """The slow part z_1 (n,) of an analytic signal z (n,) sampled at ``sample_rate`` (Hz): exp of the zero-phase
+    low-pass (Butterworth, 4th order, ``cutoff_hz``) of ln|z| + i psi, each about its straight line through the
+    ends so that the padding continues it. For one mode and noise, the mode without the noise above the cut-off."""
+    log = np.log(np.abs(z)) + 1j * np.unwrap(np.angle(z))
+    line = log[0] + (log[-1] - log[0]) * np.linspace(0.0, 1.0, z.size)
+    sections = scipy.signal.butter(4, cutoff_hz, btype="lowpass", fs=sample_rate, output="sos")
+    pad = min(int(3 * sample_rate / cutoff_hz), z.size - 1)
+    rest = log - line
+    smooth = (scipy.signal.sosfiltfilt(sections, rest.real, padtype="odd", padlen=pad)
+              + 1j * scipy.signal.sosfiltfilt(sections, rest.imag, padtype="odd", padlen=pad))
+    return np.exp(line + smooth)
+
+
 def decay_end(envelope: np.ndarray, block: int, relative_drop: float = 1e-4) -> int:
     """Index where the envelope stops decaying: the end of the last block before medians stop falling.
 

@@ -277,13 +277,13 @@ def read_uff58(path: Path) -> list[RingDown]:
     return result
 
 
-def common_layout(ring_downs: list[RingDown]) -> RingDown:
-    """The first hit, after checking that every hit has its channels, quantity and sample times (the layout a
-    .mat struct with one column per hit needs)."""
+def common_layout(ring_downs: list[RingDown], same_times: bool = True) -> RingDown:
+    """The first hit, after checking that every hit has its channels and quantity, and with ``same_times`` its
+    sample times (the layout a .mat struct with one column per hit needs; a CSV gives each hit its own times)."""
     first = ring_downs[0]
     for hit in ring_downs[1:]:
-        if (hit.channels, hit.quantity) != (first.channels, first.quantity) or not np.array_equal(hit.time,
-                                                                                                   first.time):
+        if (hit.channels, hit.quantity) != (first.channels, first.quantity) or (
+                same_times and not np.array_equal(hit.time, first.time)):
             raise RingDownError(hit.source, hit.hit, "channels, quantity or sample times differ from the first hit's")
     return first
 
@@ -293,8 +293,8 @@ def write_ringdown_csv(ring_downs: list[RingDown], destination: Path, comment: s
     """Write hits as one CSV (layout in the module docstring): a ``hit`` column numbering them from 1, time in s,
     signals in SI units, every number in Python's shortest round-tripping form; ``comment`` as a ``#`` line
     before the header (e.g. that the data are virtual) and ``provenance`` ("measured" or "virtual") as a
-    ``# provenance: ...`` line."""
-    first = common_layout(ring_downs)
+    ``# provenance: ...`` line. Each hit keeps its own sample times (e.g. the time since the first hit)."""
+    first = common_layout(ring_downs, same_times=False)
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         if comment is not None:
             stream.write(f"# {comment}\n")

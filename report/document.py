@@ -208,8 +208,9 @@ def confidence_matrix(path: Path, out: Path) -> list[str]:
 
 
 def discrepancy_section(results: Path, out: Path) -> list[str]:
-    """Per measurement: the effects the discrepancy loop found (or "unexplained") and the errors of the reference
-    model (before) and of the final model (after)."""
+    """Per measurement: the effects the discrepancy loop found (or "unexplained"), the errors of the reference
+    model (before) and of the final model (after), and beside them the findings of the ring-down's signal checks
+    (``experiment.signal_checks``: what the backbone hides)."""
     verdicts = sorted((results / "discrepancy").glob("*/discrepancy.json"))
     lines = ["## 8. Discrepancy loop: what the one-mode joint model lacks", ""]
     if not verdicts:
@@ -219,9 +220,12 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
               "(`study-<structure>`; every model the loop tries there is refitted). An effect is accepted only "
               "with its parameters determined and neither L-infinity error worse than the reference's beyond "
               "the measurement's uncertainty; effects left at a bound are listed as not determined. Errors are "
-              "of the reference (before) and of the final model (after).", "",
-              "| measurement | provenance | reference model | effects found | verdict | L-inf f (Hz) before -> after | "
-              "RMS f (Hz) | L-inf zeta | RMS zeta |", "|---|---|---|---|---|---|---|---|---|"]
+              "of the reference (before) and of the final model (after). Signal findings: what the checks "
+              "of the ring-down's signals saw beside the backbone (a finding outside the effect library makes the "
+              "verdict unexplained; \"not checked\" for a backbone without its ring-down).", "",
+              "| measurement | provenance | reference model | effects found | signal findings | verdict | "
+              "L-inf f (Hz) before -> after | RMS f (Hz) | L-inf zeta | RMS zeta |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for path in verdicts:
         verdict = json.loads(path.read_text())
         before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
@@ -230,11 +234,16 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
         found = ", ".join(verdict["effects"]) or "none"
         if verdict["not_determined"]:
             found += " (at a bound, not determined: " + ", ".join(verdict["not_determined"]) + ")"
-        answer = "residual unexplained" if verdict["unexplained"] else "explained to the noise"
+        findings = verdict.get("findings", [])
+        seen = "; ".join(f"{entry['name']}: {entry['summary']}" for entry in findings) or (
+            "none" if verdict.get("signal_checks") else "not checked")
+        outside = [entry["name"] for entry in findings if entry["outside_library"]]
+        answer = (f"unexplained ({', '.join(outside)})" if outside else
+                  "residual unexplained" if verdict["unexplained"] else "explained to the noise")
         reference = (f"superelement, {verdict['steps'][0]['parameters']['design']}" if "study" in verdict
                      else "one-mode joint")
         lines.append(f"| [{path.parent.name}]({_relative(path.with_suffix('.md'), out)}) | {verdict['provenance']} | "
-                     f"{reference} | {found} | {answer} | " + " | ".join(changes) + " |")
+                     f"{reference} | {found} | {seen} | {answer} | " + " | ".join(changes) + " |")
     lines.append("")
     lines += [_image(path.with_suffix(".png"), f"{path.parent.name} before and after", out) for path in verdicts]
     return lines

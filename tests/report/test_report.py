@@ -111,3 +111,24 @@ def test_report_timings_are_the_logged_runs(pipeline_report):
     for record in records[:2]:  # the study and the discrepancy loop (the report logs itself after writing)
         row = f"| `{' '.join(record['command'])}` | {record['finished']} | {record['wall_s']:.1f} |"
         assert row in text
+
+
+def test_discrepancy_section_shows_the_signal_findings_beside_the_errors(tmp_path):
+    """Section 8: a verdict with a finding outside the library reads "unexplained" with the finding named in the
+    same row as the errors before and after; a backbone without its ring-down reads "not checked"."""
+    from report.document import discrepancy_section
+
+    errors = {"frequency_linf_hz": 0.5, "frequency_rms_hz": 0.2, "damping_linf": 1e-3, "damping_rms": 5e-4}
+    second_mode = {"name": "second_mode", "outside_library": True, "summary": "a second mode at 174.6 Hz",
+                   "evidence": {}}
+    for name, findings, checked in (("ring", [second_mode], ["second_mode", "drift"]), ("asb", [], [])):
+        folder = tmp_path / "results" / "discrepancy" / name
+        folder.mkdir(parents=True)
+        (folder / "discrepancy.json").write_text(json.dumps({
+            "provenance": "virtual", "effects": [], "unexplained": bool(findings), "findings": findings,
+            "signal_checks": checked, "not_determined": {}, "steps": [{"errors": errors, "parameters": {}}]}))
+    rows = {line.split("|")[1].strip(): line for line in discrepancy_section(tmp_path / "results", tmp_path)
+            if line.startswith("| [")}
+    ring, asb = (rows[f"[{name}](results/discrepancy/{name}/discrepancy.md)"] for name in ("ring", "asb"))
+    assert "| second_mode: a second mode at 174.6 Hz | unexplained (second_mode) | 0.5 -> 0.5 |" in ring
+    assert "| none | not checked | explained to the noise |" in asb
