@@ -48,9 +48,11 @@ def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_pa
                                         str(tmp_path / "data"), "--set", "study.dataset=asb", *shared),)
     assert steps["study-beams"].runs[0][-len(shared):] == shared
     fit, study = tmp_path / "results" / "fit-asb", str(tmp_path / "results" / "study-asb")
-    assert steps["fit-asb"].runs == (("fit", "--study", study, "--out", str(fit)), *(
+    assert steps["fit-asb"].runs == (("fit", "--study", study, "--out", str(fit)),)
+    assert steps["confidence-asb"].runs == tuple(
         ("confidence", "--study", study, "--model", model, "--bounds", str(fit / "bounds.csv"), "--out",
-         str(fit / f"confidence_{model}.csv")) for model in ("jenkins", "iwan4", "iwan5", "iwan4_core")))
+         str(fit / f"confidence_{model}.csv")) for model in ("jenkins", "iwan4", "iwan5", "iwan4_core"))
+    assert "confidence-asb" not in demo.DEMO_STEPS
     loops = steps["discrepancy"].runs
     assert steps["freevib"].runs == (("freevib", str(tmp_path / "hits.mat"), "--mode-hz", "80.5", "--per-channel",
                                       "--provenance", "measured", "--out", str(tmp_path / "results" / "freevib")),)
