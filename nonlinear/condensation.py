@@ -89,12 +89,12 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
         raise ValueError(f"{superelement.name}: a motion of negative stiffness "
                          f"({-np.sqrt(-free_stiffness.min()) / (2 * np.pi):.1f} Hz) leaves every joint spring "
                          "unstrained; no joint design holds it")
-    # The low modes that move the joint, diagonalised again (their stiffness need not vanish under prestress).
-    kept = rotation[moves_joint].T
-    low_eigenvalues, low_rotation = np.linalg.eigh(kept.T @ (eigenvalues[low][:, None] * kept))
-    low_eigenvalues[np.abs(low_eigenvalues) < rigid_eigenvalue] = 0.0  # rigid-body motion: round-off
-    modes = np.hstack([modes[:, low] @ kept @ low_rotation, modes[:, ~low]])
-    eigenvalues = np.concatenate([low_eigenvalues, eigenvalues[~low]])
+    if free.size:  # the low modes that move the joint, diagonalised again (prestress: not all of them rigid)
+        kept = rotation[moves_joint].T
+        low_eigenvalues, low_rotation = np.linalg.eigh(kept.T @ (eigenvalues[low][:, None] * kept))
+        low_eigenvalues[np.abs(low_eigenvalues) < rigid_eigenvalue] = 0.0  # rigid-body motion: round-off
+        modes = np.hstack([modes[:, low] @ kept @ low_rotation, modes[:, ~low]])
+        eigenvalues = np.concatenate([low_eigenvalues, eigenvalues[~low]])
     joint_modes = joint @ modes
     if reference_mode is None:
         reference = tied_modes(eigenvalues, joint_modes, rigid_frequency=rigid_frequency)[1][:, 0]

@@ -80,8 +80,9 @@ def outside_limits(design, names: list[str], limits: dict[str, tuple[float, floa
 
 
 def beam_space(rom_path: Path, frequency_hz: float) -> JointSpace:
-    """Joint space of a beam's superelement (``build/rom/<beam>.npz``, the unstressed halves as the study uses
-    them, :func:`reduction.superelement.beam_superelement`) tracking the mode a measurement at ``frequency_hz`` saw
+    """Joint space of a beam's superelement (``build/rom/<beam>.npz``, the prestressed halves K_A + K_bolt, the
+    study's default, :func:`reduction.superelement.beam_superelement`) tracking the mode a measurement at
+    ``frequency_hz`` saw
     (:func:`reduction.superelement.target_mode`: its tied first bending mode for the three beams)."""
     superelement = beam_superelement(Path(rom_path))
     _, shape, _ = target_mode(superelement, frequency_hz)
