@@ -13,6 +13,8 @@ Physics checked, against hand calculations on rigid halves and a dense eigen-sol
   negative stuck modes a dense eigen-solve finds, and kept in the results with its reason.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -23,7 +25,7 @@ from geometry.properties import patch_areas, patch_second_moments
 from nonlinear.condensation import RIGID_FREQUENCY, joint_space, stuck_stiffness_matrix, stuck_modes
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
 from nonlinear.qsma_vectorised import UNSTABLE, qsma_designs
-from reduction.superelement import beam_superelement, stuck_joint_modes
+from reduction.superelement import StructureError, beam_superelement, save_superelement, stuck_joint_modes
 
 NEGATIVE = -(2 * np.pi * RIGID_FREQUENCY) ** 2  # rad^2/s^2: below it a mode has negative stiffness
 STIFF_TANGENTIAL = 1e9  # N/m
@@ -157,3 +159,10 @@ def test_unstable_designs_are_counted_as_a_dense_solve_counts_them_and_kept(supe
     flagged = np.all(result.reason == UNSTABLE, axis=1)
     np.testing.assert_array_equal(flagged, dense > 0)
     assert np.all(np.isnan(result.stuck_frequency[flagged])) and not np.any(result.converged[flagged])
+
+
+def test_superelement_of_an_older_reduction_stage_is_refused(superelements, tmp_path):
+    """Without the patches' second moments the joint would silently lose its rotational rows."""
+    save_superelement(replace(superelements["BRB", False], patch_second_moments=None), tmp_path / "BRB.npz")
+    with pytest.raises(StructureError, match="patch_second_moments.*rerun `make rom`"):
+        beam_superelement(tmp_path / "BRB.npz")
