@@ -208,10 +208,11 @@ def stuck_stiffness(elements: PatchElements) -> np.ndarray:
 
 def joint_row_stiffness(stiffness, n_rows: int) -> np.ndarray:
     """Spring stiffness on every joint row (..., n_rows), N/m, from the stuck tangents (..., 3 n_patches) of
-    ``stuck_stiffness`` (returned unchanged when they already have n_rows entries): the translations' as given; where the joint also acts on the patch rotations
-    (n_rows = 5 n_patches, ``reduction.superelement.Superelement.joint_motion``: two rows per patch after the
-    translations) each patch's normal stiffness K_z on its two rotational rows, the normal springs spread over
-    the patch (rotational stiffness K_z J_p / A_p, N m/rad)."""
+    ``stuck_stiffness`` (returned unchanged when they already have n_rows entries): the translations' as given;
+    where the joint also acts on the patch rotations (n_rows = 5 n_patches,
+    ``reduction.superelement.Superelement.joint_motion``: two rows per patch after the translations) each patch's
+    normal stiffness K_z on its two rotational rows, the normal springs spread over the patch (rotational
+    stiffness K_z J_p / A_p, N m/rad)."""
     stiffness = np.asarray(stiffness, dtype=float)
     if stiffness.shape[-1] == n_rows:  # already on every row
         return stiffness

@@ -53,7 +53,9 @@ from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, poi
 from .superelement import Superelement, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
-FORMAT_VERSION = 4  # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache. 4: patch_second_moments
+# 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache.
+# 4: patch_second_moments.
+FORMAT_VERSION = 4
 VERSIONS = stage_versions(FORMAT_VERSION, "numpy", "scipy", "scikit-fem")  # the sidecar's versions
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
 FE_ARRAYS = ("coordinates", *(f"{matrix}_{part}" for matrix in ("stiffness", "mass", "stress_stiffness")

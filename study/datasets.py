@@ -6,9 +6,10 @@ study reads only those files, whatever the source:
 
 - ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, by default the prestressed
   halves K_A + K_bolt, with ``prestress`` false the unstressed K; ``reduction.superelement.beam_superelement``),
-  measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled virtual). Linear damping cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the
-  SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's. Added to the joint's
-  damping (``study.errors`` rule "added"): the virtual experiments add it so.
+  measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled virtual). Linear damping
+  cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the SBRB's Table 1 value, each
+  applied to every beam; the paper's default is the BRB's. Added to the joint's damping (``study.errors`` rule
+  "added"): the virtual experiments add it so.
 - ``asb``: the six configurations C1, C2, C3, C4, C4a, CD1 of the real assembly (ABAQUS reduced models and
   measured backbones; CD2 has no reduced model). Every patch in one group, so that one design
   is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:

@@ -21,9 +21,9 @@ from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, 
 from virtual_experiment.reference_joint import beam_space, reference_joint
 from nonlinear.qsma_vectorised import qsma_designs
 
-# Tied first and second flexible frequencies (Hz) of the unstressed superelements. Tolerance 1e-6 relative: the meshes and the reduction are
-# deterministic (fixed Lanczos start, one sign convention); gmsh or LAPACK versions move them by ~1e-9 here,
-# a mesh or physics change by 1e-3 or more.
+# Tied first and second flexible frequencies (Hz) of the unstressed superelements. Tolerance 1e-6 relative: the
+# meshes and the reduction are deterministic (fixed Lanczos start, one sign convention); gmsh or LAPACK versions
+# move them by ~1e-9 here, a mesh or physics change by 1e-3 or more.
 TIED_HZ = {"BRB": (189.71908769, 220.27126324), "LBRB": (88.38676223, 99.21309485),
            "SBRB": (94.37010418, 163.7691572)}
 # The BRB reference joint's K_T of patches {1, 5} (N/m) and its QSMA backbone at 1e-5, 5e-5, 2e-4 m kg^0.5 with
