@@ -190,9 +190,9 @@ class StuckModes(NamedTuple):
     """Low-amplitude (stuck-joint) data per design, arrays with a leading design axis.
 
     eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
-    positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
-    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2, or only the
-    rows and columns asked for (``stuck_modes``' rows); found: False
+    positive projection on the reference); joint_shape: b = Phi shape (relative joint motions per unit q, rows
+    as ``JointSpace.joint_modes``); mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N),
+    (m, m) for the m joint rows, or only the rows and columns asked for (``stuck_modes``' rows); found: False
     where no stuck mode was found below the split's cutoff (then the fields hold the best attempt); unstable:
     the number of stuck modes of negative stiffness (below -(2 pi RIGID_FREQUENCY)^2): prestressed halves on a
     joint too soft to carry the preload's geometric softening; where it is not 0 the other fields are undefined

@@ -95,7 +95,7 @@ class Superelement:
         unit area) resist a relative rotation theta = (theta_x, theta_y) with the energy
         K_z theta^T J_p theta / (2 A_p), i.e. as one spring K_z on each of the rows
         rho_i e_i^T theta, J_p / A_p = sum_i rho_i^2 e_i e_i^T (principal axes e_i, radii of gyration rho_i):
-        the normal motion of the patch at its radii of gyration (docs/design.md section 5).
+        the normal motion of the patch at its radii of gyration (docs/design.md section 4).
         m = 3 n_patches without second moments, 5 n_patches with them."""
         if self.patch_second_moments is None:
             return self.relative_translation
