@@ -279,7 +279,7 @@ def balanced_stiffness(stiffness: np.ndarray, mass: np.ndarray, rigid: np.ndarra
 
     The clamp's prestress is self-equilibrated (the halves' K_sigma and the shanks' strings balance), so a rigid
     motion of the whole assembly carries neither energy nor force. The reduced K_A + K_bolt gives it the energy
-    but not quite the force (|K R| near 1e-5 of |K| for the rotations about x and y), which mixes the assembly's
+    but not quite the force (|K R| about 3e-6 of |K| |R| for the rotations about x and y), which mixes the assembly's
     rotations into the halves' relative modes that the joint moves. P leaves the stiffness between motions
     M-orthogonal to R unchanged (P u = u there) and only removes that coupling."""
     projector = np.eye(len(mass)) - rigid @ np.linalg.solve(rigid.T @ mass @ rigid, rigid.T @ mass)

@@ -25,6 +25,7 @@ from geometry.properties import patch_areas, patch_second_moments
 from nonlinear.condensation import RIGID_FREQUENCY, joint_space, stuck_stiffness_matrix, stuck_modes
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
 from nonlinear.qsma_vectorised import UNSTABLE, qsma_designs
+from reduction.craig_bampton import rigid_reduced_coordinates
 from reduction.superelement import StructureError, beam_superelement, save_superelement, stuck_joint_modes
 
 NEGATIVE = -(2 * np.pi * RIGID_FREQUENCY) ** 2  # rad^2/s^2: below it a mode has negative stiffness
@@ -166,3 +167,18 @@ def test_superelement_of_an_older_reduction_stage_is_refused(superelements, tmp_
     save_superelement(replace(superelements["BRB", False], patch_second_moments=None), tmp_path / "BRB.npz")
     with pytest.raises(StructureError, match="patch_second_moments.*rerun `make rom`"):
         beam_superelement(tmp_path / "BRB.npz")
+
+
+@pytest.mark.parametrize("beam", BEAM_NAMES)
+def test_prestressed_assembly_moves_rigidly_without_force(superelements, beam_roms, beam):
+    """The clamp's prestress is self-equilibrated, so a rigid motion R of the whole assembly carries no force:
+    K R = 0 to round-off for the balanced K_A + K_bolt (2e-15 to 4e-15 of |K| |R|; the stored sum leaves 2.8e-6 on
+    the rotations about x and y, ``reduction.superelement.balanced_stiffness``)."""
+    superelement = superelements[beam, True]
+    with np.load(beam_roms / f"{beam}.npz", allow_pickle=False) as data:
+        rigid = rigid_reduced_coordinates(data["virtual_node_coordinates"][:superelement.n_patches],
+                                          superelement.mass.shape[0])
+        stored = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
+    scale = np.abs(superelement.stiffness).max() * np.abs(rigid).max()
+    assert np.abs(superelement.stiffness @ rigid).max() <= 1e-12 * scale
+    assert np.abs(stored @ rigid).max() > 1e-7 * scale
