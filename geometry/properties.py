@@ -47,6 +47,47 @@ def patch_areas(beam: BeamParameters) -> np.ndarray:
     return np.array(areas)
 
 
+def patch_second_moments(beam: BeamParameters) -> np.ndarray:
+    """Second moments of area of each interface patch about its centroid, m^4, shape (n_patches, 2, 2): the
+    matrix J of ``face_second_moments`` for the strip less the circular holes it contains (centred on y = 0).
+
+    Strip of length L (x) and width w (y) centred at x_s: int y^2 dA = L w^3 / 12, int (x - c)^2 dA =
+    w L^3 / 12 + L w (x_s - c)^2; a hole of diameter d at x_h removes pi d^4 / 64 from both and
+    pi d^2 / 4 (x_h - c)^2 from the second; c is the centroid of the strip less its holes, and every product
+    moment int (x - c) y dA vanishes by the mirror symmetry about y = 0.
+    """
+    moments = []
+    for lower, upper in beam.patch_bounds:
+        holes = np.array([x for x in beam.bolt_x if lower < x < upper])
+        length, centre = upper - lower, (upper + lower) / 2
+        strip, hole = length * beam.width, hole_area(beam)
+        centroid = (strip * centre - hole * holes.sum()) / (strip - hole * len(holes))
+        hole_own = math.pi * beam.hole_diameter ** 4 / 64
+        about_x = length * beam.width ** 3 / 12 - len(holes) * hole_own
+        about_y = (beam.width * length ** 3 / 12 + strip * (centre - centroid) ** 2
+                   - np.sum(hole_own + hole * (holes - centroid) ** 2))
+        moments.append(np.diag([about_x, about_y]))
+    return np.array(moments)
+
+
+def face_second_moments(points: np.ndarray, triangles: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Second moments of area of a flat face in a plane z = const about the point ``centre`` (3,), m^4, (2, 2):
+
+        J = int [[y^2, -x y], [-x y, x^2]] dA,   (x, y) measured from the centre,
+
+    so that a rotation (theta_x, theta_y) of the face moves it normally by w = theta_x y - theta_y x and
+    int w^2 dA = theta^T J theta. triangles: (m, 3 or 6), corners first; the edge-midpoint rule (A / 3 at each
+    mid-side) integrates these quadratics exactly on straight-sided triangles.
+    """
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    area = triangle_areas(points, triangles)
+    moments = np.zeros((2, 2))
+    for midpoint in ((a + b) / 2, (b + c) / 2, (c + a) / 2):
+        x, y = (midpoint[:, :2] - np.asarray(centre)[:2]).T
+        moments += np.array([[area @ (y * y), -area @ (x * y)], [-area @ (x * y), area @ (x * x)]]) / 3
+    return moments
+
+
 def tetrahedron_volumes(points: np.ndarray, tetrahedra: np.ndarray) -> np.ndarray:
     """Volumes of straight-sided tetrahedra, m^3, shape (n,). tetrahedra: (n, 4 or 10), corners first."""
     a, b, c, d = (points[tetrahedra[:, i]] for i in range(4))

@@ -10,6 +10,7 @@ Friction models (:mod:`nonlinear.friction_models`, the registry every other modu
     FRICTION_MODELS, friction_model   jenkins, iwan4, iwan5, iwan4_stuck, iwan4_core: parameters, limits, slip law
 Joint (:mod:`nonlinear.joint`, :mod:`nonlinear.parameters`)
     patch_elements, random_designs, stuck_stiffness   a design's elements on the patches (Table 3 parameters)
+    joint_row_stiffness         the springs on every joint row (normal K_z on the patch rotations' rows too)
 Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuck_modes`)
     joint_space                 unjoined modes of a superelement and the joint's relative motion in them
     stuck_modes, stuck_designs  linear modes with the joint stuck: one design, many designs (compiled)

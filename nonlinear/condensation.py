@@ -4,11 +4,15 @@ Joint stiffnesses span 1e2 to 1e14 N/m next to modal stiffnesses near 1e5 (docs/
 joined structure is never formed in the superelement's own coordinates. Instead:
 
 1. Once per structure, the modes of the two unjoined halves, K psi = lambda M psi, mass-normalised. Modes
-   below ``rigid_frequency`` are rigid-body modes; combinations of them that do not move the joint (rigid
-   motion of the whole assembly, or a relative rotation about the line through collinear patch centres) are
-   removed, so that any positive joint stiffness makes the structure positive definite. In these coordinates
-   eta (u = Psi eta) the mass is the identity, the stiffness diag(lambda), and the relative joint
-   translations are r = Phi eta with Phi = B Psi (3 n_patches x n_modes).
+   below ``rigid_frequency`` are rigid-body modes, or, for prestressed halves, modes the preload's geometric
+   stiffness makes negative; combinations of them that do not move the joint (rigid motion of the whole
+   assembly, or, where the joint acts on translations only, a relative rotation about the line through collinear
+   patch centres) are removed, so that any positive joint stiffness makes the unstressed structure positive
+   definite; the rest are diagonalised again, their negative eigenvalues kept. In these coordinates eta
+   (u = Psi eta) the mass is the identity, the stiffness diag(lambda), and the relative joint motions are
+   r = Phi eta with Phi = B Psi (m x n_modes, B the superelement's ``joint_motion``: the 3 n_patches relative
+   translations, then two rows per patch for the normal springs' action on its rotations where the superelement
+   knows the patches' second moments).
 2. Per design, with the stuck joint tangents k (3 n_patches), the stuck matrix
    A = diag(lambda) + Phi^T diag(k) Phi (identity mass: no Cholesky of an ill-conditioned mass matrix; the
    ASB models' mass matrices have condition numbers near 1e13) is never decomposed: a dense eigen-solve of
@@ -31,6 +35,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
+from nonlinear.joint import joint_row_stiffness, tangential_rows as tangential_joint_rows
 from nonlinear.stuck_modes import stuck_designs
 from reduction.superelement import Superelement, tied_modes
 
@@ -46,9 +51,12 @@ CUTOFF_FACTOR = 4.0
 class JointSpace(NamedTuple):
     """Modal data of an unjoined superelement, reduced to what the joint needs.
 
-    eigenvalues: (n_modes,) lambda of the unjoined halves, rad^2/s^2 (rigid-body modes exactly 0).
+    eigenvalues: (n_modes,) lambda of the unjoined halves, rad^2/s^2 (rigid-body modes exactly 0; negative for
+        motions the preload's geometric stiffness softens more than the halves resist, which only the joint
+        holds).
     modes: (n, n_modes) mass-normalised mode shapes Psi in the superelement's coordinates.
-    joint_modes: (3 n_patches, n_modes) Phi = B Psi, relative translations (m) per unit modal coordinate.
+    joint_modes: (m, n_modes) Phi = B Psi, relative joint motions (m) per unit modal coordinate, rows as the
+        superelement's ``joint_motion`` (the 3 n_patches translations first).
     reference: (n_modes,) unit reference mode shape for the target-mode MAC.
     superelement: the model it came from (patch layout, sensors).
     """
@@ -65,19 +73,28 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
     """Unjoined modes of ``superelement`` without the joint-free rigid-body modes, and the reference mode.
 
     reference_mode: (n,) shape in the superelement's coordinates to track; default the first elastic mode
-    of the structure with all relative patch translations tied (``reduction.superelement.tied_modes``).
+    of the structure with every joint motion tied (``reduction.superelement.tied_modes``).
+    Raises ValueError where a motion of negative stiffness leaves the joint unstrained: no joint design holds it.
     """
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
-    joint = superelement.relative_translation
-    rigid = eigenvalues < (2.0 * np.pi * rigid_frequency) ** 2
-    rigid_modes = modes[:, rigid]
-    _, singular_values, rotation = np.linalg.svd(joint @ rigid_modes, full_matrices=True)
-    moves_joint = np.zeros(rigid.sum(), dtype=bool)
+    joint = superelement.joint_motion
+    rigid_eigenvalue = (2.0 * np.pi * rigid_frequency) ** 2
+    low = eigenvalues < rigid_eigenvalue
+    _, singular_values, rotation = np.linalg.svd(joint @ modes[:, low], full_matrices=True)
+    moves_joint = np.zeros(low.sum(), dtype=bool)
     moves_joint[: len(singular_values)] = singular_values > 1e-9 * np.linalg.norm(joint @ modes, axis=0).max()
-    if not moves_joint.all():  # some rigid-body motion leaves the joint unstrained: drop it
-        rigid_modes = rigid_modes @ rotation.T[:, moves_joint]
-        modes = np.hstack([rigid_modes, modes[:, ~rigid]])
-        eigenvalues = np.concatenate([np.zeros(moves_joint.sum()), eigenvalues[~rigid]])
+    free = rotation[~moves_joint]  # (k, n_low) joint-free combinations of the low modes
+    free_stiffness = np.einsum("kl,l,kl->k", free, eigenvalues[low], free)
+    if np.any(free_stiffness < -rigid_eigenvalue):
+        raise ValueError(f"{superelement.name}: a motion of negative stiffness "
+                         f"({-np.sqrt(-free_stiffness.min()) / (2 * np.pi):.1f} Hz) leaves every joint spring "
+                         "unstrained; no joint design holds it")
+    if free.size:  # the low modes that move the joint, diagonalised again (prestress: not all of them rigid)
+        kept = rotation[moves_joint].T
+        low_eigenvalues, low_rotation = np.linalg.eigh(kept.T @ (eigenvalues[low][:, None] * kept))
+        low_eigenvalues[np.abs(low_eigenvalues) < rigid_eigenvalue] = 0.0  # rigid-body motion: round-off
+        modes = np.hstack([modes[:, low] @ kept @ low_rotation, modes[:, ~low]])
+        eigenvalues = np.concatenate([low_eigenvalues, eigenvalues[~low]])
     joint_modes = joint @ modes
     if reference_mode is None:
         reference = tied_modes(eigenvalues, joint_modes, rigid_frequency=rigid_frequency)[1][:, 0]
@@ -102,12 +119,12 @@ class JointMechanisms(NamedTuple):
 
 
 def joint_mechanisms(space: JointSpace, rigid_frequency: float = RIGID_FREQUENCY) -> JointMechanisms:
-    """The tangential mechanisms of ``space``: combinations of its rigid-body modes whose normal joint
-    translations vanish (to 1e-9 of the largest joint motion), orthonormalised in the tangential joint motion."""
-    rigid = np.flatnonzero(space.eigenvalues < (2.0 * np.pi * rigid_frequency) ** 2)
-    n_patches = space.superelement.n_patches
-    rows = (np.arange(n_patches)[:, None] * 3 + np.arange(3)).reshape(n_patches, 3)
-    tangential_rows, normal_rows = rows[:, :2].ravel(), rows[:, 2]
+    """The tangential mechanisms of ``space``: combinations of its rigid-body modes whose normal joint motions
+    (normal translations and, where the joint acts on them, the patch rotations' rows) vanish (to 1e-9 of the
+    largest joint motion), orthonormalised in the tangential joint motion."""
+    rigid = np.flatnonzero(np.abs(space.eigenvalues) < (2.0 * np.pi * rigid_frequency) ** 2)
+    tangential_rows = tangential_joint_rows(space.superelement.n_patches)
+    normal_rows = np.setdiff1d(np.arange(space.joint_modes.shape[0]), tangential_rows)
     motion = space.joint_modes[:, rigid]
     scale = np.abs(motion).max() if motion.size else 1.0
     _, singular_values, right = np.linalg.svd(motion[normal_rows], full_matrices=True)
@@ -124,8 +141,9 @@ def joint_mechanisms(space: JointSpace, rigid_frequency: float = RIGID_FREQUENCY
 
 def stuck_stiffness_matrix(space: JointSpace, joint_stiffness) -> np.ndarray:
     """A = diag(lambda) + Phi^T diag(k) Phi, (..., n_modes, n_modes) N/m per unit modal mass, for joint
-    tangents k of shape (..., 3 n_patches)."""
-    k = np.asarray(joint_stiffness, dtype=float)
+    tangents of shape (..., 3 n_patches) (``nonlinear.joint.stuck_stiffness``; k on every joint row by
+    ``joint_row_stiffness``)."""
+    k = joint_row_stiffness(joint_stiffness, space.joint_modes.shape[0])
     phi = space.joint_modes
     return np.diag(space.eigenvalues) + (phi.T * k[..., None, :]) @ phi
 
@@ -172,10 +190,13 @@ class StuckModes(NamedTuple):
     """Low-amplitude (stuck-joint) data per design, arrays with a leading design axis.
 
     eigenvalue: lambda_1 of the tracked mode, rad^2/s^2; shape: its mode in modal coordinates (unit norm,
-    positive projection on the reference); joint_shape: b = Phi shape (relative translations per unit q);
-    mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N), (3 n_patches)^2, or only the
-    rows and columns asked for (``stuck_modes``' rows); found: False
-    where no stuck mode was found below the split's cutoff (then the fields hold the best attempt).
+    positive projection on the reference); joint_shape: b = Phi shape (relative joint motions per unit q, rows
+    as ``JointSpace.joint_modes``); mac: its MAC against the reference; compliance: C = (H + K_d)^-1 (m/N),
+    (m, m) for the m joint rows, or only the rows and columns asked for (``stuck_modes``' rows); found: False
+    where no stuck mode was found below the split's cutoff (then the fields hold the best attempt); unstable:
+    the number of stuck modes of negative stiffness (below -(2 pi RIGID_FREQUENCY)^2): prestressed halves on a
+    joint too soft to carry the preload's geometric softening; where it is not 0 the other fields are undefined
+    and ``found`` is False.
     """
 
     eigenvalue: np.ndarray
@@ -184,23 +205,27 @@ class StuckModes(NamedTuple):
     mac: np.ndarray
     compliance: np.ndarray
     found: np.ndarray
+    unstable: np.ndarray
 
 
 def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None, rows=None) -> StuckModes:
     """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches),
-    N/m, by the small exact eigenproblem of ``nonlinear.stuck_modes`` (no n_modes x n_modes solve).
-    rows: the joint rows (e.g. the tangential ones) whose compliance block is wanted; default all.
+    N/m (``nonlinear.joint.stuck_stiffness``), by the small exact eigenproblem of ``nonlinear.stuck_modes`` (no
+    n_modes x n_modes solve). rows: the joint rows (e.g. the tangential ones) whose compliance block is wanted;
+    default all. The stuck structure's negative-stiffness modes are counted (``StuckModes.unstable``), from the
+    signs of the small problem's estimates (Sylvester's law of inertia).
 
     The target is the stuck mode with the largest MAC against the reference among those below the cutoff
     (every mode with MAC above 1 / CUTOFF_FACTOR is there, see ``modal_split``).
     """
     split = modal_split(space) if split is None else split
-    k = np.ascontiguousarray(np.atleast_2d(joint_stiffness), dtype=float)
     phi, eigenvalues, reference = space.joint_modes, space.eigenvalues, space.reference
-    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found = stuck_designs(
+    k = np.ascontiguousarray(joint_row_stiffness(np.atleast_2d(joint_stiffness), phi.shape[0]), dtype=float)
+    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, estimates = stuck_designs(
         k, eigenvalues[split.low], np.ascontiguousarray(phi[:, split.low]), eigenvalues[split.high],
         np.ascontiguousarray(phi[:, split.high]), split.high_outer, reference[split.low], reference[split.high],
         UNAMBIGUOUS_MAC, np.arange(k.shape[1]) if rows is None else np.asarray(rows, dtype=np.int64))
     shape = np.empty((len(k), len(eigenvalues)))
     shape[:, split.low], shape[:, split.high] = shape_low, shape_high
-    return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, found)
+    unstable = np.count_nonzero(estimates < -(2.0 * np.pi * RIGID_FREQUENCY) ** 2, axis=1)
+    return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, found & (unstable == 0), unstable)

@@ -204,3 +204,21 @@ def stuck_stiffness(elements: PatchElements) -> np.ndarray:
     tangential = elements.stiffness + elements.core_stiffness
     return np.stack([tangential, tangential, elements.normal_stiffness], axis=-1).reshape(
         elements.stiffness.shape[0], -1)
+
+
+def joint_row_stiffness(stiffness, n_rows: int) -> np.ndarray:
+    """Spring stiffness on every joint row (..., n_rows), N/m, from the stuck tangents (..., 3 n_patches) of
+    ``stuck_stiffness`` (returned unchanged when they already have n_rows entries): the translations' as given;
+    where the joint also acts on the patch rotations (n_rows = 5 n_patches,
+    ``reduction.superelement.Superelement.joint_motion``: two rows per patch after the translations) each patch's
+    normal stiffness K_z on its two rotational rows, the normal springs spread over the patch (rotational
+    stiffness K_z J_p / A_p, N m/rad)."""
+    stiffness = np.asarray(stiffness, dtype=float)
+    if stiffness.shape[-1] == n_rows:  # already on every row
+        return stiffness
+    n_patches = stiffness.shape[-1] // 3
+    if stiffness.shape[-1] != 3 * n_patches or n_rows != 5 * n_patches:
+        raise ValueError(f"{n_rows} joint rows for {n_patches} patches: expected {3 * n_patches} (translations) "
+                         f"or {5 * n_patches} (translations and the normal springs' rotational rows)")
+    normal = stiffness[..., 2::3]
+    return np.concatenate([stiffness, np.repeat(normal, 2, axis=-1)], axis=-1)

@@ -35,8 +35,8 @@ import numpy as np
 import scipy.optimize
 
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, modal_assurance, stuck_stiffness_matrix
-from nonlinear.joint import (patch_elements, scaled_law, slip_displacement, stuck_stiffness, tangential_dissipation,
-                             tangential_elements, tangential_rows, tangential_slip_deficit)
+from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, slip_displacement, stuck_stiffness,
+                             tangential_dissipation, tangential_elements, tangential_rows, tangential_slip_deficit)
 
 CONVERGED = ""
 NOT_CONVERGED = "solver did not converge"
@@ -105,7 +105,8 @@ def stuck_energy_quotient(space: JointSpace, joint_stiffness, shape) -> float:
     absolute error of eps ||A||, up to 2e-6 of lambda_1 on stiff designs.
     """
     joint = space.joint_modes @ shape
-    return float((space.eigenvalues @ shape ** 2 + np.asarray(joint_stiffness) @ joint ** 2) / (shape @ shape))
+    stiffness = joint_row_stiffness(joint_stiffness, len(joint))
+    return float((space.eigenvalues @ shape ** 2 + stiffness @ joint ** 2) / (shape @ shape))
 
 
 def stuck_target_mode(space: JointSpace, joint_stiffness, refinements: int = RAYLEIGH_REFINEMENTS
@@ -114,7 +115,8 @@ def stuck_target_mode(space: JointSpace, joint_stiffness, refinements: int = RAY
     by MAC against the reference, then refined by Rayleigh quotient iteration (shape <- (A - lambda I)^-1
     shape, lambda <- ``stuck_energy_quotient``), which converges cubically to the eigenpair.
 
-    joint_stiffness: (3 n_patches,) stuck tangents k, N/m. The dense solve's eigenvalue is off by up to
+    joint_stiffness: (3 n_patches,) stuck tangents k, N/m (``joint_row_stiffness`` puts them on every joint
+    row). The dense solve's eigenvalue is off by up to
     eps ||A|| (2e-6 of lambda_1 when joints reach 1e14 N/m); the energy quotient removes that error, and its
     error is second order in the shape's.
     """

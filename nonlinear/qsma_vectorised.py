@@ -22,11 +22,13 @@ UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma
               "forces (deep macroslip)")
 FLAT_ENERGY = ("flat energy: every element along a joint mechanism slides and the Newton step from the point is "
                f"above {qsma_kernel.STEP_ACCEPT:g} of the joint motion (no resolved equilibrium there)")
-# Reason codes 0 to 6 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
-# mechanism, flat energy) and their texts, an object array: indexing it with the codes gives the reason strings
-# without copying them.
-REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED, FLAT_ENERGY],
-                   dtype=object)
+UNSTABLE = ("unstable: the stuck joint is too soft to carry the preload's geometric softening of the prestressed "
+            "halves (a stuck mode of negative stiffness)")
+# Reason codes 0 to 7 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
+# mechanism, flat energy, unstable) and their texts, an object array: indexing it with the codes gives the reason
+# strings without copying them.
+REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED, FLAT_ENERGY,
+                    UNSTABLE], dtype=object)
 NOTES = np.array(["", JUMPED], dtype=object)  # per converged level: none, or where the loading path jumps
 
 
@@ -73,10 +75,11 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     code[status == qsma_kernel.FLAT] = 6
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
+    code[modes.unstable > 0] = 7
     converged &= code == 0
     note = NOTES[(converged & (status == qsma_kernel.JUMPED)).astype(np.int8)]
     reason = REASONS[code]  # references to five strings, not (designs, levels) copies of up to 50 characters
     return QSMAResult(
         amplitude=amplitude, force=force, frequency=frequency, damping=damping,
         joint_displacement=joint_displacement, slip_ratio=slip_ratio, converged=converged, reason=reason,
-        stuck_frequency=np.sqrt(modes.eigenvalue), mac=modes.mac, note=note)
+        stuck_frequency=np.sqrt(np.where(modes.unstable > 0, np.nan, modes.eigenvalue)), mac=modes.mac, note=note)

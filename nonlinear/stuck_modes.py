@@ -307,8 +307,12 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     high_outer as in ``_high_flexibility``; reference_low/high: the unit reference mode split alike. Returns the
     eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
     joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
-    on the joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, and found (n_designs,) bool (False where the root was not found to
-    ROOT_TOLERANCE). Work arrays are allocated once per call.
+    on the joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, found (n_designs,) bool (False
+    where the root was not found to ROOT_TOLERANCE), and the estimates delta (n_designs, n_L) of the low stuck
+    eigenvalues (rad^2/s^2, increasing), whose signs are those of the stuck eigenvalues (S(0) and the stuck
+    matrix have as many negative eigenvalues, Sylvester's law of inertia): a negative one is a stuck mode the
+    joint does not hold (prestressed halves on too soft a joint), and the design's other outputs are then not
+    defined. Work arrays are allocated once per call.
 
     Compliance, from the static problem at mu = 0 (load p on r; Z0, S0, X0 at mu = 0; W = K^-1 Z0):
 
@@ -327,6 +331,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     n_rows = rows.size
     compliance = np.empty((n_designs, n_rows, n_rows))
     found = np.empty(n_designs, dtype=np.bool_)
+    low_estimates = np.empty((n_designs, n_low))
     work = _work(m, n_low, n_high)
     inverse_stiffness = np.empty(m)
     static_packed = np.empty(m * (m + 1) // 2)
@@ -391,6 +396,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             for j in range(k + 1):
                 work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
         symmetric_eigen_in_place(work.small, delta, estimates)
+        low_estimates[d] = delta
         backward_substitute(metric_factor, estimates)
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
@@ -433,4 +439,4 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                 shape_low[d], shape_high[d], joint_shape[d] = work.v_low, work.v_high, work.b
             if best_mac >= unambiguous_mac:
                 break
-    return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found
+    return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates

@@ -31,7 +31,7 @@ import numpy as np
 
 from experiment.ringdown import RingDown
 from nonlinear.condensation import JointSpace
-from nonlinear.joint import patch_elements, stuck_stiffness, tangential_elements, tangential_rows
+from nonlinear.joint import joint_row_stiffness, patch_elements, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import stuck_target_mode
 from nonlinear.sliders import Sliders, initial_state, slider_response
 
@@ -150,18 +150,18 @@ def ring_down(space: JointSpace, model: str, design, duration: float, time_step:
     """
     superelement = space.superelement
     elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
-    joint_stiffness = stuck_stiffness(elements)[0]
+    joint_stiffness = joint_row_stiffness(stuck_stiffness(elements)[0], space.joint_modes.shape[0])
     stuck = stuck_target_mode(space, joint_stiffness)
     shape = stuck.shape
     damping = (stuck.shapes * (2.0 * linear_damping * np.sqrt(np.abs(stuck.eigenvalues)))) @ stuck.shapes.T
     sliders = stacked_sliders(element_sliders(model, design, superelement.patch_groups, stuck_group))
     states = initial_state(sliders)
     tangential = tangential_rows(superelement.n_patches)
-    normal = np.setdiff1d(np.arange(3 * superelement.n_patches), tangential)
+    normal = np.setdiff1d(np.arange(len(joint_stiffness)), tangential)  # linear springs: normal and rotational rows
     phi, stiffness = space.joint_modes, space.eigenvalues
 
     def joint_force(eta, states):
-        """Joint forces (3 n_patches) N, tangent stiffnesses, and the trial slider states."""
+        """Joint forces (one per joint row) N, tangent stiffnesses, and the trial slider states."""
         r = phi @ eta
         force, tangent = np.empty_like(r), np.empty_like(r)
         force[normal], tangent[normal] = joint_stiffness[normal] * r[normal], joint_stiffness[normal]

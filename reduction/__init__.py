@@ -8,7 +8,9 @@
 - ``sensors``: ``accelerometer_points``, ``point_recovery``.
 - ``superelement``: ``Superelement``, ``save_superelement``, ``load_superelement``, ``read_asb_superelement``,
   ``ASB_CONFIGURATIONS``, ``tied_modes``, ``stuck_joint_modes``, ``beam_superelement`` (a beam's superelement as
-  the study uses it), ``target_mode`` (the mode a measurement saw), ``StructureError``.
+  the study uses it, prestressed by default), ``balanced_stiffness``, ``normal_rotation_rows`` (the joint's rows on
+  the patch rotations, ``Superelement.joint_motion``), ``target_mode`` (the mode a measurement saw),
+  ``StructureError``.
 - ``render``: ``render_mode``.
 - ``rom_files``: ``make_rom`` (one beam's result files, cached), ``ReductionParameters``, ``fe_inputs``.
 - ``commands``: ``surrogacy rom``.

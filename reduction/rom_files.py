@@ -18,6 +18,8 @@ rad, about the patch centroids) and 26 fixed-interface modal coordinates (``dof_
 - patch_motion (30, n): relative virtual-node motion upper minus lower of patch p, rows 6 p .. 6 p + 5;
   patch_areas (5,) m^2; patch_groups (5,) 0-based symmetry groups (0, 1, 2, 1, 0); patch_pairs (5, 2) indices of
   the lower and upper virtual node of each pair (0-based; 1-based in the .mat); virtual_node_coordinates (10, 3) m;
+  patch_second_moments (5, 2, 2) m^4, each lower patch's J = int [[y^2, -x y], [-x y, x^2]] dA about its virtual
+  node (the joint's normal springs act on the patch rotations through it, ``Superelement.joint_motion``);
 - sensors (10, n): u_z (m) at the accelerometers; sensor_points (10, 3) m (``reduction.sensors``); preload (n,)
   N, generalised force of the bolt pretension; name;
 - interface_points (n_pairs, 3) m and interface_lower_recovery, interface_upper_recovery (3 n_pairs, n): the
@@ -51,7 +53,9 @@ from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, poi
 from .superelement import Superelement, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
-FORMAT_VERSION = 3  # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache
+# 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache.
+# 4: patch_second_moments.
+FORMAT_VERSION = 4
 VERSIONS = stage_versions(FORMAT_VERSION, "numpy", "scipy", "scikit-fem")  # the sidecar's versions
 ONE_BASED = ("patch_pairs", "tetrahedra")  # index arrays shifted by one in the .mat
 FE_ARRAYS = ("coordinates", *(f"{matrix}_{part}" for matrix in ("stiffness", "mass", "stress_stiffness")

@@ -9,7 +9,7 @@ patch layout.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +39,10 @@ class Superelement:
     preload: (n,) generalised force of the bolt preload (N), or None; the nonlinear stage with linear normal
         springs does not use it.
     name: label for reports.
+    patch_second_moments: (n_patches, 2, 2) m^4, the second moments of area J of each patch about its virtual
+        node (``geometry.properties.face_second_moments``, interface in a plane z = const), or None where the
+        patch geometry is not known (the ASB's files). With them the joint's normal springs, spread over the
+        patch, also act on the relative patch rotations (``joint_motion``).
     """
 
     mass: np.ndarray
@@ -49,6 +53,7 @@ class Superelement:
     sensors: np.ndarray
     preload: np.ndarray | None = None
     name: str = "superelement"
+    patch_second_moments: np.ndarray | None = None
 
     def __post_init__(self):
         n = self.mass.shape[0]
@@ -66,6 +71,11 @@ class Superelement:
                              f"{n_patches} patches")
         if self.sensors.shape[1] != n:
             raise ValueError(f"sensors must have {n} columns; got {self.sensors.shape}")
+        if self.patch_second_moments is not None and (
+                self.patch_second_moments.shape != (n_patches, 2, 2)
+                or np.any(np.linalg.eigvalsh(self.patch_second_moments) <= 0.0)):
+            raise ValueError(f"patch_second_moments must be ({n_patches}, 2, 2) symmetric positive definite; got "
+                             f"shape {self.patch_second_moments.shape}")
 
     @property
     def n_patches(self) -> int:
@@ -77,13 +87,41 @@ class Superelement:
         rows = np.arange(self.n_patches)[:, None] * DOFS_PER_PATCH + np.arange(3)
         return self.patch_motion[rows.ravel()]
 
+    @property
+    def joint_motion(self) -> np.ndarray:
+        """(m, n) map to the relative patch motions the joint's springs act on (m, per unit q): the 3 n_patches
+        translations (``relative_translation``), then, where the second moments are known, two rows per patch
+        (``normal_rotation_rows``): the patch's normal springs spread over its area (stiffness K_z / A_p per
+        unit area) resist a relative rotation theta = (theta_x, theta_y) with the energy
+        K_z theta^T J_p theta / (2 A_p), i.e. as one spring K_z on each of the rows
+        rho_i e_i^T theta, J_p / A_p = sum_i rho_i^2 e_i e_i^T (principal axes e_i, radii of gyration rho_i):
+        the normal motion of the patch at its radii of gyration (docs/design.md section 4).
+        m = 3 n_patches without second moments, 5 n_patches with them."""
+        if self.patch_second_moments is None:
+            return self.relative_translation
+        rotations = self.patch_motion.reshape(self.n_patches, DOFS_PER_PATCH, -1)[:, 3:5]
+        scaled = normal_rotation_rows(self.patch_second_moments, self.patch_areas)
+        return np.vstack([self.relative_translation, (scaled @ rotations).reshape(2 * self.n_patches, -1)])
+
+
+def normal_rotation_rows(second_moments: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """(n_patches, 2, 2) R_p with R_p^T R_p = J_p / A_p (m^2): rows rho_i e_i^T of the principal axes e_i and
+    radii of gyration rho_i of each patch (second_moments (n_patches, 2, 2) m^4, areas (n_patches,) m^2), so that a
+    normal spring K_z on R_p theta stores K_z theta^T J_p theta / (2 A_p), that of normal springs K_z / A_p per
+    unit area over the patch under the rotation theta = (theta_x, theta_y)."""
+    squares, axes = np.linalg.eigh(second_moments / np.asarray(areas)[:, None, None])
+    return np.sqrt(squares)[:, :, None] * axes.transpose(0, 2, 1)
+
 
 def superelement_arrays(superelement: Superelement) -> dict[str, np.ndarray]:
-    """One array per field, ``preload`` empty when absent: the content of the superelement ``.npz``."""
+    """One array per field, ``preload`` and ``patch_second_moments`` empty when absent: the content of the
+    superelement ``.npz``."""
     preload = np.empty(0) if superelement.preload is None else superelement.preload
+    moments = np.empty(0) if superelement.patch_second_moments is None else superelement.patch_second_moments
     return dict(mass=superelement.mass, stiffness=superelement.stiffness, patch_motion=superelement.patch_motion,
                 patch_areas=superelement.patch_areas, patch_groups=np.asarray(superelement.patch_groups),
-                sensors=superelement.sensors, preload=preload, name=np.asarray(superelement.name))
+                sensors=superelement.sensors, preload=preload, name=np.asarray(superelement.name),
+                patch_second_moments=moments)
 
 
 def save_superelement(superelement: Superelement, path: Path | str) -> None:
@@ -96,9 +134,11 @@ def load_superelement(path: Path | str) -> Superelement:
     """Read a superelement written by :func:`save_superelement`."""
     with np.load(path, allow_pickle=False) as data:
         preload = data["preload"]
+        moments = data["patch_second_moments"] if "patch_second_moments" in data.files else np.empty(0)
         return Superelement(mass=data["mass"], stiffness=data["stiffness"], patch_motion=data["patch_motion"],
                             patch_areas=data["patch_areas"], patch_groups=tuple(int(g) for g in data["patch_groups"]),
-                            sensors=data["sensors"], preload=preload if preload.size else None, name=str(data["name"]))
+                            sensors=data["sensors"], preload=preload if preload.size else None, name=str(data["name"]),
+                            patch_second_moments=moments if moments.size else None)
 
 
 def asb_data_folder() -> Path:
@@ -166,15 +206,15 @@ def tied_modes(eigenvalues, joint_modes, n_modes: int = 1, rigid_frequency: floa
 
 def stuck_joint_modes(superelement: Superelement, n_modes: int = 1,
                       rigid_frequency: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """The lowest flexible modes with the joint stuck: every relative patch translation (where the joint elements
-    act) held at zero, the upper bound of any joint design's low-amplitude frequencies (``tied_modes`` on the
-    unjoined modes).
+    """The lowest flexible modes with the joint stuck: every relative patch motion the joint's springs act on
+    (``Superelement.joint_motion``) held at zero, the upper bound of any joint design's low-amplitude frequencies
+    (``tied_modes`` on the unjoined modes).
 
     Returns (frequencies (n_modes,) Hz, shapes (n, n_modes) in the superelement's coordinates, mass-normalised);
     modes below ``rigid_frequency`` Hz (rigid motions the stuck joint leaves free) are skipped.
     """
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
-    tied_eigenvalues, shapes = tied_modes(eigenvalues, superelement.relative_translation @ modes, n_modes,
+    tied_eigenvalues, shapes = tied_modes(eigenvalues, superelement.joint_motion @ modes, n_modes,
                                           rigid_frequency)
     return np.sqrt(tied_eigenvalues) / (2 * np.pi), modes @ shapes
 
@@ -205,23 +245,44 @@ def target_mode(superelement: Superelement, frequency_hz: float) -> tuple[int, n
     return index, shapes[:, index], choice
 
 
-def beam_superelement(path: Path, prestress: bool = False) -> Superelement:
-    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): the unstressed K of the two
-    halves, or with ``prestress`` K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks'
-    string term, docs/design.md section 3-4).
+def beam_superelement(path: Path, prestress: bool = True) -> Superelement:
+    """A beam's superelement from the reduction stage (``build/rom/<beam>.npz``): with ``prestress`` (the
+    default) the stiffness K_A + K_bolt (the clamped halves' stress stiffness and the preloaded shanks' string
+    term, docs/design.md sections 3-4), without it the unstressed K of the two halves.
 
-    The prestressed stiffness of the free halves is indefinite (BRB: modes at -245, -230, -22 Hz in the
-    superelement's coordinates: the preload's geometric stiffness without the joint that balances it), which
-    the joint-space condensation (``nonlinear.condensation.joint_space``) takes for rigid-body motion and sets
-    to zero. The study therefore uses K, and ``study.prestress`` compares the two on the assembled model."""
+    The prestressed free halves are indefinite (BRB: modes at -245, -230, -22 Hz: the preload's geometric
+    stiffness without the joint that balances it); the joint restrains every one of them, the relative twist about
+    the line of patch centres through the normal springs' action on the patch rotations
+    (``Superelement.joint_motion``), so a joint stiff enough to carry the preload's softening makes the
+    assembly definite, and a softer one is flagged unstable by the condensation
+    (``nonlinear.condensation.stuck_modes``)."""
     path = Path(path)
     if not path.exists():
         raise StructureError(f"{path}: missing (run `make rom` to build the beams' superelements)")
     superelement = load_superelement(path)
+    if superelement.patch_second_moments is None:
+        raise StructureError(f"{path}: no field 'patch_second_moments' (a superelement of an older reduction "
+                             "stage); rerun `make rom`")
     if not prestress:
         return superelement
+    from .craig_bampton import rigid_reduced_coordinates  # craig_bampton imports this module
     with np.load(path, allow_pickle=False) as data:
         stiffness = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
-    return Superelement(superelement.mass, 0.5 * (stiffness + stiffness.T), superelement.patch_motion,
-                        superelement.patch_areas, superelement.patch_groups, superelement.sensors,
-                        superelement.preload, superelement.name)
+        rigid = rigid_reduced_coordinates(data["virtual_node_coordinates"][:superelement.n_patches],
+                                          len(stiffness))
+    return replace(superelement, stiffness=balanced_stiffness(stiffness, superelement.mass, rigid))
+
+
+def balanced_stiffness(stiffness: np.ndarray, mass: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+    """P^T K_s P, P = I - R (R^T M R)^-1 R^T M, the symmetric part K_s of ``stiffness`` (n, n) N/m with the
+    rigid motions R (n, 6) of the whole assembly made exact zero-energy modes (mass (n, n) kg).
+
+    The clamp's prestress is self-equilibrated (the halves' K_sigma and the shanks' strings balance), so a rigid
+    motion of the whole assembly carries neither energy nor force. The reduced K_A + K_bolt gives it the energy
+    but not quite the force (|K R| about 3e-6 of |K| |R| for the rotations about x and y), which mixes the assembly's
+    rotations into the halves' relative modes that the joint moves. P leaves the stiffness between motions
+    M-orthogonal to R unchanged (P u = u there) and only removes that coupling."""
+    projector = np.eye(len(mass)) - rigid @ np.linalg.solve(rigid.T @ mass @ rigid, rigid.T @ mass)
+    symmetric = 0.5 * (stiffness + stiffness.T)
+    balanced = projector.T @ symmetric @ projector
+    return 0.5 * (balanced + balanced.T)

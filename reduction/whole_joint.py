@@ -38,7 +38,7 @@ from fem.elasticity import quadratic_node_coordinates
 from fem.springs import N_PATCHES, patch_couplings
 from geometry.beam_mesh import BeamMesh
 from geometry.parameters import BeamParameters
-from geometry.properties import triangle_areas
+from geometry.properties import face_second_moments, triangle_areas
 
 from .craig_bampton import (N_FIXED_INTERFACE_MODES, HurtyCraigBampton, PatchLayoutError, boundary_constraints,
                             half_rigid_modes, hurty_craig_bampton, relative_patch_motion)
@@ -90,12 +90,15 @@ class BeamReduction:
 
     hcb: the reduction (basis over the full DOFs, reduced M and K); references: (n_patches, 3) m, the virtual-node
     positions (patch centroids, shared by lower and upper patches); patch_areas: (n_patches,) m^2 of the lower
-    patches (the upper ones are their copies); constraints: T (6 n_virtual, n_dof); halves: (n_nodes,) 0/1.
+    patches (the upper ones are their copies); patch_second_moments: (n_patches, 2, 2) m^4 of the lower patches
+    about the virtual nodes (``geometry.properties.face_second_moments``); constraints: T (6 n_virtual, n_dof);
+    halves: (n_nodes,) 0/1.
     """
 
     hcb: HurtyCraigBampton
     references: np.ndarray
     patch_areas: np.ndarray
+    patch_second_moments: np.ndarray
     constraints: sp.csr_matrix
     halves: np.ndarray
 
@@ -115,9 +118,11 @@ def reduce_beam(mesh: MeshTet, beam_mesh: BeamMesh, stiffness: sp.spmatrix, mass
     halves = quadratic_node_halves(mesh, beam_mesh)
     hcb = hurty_craig_bampton(stiffness, mass, constraints, half_rigid_modes(coordinates, halves),
                               half_supports(coordinates, mesh, halves), n_modes, method)
-    areas = np.array([triangle_areas(beam_mesh.points, beam_mesh.faces[f"lower_patch_{p}"]).sum()
-                      for p in range(1, n_patches + 1)])
-    return BeamReduction(hcb, references, areas, constraints, halves)
+    faces = [beam_mesh.faces[f"lower_patch_{p}"] for p in range(1, n_patches + 1)]
+    areas = np.array([triangle_areas(beam_mesh.points, face).sum() for face in faces])
+    second_moments = np.array([face_second_moments(beam_mesh.points, face, reference)
+                               for face, reference in zip(faces, references)])
+    return BeamReduction(hcb, references, areas, second_moments, constraints, halves)
 
 
 def bolt_string_stiffness(mesh: MeshTet, beam_mesh: BeamMesh, beam: BeamParameters, bolt: Bolt) -> sp.csr_matrix:
@@ -135,7 +140,8 @@ def preload_vector(mesh: MeshTet, beam_mesh: BeamMesh, beam: BeamParameters, bol
 def whole_joint_superelement(reduction: BeamReduction, stiffness: np.ndarray, sensors: np.ndarray,
                              preload: np.ndarray | None, name: str) -> Superelement:
     """The nonlinear stage's ``Superelement`` of a beam reduction: patch_motion the relative (upper minus lower)
-    virtual-node motion, mirror-symmetric patch groups, sensor rows (n_sensors, n) m.
+    virtual-node motion, mirror-symmetric patch groups, sensor rows (n_sensors, n) m, the patches' second moments
+    of area (the joint's normal springs act on the patch rotations through them).
 
     stiffness: the reduced stiffness to use (``reduction.hcb.stiffness``, or K_A reduced), (n, n) N/m.
     """
@@ -143,5 +149,5 @@ def whole_joint_superelement(reduction: BeamReduction, stiffness: np.ndarray, se
     return Superelement(mass=reduction.hcb.mass, stiffness=stiffness,
                         patch_motion=relative_patch_motion(n_patches, n_reduced),
                         patch_areas=reduction.patch_areas, patch_groups=patch_groups(n_patches), sensors=sensors,
-                        preload=preload, name=name)
+                        preload=preload, name=name, patch_second_moments=reduction.patch_second_moments)
 

@@ -4,11 +4,12 @@ Each dataset is a set of structures sharing one joint. Their measured backbones 
 documented backbone format (``experiment.backbone_files``, ``<study>/measurements/<structure>.csv``), and the
 study reads only those files, whatever the source:
 
-- ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, the unstressed halves;
-  ``reduction.superelement.beam_superelement`` says why), measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled
-  virtual). Linear damping cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the
-  SBRB's Table 1 value, each applied to every beam; the paper's default is the BRB's. Added to the joint's
-  damping (``study.errors`` rule "added"): the virtual experiments add it so.
+- ``beams``: BRB, LBRB, SBRB on the project's superelements (``build/rom/<beam>.npz``, by default the prestressed
+  halves K_A + K_bolt, with ``prestress`` false the unstressed K; ``reduction.superelement.beam_superelement``),
+  measured by the virtual experiments of ``virtual_experiment.hammer_test`` (labelled virtual). Linear damping
+  cases (paper Table 6's "linearized zeta" factor): the BRB's, the LBRB's and the SBRB's Table 1 value, each
+  applied to every beam; the paper's default is the BRB's. Added to the joint's damping (``study.errors`` rule
+  "added"): the virtual experiments add it so.
 - ``asb``: the six configurations C1, C2, C3, C4, C4a, CD1 of the real assembly (ABAQUS reduced models and
   measured backbones; CD2 has no reduced model). Every patch in one group, so that one design
   is the same joint in all six (``study.structures.asb_superelement``). One linear damping case, ``measured``:
@@ -66,9 +67,10 @@ def structure_names(dataset: str) -> list[str]:
 
 
 def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_folder: Path,
-                       n_levels: int = N_LEVELS) -> list[Structure]:
+                       n_levels: int = N_LEVELS, prestress: bool = True) -> list[Structure]:
     """The dataset's structures from the measurement files in ``measurements``; linear damping 0 (the cases
-    of :func:`damping_cases` are applied in the errors)."""
+    of :func:`damping_cases` are applied in the errors). prestress: the beams' superelements with the preload's
+    stress stiffness (``reduction.superelement.beam_superelement``); the ASB's are as their files give them."""
     structures = []
     for name in structure_names(dataset):
         path = measurement_path(measurements, name)
@@ -76,7 +78,7 @@ def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_
             raise StructureError(f"{path}: missing measurement of {name} (run the measurements step first)")
         measured = read_mode_backbone(path)
         if dataset == "beams":
-            superelement = beam_superelement(Path(rom_folder) / f"{name}.npz")
+            superelement = beam_superelement(Path(rom_folder) / f"{name}.npz", prestress)
         else:
             configuration = name.removeprefix("ASB ")
             superelement = asb_superelement(Path(data_folder) / "asb-reduced-models" / f"MAT_NULLRED_{configuration}.mat")

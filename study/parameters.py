@@ -14,11 +14,14 @@ from study.structures import N_LEVELS
 @dataclass(frozen=True)
 class StudyParameters:
     """[study]: dataset ("beams" or "asb"), friction models (default: ``study.datasets.DEFAULT_MODELS``), levels per
-    structure. The beams' superelements are the unstressed halves (``reduction.superelement.beam_superelement``)."""
+    structure, and whether the beams' superelements carry the preload's stress stiffness (``prestress``, default
+    true: K_A + K_bolt; false: the unstressed halves K; ``reduction.superelement.beam_superelement``). The ASB's
+    reduced models are used as their files give them whatever ``prestress`` says."""
 
     dataset: str = "beams"
     models: tuple[str, ...] = ()
     n_levels: int = N_LEVELS
+    prestress: bool = True
 
     def __post_init__(self):
         if self.dataset not in DATASETS:
@@ -29,6 +32,8 @@ class StudyParameters:
                              f"of {DATASET_MODELS[self.dataset]}")
         if self.n_levels < 3:
             raise ValueError(f"field 'n_levels' = {self.n_levels}: expected at least 3")
+        if not isinstance(self.prestress, bool):
+            raise ValueError(f"field 'prestress' = {self.prestress!r}: expected true or false")
 
     @property
     def friction_models(self) -> tuple[str, ...]:

@@ -4,8 +4,11 @@ designs' low-amplitude frequency, with and without it, on the assembled reduced 
 With prestress the halves' stiffness is K_A + K_bolt (the clamped halves' stress stiffness K_sigma and the
 preloaded shanks' string term), without it K. The free halves' K_A + K_bolt is indefinite (``reduction.superelement.
 beam_superelement``), so the comparison is made where the prestress is balanced: on the assembled model
-K_total = K_halves + P^T diag(k) P (P the relative patch translations, k a design's stuck joint tangents), by a
-dense generalised eigen-solve with (M) for each design, the target mode by MAC with the tied first bending.
+K_total = K_halves + P^T diag(k) P (P the joint's rows, ``Superelement.joint_motion``: the relative patch
+translations and the normal springs' rotational rows; k a design's stuck joint tangents on them), by a dense
+generalised eigen-solve with (M) for each design, the target mode by MAC with the tied first bending. A design is
+unstable where the assembled model has a mode of negative stiffness: its joint is too soft to carry the clamp's
+softening.
 (A dense solve of this kind is off by up to 0.4 % for the stiffest Table 3 joints, docs/design.md section 5.1:
 adequate for a question about tens of Hz, and independent of the condensation the study uses.)
 
@@ -13,7 +16,8 @@ The paper reports that without prestress the SBRB cannot be tuned below about 25
 lowest L-infinity frequency error of a design is at least its error at the lowest measured level, which is its
 low-amplitude frequency's distance from the measured one (to the microslip shift of the first level): so the
 best |f_0 - f_measured| over the sample, with and without prestress, answers whether prestress opens or closes
-that gap, and the designs made unstable (a negative eigenvalue) by prestress show where it matters.
+that gap, and the designs made unstable (a negative eigenvalue) by prestress show where it matters (the study's
+exploration flags the same designs, ``nonlinear.condensation.stuck_modes``).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg
 
-from nonlinear.joint import patch_elements, stuck_stiffness
+from nonlinear.joint import joint_row_stiffness, patch_elements, stuck_stiffness
 from pipeline.files import atomic_path
 from reduction.superelement import Superelement, stuck_joint_modes
 from study.figures import plt, save
@@ -47,11 +51,12 @@ class StuckFrequencies(NamedTuple):
 
 
 def negative_tied_modes(superelement: Superelement) -> np.ndarray:
-    """Frequencies (Hz, as negative numbers) of the modes with negative stiffness when every relative patch
-    translation is tied: motions the translational joint cannot restrain. With prestress the BRB family has one,
-    the relative twist of the halves about the beam axis (collinear patch centres), near -250 Hz."""
+    """Frequencies (Hz, as negative numbers) of the modes with negative stiffness when every joint row
+    (``Superelement.joint_motion``) is tied: motions no joint design can restrain. None for the beams: tying the
+    translations alone leaves the relative twist of the halves about the line of patch centres near -250 Hz, which
+    the normal springs' rotational rows hold."""
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
-    null_basis = scipy.linalg.null_space(superelement.relative_translation @ modes)
+    null_basis = scipy.linalg.null_space(superelement.joint_motion @ modes)
     tied = np.linalg.eigvalsh(null_basis.T @ (eigenvalues[:, None] * null_basis))
     negative = tied[tied < -RIGID_EIGENVALUE]
     return -np.sqrt(-negative) / (2 * np.pi)
@@ -64,11 +69,12 @@ def stuck_first_bending(superelement: Superelement, model: str, designs) -> Stuc
     _, reference = stuck_joint_modes(superelement, 1)
     reference = reference[:, 0]
     allowed = len(negative_tied_modes(superelement))
-    translation = superelement.relative_translation
-    stiffness = stuck_stiffness(patch_elements(model, designs, superelement.patch_groups))
+    rows = superelement.joint_motion
+    stiffness = joint_row_stiffness(stuck_stiffness(patch_elements(model, designs, superelement.patch_groups)),
+                                    rows.shape[0])
     frequency, unstable, mac = (np.empty(len(stiffness)) for _ in range(3))
     for index, joint in enumerate(stiffness):
-        total = superelement.stiffness + translation.T @ (joint[:, None] * translation)
+        total = superelement.stiffness + rows.T @ (joint[:, None] * rows)
         eigenvalues, shapes = scipy.linalg.eigh(total, superelement.mass, subset_by_index=[0, LOWEST_MODES - 1])
         overlap = (shapes.T @ superelement.mass @ reference) ** 2
         target = int(np.argmax(overlap))
@@ -109,6 +115,7 @@ def write_comparison(comparison: PrestressComparison, destination_md: Path, dest
     best = [np.nanmin(np.abs(s.frequency_hz - comparison.measured_hz)) for s in
             (comparison.prestressed, comparison.unstressed)]
     stiff = comparison.stiffness > 1e8
+    twist = f" ({', '.join(f'{f:.1f}' for f in comparison.twist_hz)} Hz)" if len(comparison.twist_hz) else ""
     text = (f"{BEAM}, {MODEL}, {len(shift)} designs of the sample, low-amplitude first bending on the assembled "
             "reduced model with prestress (K_A + K_bolt) and without (K); measured (virtual) "
             f"{comparison.measured_hz:.2f} Hz.\n\n"
@@ -117,12 +124,11 @@ def write_comparison(comparison: PrestressComparison, destination_md: Path, dest
             f"| designs unstable (negative eigenvalue) | {comparison.prestressed.unstable.sum()} | "
             f"{comparison.unstressed.unstable.sum()} |\n"
             f"| best low-amplitude frequency error (Hz) | {best[0]:.3f} | {best[1]:.3f} |\n\n"
-            f"With prestress the tied model has {len(comparison.twist_hz)} negative-stiffness mode(s) "
-            f"({', '.join(f'{f:.1f}' for f in comparison.twist_hz)} Hz): the relative twist of the halves about the "
-            "line of patch centres, which a joint acting on patch translations only does not restrain, and which "
-            "the preload's geometric stiffness makes unstable. It does not couple to the first bending (it is "
-            "antisymmetric about the beam's plane); it is a limit of the whole-joint translational model with "
-            "prestress, reported here and not hidden.\n\n"
+            f"With prestress the tied model has {len(comparison.twist_hz)} negative-stiffness mode(s){twist}: "
+            "the normal springs spread over each patch (rotational stiffness K_z J / A) hold the relative twist of the "
+            "halves about the line of patch centres that translational springs leave free. Designs whose normal "
+            "springs are too soft to carry the clamp's softening of that twist are unstable with prestress; they are "
+            "counted above and in the exploration's reasons, never dropped.\n\n"
             f"Prestress moves the tied first bending by "
             f"{comparison.tied_prestressed_hz / comparison.tied_unstressed_hz - 1:+.1e} (relative); on designs with "
             f"K_T[0] > 1e8 N/m the median shift is {np.nanmedian(np.abs(shift[stiff])):.1e}, on softer ones "

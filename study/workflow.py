@@ -116,7 +116,8 @@ def measurements(paths: Paths, parameters: dict) -> None:
 def exploration(paths: Paths, parameters: dict) -> Exploration:
     """The study's structures, models, sample and damping cases from the measurement files."""
     study = parameters["study"]
-    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels)
+    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels,
+                                    study.prestress)
     table1 = read_low_amplitude_measurements(paths.reference / TABLE1) if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
                        damping_cases(study.dataset, structures, table1), DAMPING_RULE[study.dataset])

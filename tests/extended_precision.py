@@ -31,7 +31,8 @@ import mpmath
 import numpy as np
 
 from nonlinear.condensation import JointSpace
-from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
+from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, stuck_stiffness, tangential_elements,
+                             tangential_rows)
 from nonlinear.qsma import SUBSTEPS, stuck_target_mode
 
 DIGITS = 40
@@ -83,7 +84,7 @@ class ReferenceDesign:
         law = scaled_law(tangential)
         self.phi, self.r, self.s, self.chi, self.theta = ([mpmath.mpf(float(v)) for v in np.ravel(a)] for a in law)
         self.stuck = np.asarray(tangential.stuck, dtype=bool)
-        joint_stiffness = stuck_stiffness(elements)[0]
+        joint_stiffness = joint_row_stiffness(stuck_stiffness(elements)[0], space.joint_modes.shape[0])
         n_modes = space.eigenvalues.size
         joint_modes = mpmath.matrix(space.joint_modes.tolist())
         stiffness = [mpmath.mpf(float(k)) for k in joint_stiffness]

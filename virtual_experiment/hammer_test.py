@@ -275,7 +275,7 @@ def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_pa
     ``<folder>/<beam>_experiment.json`` (the generating configuration, the superelement file and its SHA-256,
     versions, runtimes) and, with ``ring_downs``, ``<folder>/<beam>_ringdowns.mat`` (the noisy hits), each
     atomically; the JSON last. rom_path: the superelement file the experiment's joint space came from (its
-    unstressed halves; recorded). Returns kind -> path."""
+    prestressed halves; recorded). Returns kind -> path."""
     folder = Path(folder)
     paths = {"backbone": folder / f"{experiment.beam}.csv",
              "configuration": folder / f"{experiment.beam}_experiment.json"}
@@ -286,7 +286,7 @@ def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_pa
     write_json(paths["configuration"], {
         **experiment.configuration,
         "superelement": {"file": str(rom_path), "sha256": sha256_file(rom_path),
-                         "stiffness": "unstressed halves (reduction.superelement.beam_superelement)"},
+                         "stiffness": "prestressed halves K_A + K_bolt (reduction.superelement.beam_superelement)"},
         "versions": versions(),
         "files": {kind: {"name": path.name, "sha256": sha256_file(path)} for kind, path in paths.items()
                   if kind != "configuration"},

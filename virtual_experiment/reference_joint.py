@@ -80,8 +80,9 @@ def outside_limits(design, names: list[str], limits: dict[str, tuple[float, floa
 
 
 def beam_space(rom_path: Path, frequency_hz: float) -> JointSpace:
-    """Joint space of a beam's superelement (``build/rom/<beam>.npz``, the unstressed halves as the study uses
-    them, :func:`reduction.superelement.beam_superelement`) tracking the mode a measurement at ``frequency_hz`` saw
+    """Joint space of a beam's superelement (``build/rom/<beam>.npz``, the prestressed halves K_A + K_bolt, the
+    study's default, :func:`reduction.superelement.beam_superelement`) tracking the mode a measurement at
+    ``frequency_hz`` saw
     (:func:`reduction.superelement.target_mode`: its tied first bending mode for the three beams)."""
     superelement = beam_superelement(Path(rom_path))
     _, shape, _ = target_mode(superelement, frequency_hz)
@@ -122,12 +123,14 @@ def stuck_frequency_hz(space: JointSpace, design, model: str = MODEL) -> float:
 
 
 def reference_joint(space: JointSpace, frequency_hz: float, friction_coefficient: float = FRICTION_COEFFICIENT,
-                    chi: float = CHI, beta: float = BETA, log_stiffness_bracket=(9.0, 14.0)) -> np.ndarray:
+                    chi: float = CHI, beta: float = BETA, log_stiffness_bracket=(10.0, 14.0)) -> np.ndarray:
     """The reference joint (module docstring): the uniform interface whose tracked stuck frequency in ``space``
     is ``frequency_hz`` (the BRB's measured 169.48 Hz), iwan4 design (15,) for the BRB's three groups.
 
     log_stiffness_bracket: log10 of k_t (N/m per m^2) bracketing the root; the stuck frequency increases with k_t
-    towards the tied one (raises ValueError when ``frequency_hz`` is outside the bracket's frequencies).
+    towards the tied one (raises ValueError when ``frequency_hz`` is outside the bracket's frequencies). Below
+    1e10 the prestressed BRB family's interface is too soft to carry the clamp's softening of the halves' relative
+    twist (unstable at 1e9, stable at 3e9 N/m per m^2; docs/design.md section 4).
     """
     areas = group_areas(space)
     traction = friction_coefficient * contact_pressure(space)

@@ -16,6 +16,7 @@ CASES = [
     (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=1e-4"], "at most 5,000,000 tetrahedra"),
     (["study", "--set", "study.dataset=bridge"], "field 'dataset' = 'bridge'"),
     (["study", "--set", "study.n_levels=2"], "field 'n_levels' = 2"),
+    (["study", "--set", "study.prestress=1"], "field 'prestress' = 1"),
     (["study", "--set", "sample.n_designs=0"], "n_designs must be at least 1"),
     (["study", "--set", "acceptance.damping_tolerance=0"], "field 'damping_tolerance' = 0"),
 ]

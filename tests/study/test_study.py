@@ -22,6 +22,7 @@ from experiment.backbone_files import read_backbone, write_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import joint_space
 from nonlinear.joint import parameter_limits, parameter_names, to_unit
+from study.datasets import dataset_structures, measurement_path
 from study.designs import design_chunk
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
@@ -194,3 +195,22 @@ def test_study_command_refuses_bad_configuration_and_missing_measurements(tmp_pa
     error = capsys.readouterr().err
     assert "measurements/BRB.csv" in error and "missing" in error
     assert not (out / "designs").exists()
+
+
+def test_study_prestress_option_chooses_the_beams_superelement(beams, beam_roms, tmp_path):
+    """``study.prestress`` (default true) gives the structures the prestressed halves, whose free modes include the
+    clamp's negative-stiffness rotations that only the joint holds; false gives the unstressed halves (none), with
+    the same tied first bending to 1e-4."""
+    structures, _ = beams
+    for structure_ in structures:
+        m = structure_.measurement
+        write_backbone(replace(backbone_with(m.amplitude, m.frequency_hz, m.damping), structure=structure_.name,
+                               low_amplitude_frequency_hz=float(m.frequency_hz[0])),
+                       measurement_path(tmp_path, structure_.name))
+    chosen = {flag: dataset_structures("beams", tmp_path, beam_roms, tmp_path, N_LEVELS, flag)
+              for flag in (True, False)}
+    for stressed, unstressed in zip(chosen[True], chosen[False]):
+        assert np.min(stressed.space.eigenvalues) < -(2 * np.pi * 10.0) ** 2
+        assert np.min(unstressed.space.eigenvalues) == 0.0
+        tied = [np.sqrt(s.space.reference @ (s.space.eigenvalues * s.space.reference)) for s in (stressed, unstressed)]
+        assert tied[0] == pytest.approx(tied[1], rel=1e-4)
