@@ -203,9 +203,10 @@ def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces,
     own forces balance and, for the stiction law, the equilibrium is unique
     (``test_qsma_vectorised.unique_equilibrium``); where the two differ by more, the 40-digit reference decides
     (the oracle's finite-difference hybrid method was off by 7.6e-8 in omega on one BRB level where the kernel
-    was within 7e-11). Flagged levels carry their reason and are at most 0.5 % (measured: 0 to 2 of 800 per beam
-    and model, where some element slid 1e10 slip displacements; the issue's target is 0.01 %). About 30 s per
-    beam and model."""
+    was within 7e-11). Flagged levels carry their reason; those the solver could not resolve are at most 0.5 %
+    (measured: 0 to 2 of 800 per beam and model, where some element slid 1e10 slip displacements; the issue's
+    target is 0.01 %), not counting the five-parameter Iwan levels whose loading path leaves the backbone (a
+    verdict on the model, not a failure: 0.6-1.0 % of its levels). About 30 s per beam and model."""
     space = beam_spaces[beam]
     designs = random_designs(model, 40, 3, np.random.default_rng(12))
     flagged = 0
@@ -213,7 +214,7 @@ def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces,
         levels = deep_levels(space, model, design)
         vectorised = qsma_designs(space, model, design[None, :], amplitudes=levels, linear_damping=LINEAR_DAMPING)
         converged = vectorised.converged[0]
-        flagged += np.sum(~converged)
+        flagged += np.sum(~converged & (vectorised.reason[0] != UNLOADED))
         assert np.all(vectorised.reason[0, ~converged] != "")
         assert np.all(mechanism_imbalance(space, model, design[None, :], vectorised)[0, converged]
                       <= qsma_kernel.FORCE_ACCEPT)
@@ -274,14 +275,19 @@ def test_the_levels_past_a_jump_off_the_backbone_are_flagged_with_their_reason(b
     its mirror image, 1.4e-6 and 3e-5 away, the other side's end patches back in microslip) has an element with
     stiction that slid at the last converged level back in microslip ("leaves the backbone"; from level 15 on, where
     the centre patch's x element, just beyond macroslip at level 14, falls back). The SBRB's levels 17-19 stop on a
-    point of the uniform slide whose Newton step is a whole share of the joint motion ("flat energy")."""
+    point of the uniform slide whose Newton step is a whole share of the joint motion ("flat energy"). The oracle
+    flags them too, and the first level that leaves the backbone with that reason."""
     levels = slip * np.geomspace(1e-3, 10.0, 20)
     result = qsma_designs(beam_spaces[beam], "iwan5", np.array(design)[None, :], amplitudes=levels,
                           linear_damping=LINEAR_DAMPING)
     assert result.converged[0, :last + 1].all()
+    oracle = qsma_reference(beam_spaces[beam], "iwan5", design, amplitudes=levels, linear_damping=LINEAR_DAMPING)
     for level, (reason, (_, reported_damping)) in cases.items():
         assert not result.converged[0, level] and result.reason[0, level] == reason
         assert np.isnan(result.damping[0, level]) and not abs(result.damping[0, level] / reported_damping - 1) <= 1e-5
+        assert not oracle.converged[level]
+    unloaded = np.flatnonzero(result.reason[0] == UNLOADED)  # the first one left by the oracle for the same reason
+    assert not oracle.converged[unloaded].any() and (unloaded.size == 0 or oracle.reason[unloaded[0]] == UNLOADED)
 
 
 @pytest.mark.slow
