@@ -44,6 +44,9 @@ MACROSLIP = "no equilibrium: force above the macroslip limit"
 AMBIGUOUS_MODE = "target mode ambiguous: MAC < 0.5 (veering modes)"
 JUMPED = ("loading path jumps here (an element with stiction changed between micro- and macroslip since the last "
           "level): the equilibrium reached by following the load from the last level's")
+UNLOADED = ("loading path leaves the backbone: an element with stiction that slid at the last converged level "
+            "unloads into microslip or slides the other way here (the backbone holds while slip grows; past such "
+            "a jump the descent may reach either of neighbouring equilibria)")
 SUBSTEPS = 8  # geometric substeps of a level where the loading path may jump (``nonlinear.qsma_kernel``'s)
 
 
@@ -202,6 +205,11 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
     def regime_changed(x_scaled, previous):
         return bool(np.any(stiction & ((np.abs(x_scaled) > 1.0) != (np.abs(previous) > 1.0))))
 
+    def left_macroslip(x_scaled, previous):
+        """An element with stiction beyond macroslip at ``previous`` and not beyond it on the same side at
+        ``x_scaled`` (``nonlinear.qsma_kernel._left_macroslip``)."""
+        return bool(np.any(stiction & (np.abs(previous) > 1.0) & (x_scaled * np.sign(previous) <= 1.0)))
+
     n_levels, n_unknowns = len(levels), len(rows)
     r_levels = np.full((n_levels, n_unknowns), np.nan)
     converged = np.zeros(n_levels, dtype=bool)
@@ -227,7 +235,9 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
                 waypoint = solution if ok else waypoint
             if ok and regime_changed(solution, x):
                 note[level] = JUMPED
-        if ok:
+        if ok and stiction.any() and x is not None and left_macroslip(solution, x):
+            reason[level], note[level] = UNLOADED, ""
+        elif ok:
             r_levels[level], converged[level], reason[level] = r, True, CONVERGED
             x, previous_value = solution, value
         elif not amplitude_control and not tangential.model.core and np.all(

@@ -46,7 +46,10 @@ INLINE = "always"
 # energy flat along it, to alpha's coupling), but the Newton step from the point does not: no equilibrium there.
 # JUMPED: converged, where the loading path jumps (an element with a stiction drop changed between micro- and
 # macroslip since the last converged level): the level was followed there from that level's equilibrium.
-CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED = 0, 1, 2, 3, 4, 5
+# UNLOADED: the equilibrium reached has an element with a stiction drop that slid at the last converged level back
+# below macroslip or sliding the other way (``_left_macroslip``): its slip shrank, where the backbone (monotonic
+# loading from the stuck state) no longer gives its force.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED, UNLOADED = 0, 1, 2, 3, 4, 5, 6
 # Geometric substeps of a level from the last converged one where the loading path may jump (stiction), each from
 # the equilibrium of the one before: a fold met on the way is left by descent from the last equilibrium before it,
 # at most one substep beyond it, and the load grows from the equilibrium reached (the same rule in
@@ -611,6 +614,20 @@ def _regime_changed(x, previous, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
+def _left_macroslip(x, previous, table):
+    """Whether an element with a stiction drop (table: ``_law_table``) that was beyond macroslip at the previous
+    level's equilibrium (|x| > 1) is not beyond it on the same side at x: it unloaded back into microslip or slides
+    the other way. QSMA gives each element the force of its backbone, the loading curve from the stuck state, which
+    holds while its slip grows; an element unloading from macroslip would follow its Masing unloading branch (from
+    the stiction-reduced force) instead, and the descent past the jump may reach either of neighbouring equilibria
+    (on a symmetric joint, mirror images: which side unloads is decided by round-off)."""
+    for i in range(x.size):
+        if table[i, STICTION] > 0.0 and abs(previous[i]) > 1.0 and x[i] * np.sign(previous[i]) <= 1.0:
+            return True
+    return False
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
     """alpha = lambda_1 q - b^T g under amplitude control (stuck_force = lambda_1 q), else the level itself, and
     the magnitude of its terms (for its round-off)."""
@@ -746,6 +763,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                                  compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
                                                  mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
                                                  amplitude_control)
+            if stiction and previous >= 0 and (code == CONVERGED or code == JUMPED) and _left_macroslip(
+                    x, solutions[d, previous], table):
+                code = UNLOADED
             status[d, level] = code
             if code != CONVERGED and code != JUMPED:
                 earliest, before = -1, -1
