@@ -242,19 +242,22 @@ def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces,
 # macroslip along the uniform slide, where the energy is flat to 1e-18 of its scale: the kernel once reported
 # points there whose residual passed the acceptance while the 40-digit equilibrium is a quarter of the motion away.
 # beam, design, q_slip of the superelement the cases were found on, the last level the kernel reports converged,
-# {level: (reason, (omega rad/s, zeta) once reported)}; levels q_slip geomspace(1e-3, 10, 20).
+# {level: (the reasons it may be flagged with, (omega rad/s, zeta) once reported)}; levels q_slip geomspace(1e-3, 10,
+# 20). The SBRB's levels have no equilibrium on the backbone (the 40-digit path reverses the centre patch's slide):
+# the kernel flags each either on the flat slide where it stops or for the reversed element, whichever it meets
+# first, which moves with round-off in the condensation (the superelement's rows, 1e-14).
 FLAT_SLIDE_CASES = [
     ("BRB", [61458696264.451065, 105971547.22968261, -0.6338135482901763, 4702.976825480175, 0.6192834598202172,
              44012885019580.51, 17903933615.404644, 2409325007320.1562, -0.11882331536626223, 0.029510305122752083,
              0.9997976036055288, 2165990612.702325, 62.760370577001446, 83880.65504141936, -0.8348291394957237,
              1724.790644253396, 0.8730248649576531, 487537460.2903616], 3575.3095435827204, 14,
-     {19: (UNLOADED, (922.26488, 0.0498579))}),
+     {19: ((UNLOADED,), (922.26488, 0.0498579))}),
     ("SBRB", [374314656.0805851, 444308596.35503423, -0.6516454917020855, 2899.4755645198356, 0.4018321179324338,
               1469477.2881692897, 733191967.7656236, 917202096.5241461, -0.8367598811200697, 0.6667291159388155,
               0.5849916906813108, 1383195563.6942158, 4032.3884099508805, 24328090617276.26, -0.7601073641795923,
               0.000318531336719261, 0.08218777256635423, 30745806634478.492], 180.18901876046488, 16,
-     {17: (FLAT_ENERGY, (None, 0.0184194)), 18: (FLAT_ENERGY, (None, 0.0152943)),
-      19: (FLAT_ENERGY, (None, 0.0111984))}),
+     {17: ((FLAT_ENERGY, UNLOADED), (None, 0.0184194)), 18: ((FLAT_ENERGY, UNLOADED), (None, 0.0152943)),
+      19: ((FLAT_ENERGY, UNLOADED), (None, 0.0111984))}),
 ]
 
 
@@ -285,12 +288,16 @@ def test_the_levels_past_a_jump_off_the_backbone_are_flagged_with_their_reason(b
                           linear_damping=LINEAR_DAMPING)
     assert result.converged[0, :last + 1].all()
     oracle = qsma_reference(beam_spaces[beam], "iwan5", design, amplitudes=levels, linear_damping=LINEAR_DAMPING)
-    for level, (reason, (_, reported_damping)) in cases.items():
-        assert not result.converged[0, level] and result.reason[0, level] == reason
+    for level, (reasons, (_, reported_damping)) in cases.items():
+        assert not result.converged[0, level] and result.reason[0, level] in reasons
         assert np.isnan(result.damping[0, level]) and not abs(result.damping[0, level] / reported_damping - 1) <= 1e-5
         assert not oracle.converged[level]
-    unloaded = np.flatnonzero(result.reason[0] == UNLOADED)  # the first one left by the oracle for the same reason
-    assert not oracle.converged[unloaded].any() and (unloaded.size == 0 or oracle.reason[unloaded[0]] == UNLOADED)
+    # the first level the kernel flags for leaving the backbone: flagged by the oracle too, for the same reason where
+    # the oracle followed the path to the level before (on the SBRB it stops at level 16, the kernel does not)
+    unloaded = np.flatnonzero(result.reason[0] == UNLOADED)
+    assert not oracle.converged[unloaded].any()
+    if unloaded.size and oracle.converged[unloaded[0] - 1]:
+        assert oracle.reason[unloaded[0]] == UNLOADED
 
 
 @pytest.mark.slow
