@@ -211,9 +211,9 @@ def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces,
     target is 0.01 %), not counting the five-parameter Iwan levels whose loading path leaves the backbone (a
     verdict on the model, not a failure: 0.6-1.0 % of its levels). About 30 s per beam and model. Known to miss
     on the BRB's middle-stuck model since the superelements carry the patch rotations (format 4): one level 1.9e-8
-    from the 40-digit reference in omega (issue 23's accuracy item, open: no final Newton polish)."""
+    from the 40-digit reference in omega (the kernel has no final Newton polish on the active set)."""
     if (beam, model) == ("BRB", "iwan4_stuck"):
-        request.applymarker(pytest.mark.xfail(reason="one level 1.9e-8 from the 40-digit omega (issue 23, open)"))
+        request.applymarker(pytest.mark.xfail(reason="one level 1.9e-8 from the 40-digit omega: no final Newton polish"))
     space = beam_spaces[beam]
     designs = random_designs(model, 40, 3, np.random.default_rng(12))
     flagged = 0
@@ -349,7 +349,7 @@ ILL_CONDITIONED_CASES = [
                          -0.27560635917376863, 1858.9829774100044, 12480041357.759722], 18,
         "elements 2.9e5 slip displacements deep; the oracle's finite-difference hybrid method is off by 1.6e-7 here",
         marks=pytest.mark.xfail(reason="on the superelements with patch rotations (format 4) the 40-digit solve "
-                                       "moves the kernel's motion by 4.1e-6 (issue 23's accuracy item, open)")),
+                                       "moves the kernel's motion by 4.1e-6: no final Newton polish")),
     ("BRB", "iwan5", [3526091.4494385114, 19581632089963.094, -0.713260460155461, 3.0343166411268903,
                       0.06207449335092474, 447.52145642031473, 12397112.585302332, 12940632314158.486,
                       -0.19644303282089126, 0.0022124330976096844, 0.4526775375978792, 2104.837895915739,
