@@ -7,8 +7,10 @@ and on a dask.distributed LocalCluster of 1 and of 2 worker processes of one thr
 ``surrogacy study --scheduler local`` runs it. Each set-up runs in a fresh process (``benchmarks.peak``); the
 cluster's start and the kernels' compilation (a small exploration on every worker first) are not timed. The
 time is the wall clock of the exploration, the best of R runs; the speed-up is the serial time over the
-set-up's, measured in the same benchmark run. The peak memory is that of the process driving the study; the
-workers' peak is in the note.
+set-up's, measured in the same benchmark run; the parallel efficiency of 2 workers is the 1-worker time over
+twice the 2-worker time. Each run's idle share of the worker threads (``study.exploration.Explored.idle_fraction``:
+the time outside evaluating and writing chunks, first submission to last file) is in the note. The peak memory
+is that of the process driving the study; the workers' peak is in the note.
 """
 
 from __future__ import annotations
@@ -61,12 +63,14 @@ def _peak_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: int) -> tuple[float, float | None]:
+def timed_exploration(workers: int | None, n_designs: int, chunk: int,
+                      repeats: int) -> tuple[float, float, float | None]:
     """Explore N designs of every model serially (workers None) or on a LocalCluster of ``workers``; returns the
-    shortest wall time of ``repeats`` explorations (s) and the workers' largest peak memory (MiB; None serially)."""
+    shortest wall time of ``repeats`` explorations (s), that run's idle share of the worker threads and the
+    workers' largest peak memory (MiB; None serially)."""
     structures = beams()
     warm = Exploration(structures, MODEL_NAMES, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
-    seconds = []
+    runs = []
     with tempfile.TemporaryDirectory() as folder, _client(workers) as client:
         if client is None:
             _warm(warm, folder)
@@ -78,9 +82,10 @@ def timed_exploration(workers: int | None, n_designs: int, chunk: int, repeats: 
             sample = Sample(seed=1 + repeat, n_designs=n_designs, chunk_size=chunk)
             exploration = Exploration(structures, MODEL_NAMES, sample, DAMPING_CASES)
             start = time.perf_counter()
-            explore(exploration, Path(folder) / f"run-{repeat}", client, progress=False)
-            seconds.append(time.perf_counter() - start)
-        return min(seconds), max(client.run(_peak_mib).values()) if client else None
+            run = explore(exploration, Path(folder) / f"run-{repeat}", client, progress=False)
+            runs.append((time.perf_counter() - start, run.idle_fraction))
+        seconds, idle = min(runs)
+        return seconds, idle, max(client.run(_peak_mib).values()) if client else None
 
 
 def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterator[dict]:
@@ -94,13 +99,14 @@ def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterat
                f"in chunks of {chunk:,}, wall clock, best of {repeats}")
     times = {}
     for name, workers in SETUPS:
-        _, peak, (seconds, worker_peak) = measure(timed_exploration, workers, n_designs, chunk, repeats)
+        _, peak, (seconds, idle, worker_peak) = measure(timed_exploration, workers, n_designs, chunk, repeats)
         times[workers] = seconds
-        throughput = f"{evaluations / seconds:,.0f} evaluations/s"
+        throughput = f"{evaluations / seconds:,.0f} evaluations/s, threads idle {idle:.1%}"
         if workers is None:
             yield row("dask", name, seconds, peak, note=f"{setting}: {throughput}")
             continue
-        versus_one = f", {times[1] / seconds:.2f} x 1 worker" if workers > 1 else ""
+        versus_one = (f", {times[1] / seconds:.2f} x 1 worker (parallel efficiency {times[1] / (workers * seconds):.0%})"
+                      if workers > 1 else "")
         yield row("dask", name, seconds, peak, times[None] / seconds, "x serial",
                   f"{throughput}{versus_one}; threads per worker 1, workers' peak {worker_peak:,.0f} MiB")
 

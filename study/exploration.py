@@ -1,14 +1,17 @@
 """Design exploration: every chunk of every model's sample evaluated on every structure, streamed to Parquet.
 
 A task is one chunk of one friction model's sample (``study.designs``): its designs are regenerated from the
-seed, evaluated on each structure (``study.errors.design_errors``), and reduced to one row per design. Only the
-process that runs the study writes: each finished chunk becomes ``<folder>/<model>/chunk-<c>.parquet`` by an
-atomic rename, so a run killed at any point leaves whole chunks only, and a rerun evaluates exactly the chunks
-that are missing (nothing lost, nothing repeated). Memory stays that of the chunks in flight.
+seed, evaluated on each structure (``study.errors.design_errors``), reduced to one row per design, and written
+by the process that evaluated it: ``<folder>/<model>/chunk-<c>.parquet``, by an atomic rename, so a run killed
+at any point leaves whole chunks only, and a rerun evaluates exactly the chunks that are missing (nothing lost,
+nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
+written chunk's study key and keeps the count. Memory stays that of the chunks in flight.
 
-Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address): the
-structures are scattered to the workers once, the chunks farmed out with at most two per worker thread in flight, and
-the results are the same floats as the serial run (a chunk's result depends on its seed and inputs only).
+Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address whose
+workers see the results folder: the same machine, or a shared file system): the structures are scattered to the
+workers once, the chunks farmed out with ``IN_FLIGHT_PER_THREAD`` per worker thread in flight, and the files are
+the same floats as the serial run (a chunk's result depends on its seed and inputs only). The workers' idle
+share (``Explored.idle_fraction``) says how well the cluster was kept busy.
 
 Row of a design (Parquet columns; S = structure name, Z = linear damping case):
     model, design (index in the model's sample), chunk, replicate, seed;
@@ -24,9 +27,13 @@ cases): a folder holding another study's chunks is refused, never mixed.
 from __future__ import annotations
 
 import json
+import os
+import socket
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pyarrow as pa
@@ -227,9 +234,43 @@ def check_explored(exploration: Exploration, folder: Path) -> None:
                              "model); remove it, or rerun the explore step with --restart-stale")
 
 
-def _evaluate(exploration: Exploration, model: str, chunk: int) -> pa.Table:
-    """One task on a worker: the structures' modal splits, then the chunk."""
-    return chunk_rows(exploration, model, chunk, process_splits(exploration))
+class ChunkTiming(NamedTuple):
+    """One task: the chunk, the process that evaluated and wrote it (host:pid) and when (s since the epoch on
+    that host)."""
+
+    model: str
+    chunk: int
+    worker: str
+    start: float
+    end: float
+
+
+def evaluate_chunk(exploration: Exploration, folder: Path, model: str, chunk: int) -> ChunkTiming:
+    """One task, on a worker or in this process: the chunk's rows on every structure (the process's modal
+    splits), written atomically to its file in ``folder``."""
+    start = time.time()
+    table = chunk_rows(exploration, model, chunk, process_splits(exploration))
+    write_chunk(table, chunk_path(folder, model, chunk), exploration.key())
+    return ChunkTiming(model, chunk, f"{socket.gethostname()}:{os.getpid()}", start, time.time())
+
+
+class Explored(NamedTuple):
+    """An exploration run: the chunk files of the whole study, the timing of each chunk this run evaluated, the
+    run's wall time (s, from the first task's submission to the last file checked) and the worker threads."""
+
+    paths: list[Path]
+    timings: list[ChunkTiming]
+    wall_seconds: float
+    threads: int
+
+    @property
+    def idle_fraction(self) -> float:
+        """Share of the worker threads' time not spent evaluating or writing a chunk,
+        1 - sum(end - start) / (threads x wall time); NaN when the run evaluated nothing."""
+        if not self.timings or self.wall_seconds <= 0:
+            return float("nan")
+        busy = sum(timing.end - timing.start for timing in self.timings)
+        return max(0.0, 1.0 - busy / (self.threads * self.wall_seconds))
 
 
 _SPLITS: dict = {}  # study key -> the structures' modal splits, in each process
@@ -266,9 +307,10 @@ def discard_unreadable_chunks(folder: Path) -> list[Path]:
 
 
 def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True,
-            restart_stale: bool = False) -> list[Path]:
+            restart_stale: bool = False) -> Explored:
     """Evaluate every chunk not yet in ``folder``, in this process (client None) or on a dask.distributed
-    ``client``; returns the chunk files of the whole study. Holds the folder's lock (a second run into it is
+    ``client`` whose workers write into ``folder``; returns the run (``Explored``: the chunk files of the whole
+    study, the timings, the workers' idle share). Holds the folder's lock (a second run into it is
     refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
     Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first.
     A chunk file that cannot be read (truncated) is removed and recomputed, said on stderr. A chunk another
@@ -282,48 +324,55 @@ def explore(exploration: Exploration, folder: Path, client=None, progress: bool 
         return _explore(exploration, folder, client, progress)
 
 
-def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> list[Path]:
+def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> Explored:
     done = finished_chunks(exploration, folder)
     _write_manifest(exploration, folder)
     pending = [(model, chunk) for model in exploration.models for chunk in range(exploration.sample.n_chunks)
                if (model, chunk) not in done]
     key = exploration.key()
     total = len(exploration.models) * exploration.sample.n_chunks
+    threads = 1 if client is None else max(1, sum(client.nthreads().values()))
+    timings = []
+    start = time.perf_counter()
     with tqdm(total=total, initial=total - len(pending), unit="chunk", disable=not progress,
               desc=f"designs ({exploration.sample.chunk_size} per chunk)") as bar:
-        for (model, chunk), table in _results(exploration, pending, client):
-            write_chunk(table, chunk_path(folder, model, chunk), key)
+        for timing in _run_tasks(exploration, folder, pending, client, threads):
+            path = chunk_path(folder, timing.model, timing.chunk)
+            if stored_key(path) != key:
+                raise StudyError(f"{path}: the worker {timing.worker} reported it written, but it is missing or "
+                                 "not this study's chunk here; the workers must write to the folder this process "
+                                 "reads (the same machine, or a shared file system)")
+            timings.append(timing)
             bar.update()
-    return [chunk_path(folder, model, chunk) for model in exploration.models
-            for chunk in range(exploration.sample.n_chunks)]
+    paths = [chunk_path(folder, model, chunk) for model in exploration.models
+             for chunk in range(exploration.sample.n_chunks)]
+    return Explored(paths, timings, time.perf_counter() - start, threads)
 
 
-def _results(exploration: Exploration, pending: list, client):
-    """(task, rows) of every pending task: serially, or on the cluster with a bounded number in flight."""
+def _run_tasks(exploration: Exploration, folder: Path, pending: list, client, threads: int):
+    """The ChunkTiming of every pending (model, chunk): serially, or on the cluster with IN_FLIGHT_PER_THREAD
+    tasks per worker thread in flight."""
     if client is None:
         for model, chunk in pending:
-            yield (model, chunk), _evaluate(exploration, model, chunk)
+            yield evaluate_chunk(exploration, folder, model, chunk)
         return
     from distributed import as_completed
 
     shared = client.scatter(exploration, broadcast=True)
-    limit = IN_FLIGHT_PER_THREAD * max(1, sum(client.nthreads().values()))
+    folder = Path(folder).resolve()  # workers may run in another working directory
     tasks = iter(pending)
-    futures = {}
+    stream = as_completed()
 
     def submit():
         task = next(tasks, None)
         if task is not None:
-            future = client.submit(_evaluate, shared, *task, key=f"chunk-{task[0]}-{task[1]}-{exploration.key()[:8]}",
-                                   pure=False)
-            futures[future] = task
-            stream.add(future)
+            stream.add(client.submit(evaluate_chunk, shared, folder, *task, pure=False,
+                                     key=f"chunk-{task[0]}-{task[1]}-{exploration.key()[:8]}"))
 
-    stream = as_completed()
-    for _ in range(limit):
+    for _ in range(IN_FLIGHT_PER_THREAD * threads):
         submit()
     for future in stream:
-        yield futures.pop(future), future.result()
+        yield future.result()
         submit()
 
 

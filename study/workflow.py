@@ -34,7 +34,7 @@ from study.analysis import anova_observations, model_errors, representative_desi
 from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import accepted, design_errors
-from study.exploration import Exploration, StudyError, check_explored, explore, read_exploration
+from study.exploration import Explored, Exploration, StudyError, check_explored, explore, read_exploration
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
@@ -173,7 +173,7 @@ def front_designs(paths: Paths, model: str, n_groups: int, structure: str) -> Fr
     return FrontDesigns(designs, labels, errors)
 
 
-def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: bool = False) -> list[Path]:
+def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: bool = False) -> Explored:
     """Evaluate every design chunk not yet written (``study.exploration.explore``)."""
     return explore(exploration(paths, parameters), paths.designs, client, restart_stale=restart_stale)
 
@@ -312,8 +312,8 @@ def cluster_client(scheduler: str | None):
 
 def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = None, restart_stale: bool = False):
     """The chosen ``steps`` of ``STEPS``, in order, into ``paths.out`` (held by the caller), after writing
-    study.json (the resolved configuration, seed, inputs, versions). Yields (step, its result): the report's path
-    for ``report``, None otherwise."""
+    study.json (the resolved configuration, seed, inputs, versions). Yields (step, its result): the run
+    (``study.exploration.Explored``) for ``explore``, the report's path for ``report``, None otherwise."""
     check_dataset(paths.out, parameters["study"].dataset)
     write_json(paths.out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},

@@ -18,6 +18,7 @@ import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -34,8 +35,8 @@ from experiment.backbone_files import read_asb_backbone
 from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from reduction.superelement import asb_data_folder
-from study.exploration import (Exploration, Sample, StudyError, check_explored, chunk_path, explore, finished_chunks,
-                               manifest, read_exploration)
+from study.exploration import (ChunkTiming, Explored, Exploration, Sample, StudyError, check_explored, chunk_path,
+                               explore, finished_chunks, manifest, read_exploration)
 from study.structures import asb_superelement, structure
 
 CONFIGURATIONS = ("C1", "C2", "C3")
@@ -200,12 +201,12 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
 
     evaluated = []
 
-    def recording(exploration, model, chunk):
+    def recording(exploration, folder, model, chunk):
         evaluated.append((model, chunk))
-        return evaluate(exploration, model, chunk)
+        return evaluate(exploration, folder, model, chunk)
 
-    evaluate = exploration_module._evaluate
-    monkeypatch.setattr(exploration_module, "_evaluate", recording)
+    evaluate = exploration_module.evaluate_chunk
+    monkeypatch.setattr(exploration_module, "evaluate_chunk", recording)
     explore(exploration, folder, progress=False)
 
     assert sorted(evaluated) == sorted(all_chunks(exploration) - finished)  # each missing chunk once, no other
@@ -213,6 +214,23 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
     after = file_identities(folder)
     assert {name: after[name] for name in before} == before
     assert_same_study(folder, serial_folder, exploration)
+
+
+def test_idle_fraction_is_the_threads_time_outside_the_chunks():
+    """Two threads for 10 s that spent 6 s and 8 s in chunks were idle 6 s of their 20: 0.3."""
+    timings = [ChunkTiming("jenkins", 0, "a:1", 100.0, 106.0), ChunkTiming("jenkins", 1, "b:2", 101.0, 109.0)]
+    assert Explored([], timings, 10.0, 2).idle_fraction == pytest.approx(0.3, abs=1e-12)
+    assert np.isnan(Explored([], [], 10.0, 2).idle_fraction)
+
+
+def test_a_chunk_reported_but_not_in_the_folder_is_refused(exploration, tmp_path, monkeypatch):
+    """A worker that wrote where this process cannot read (another machine's disk) is caught at once, naming
+    the chunk's file and what the workers need."""
+    monkeypatch.setattr(exploration_module, "evaluate_chunk",
+                        lambda exploration, folder, model, chunk: ChunkTiming(model, chunk, "elsewhere:1", 0.0, 1.0))
+    with pytest.raises(StudyError, match=r"chunk-000000\.parquet: the worker elsewhere:1 reported it written.*shared "
+                                         r"file system"):
+        explore(exploration, tmp_path / "study", progress=False)
 
 
 @pytest.fixture
@@ -281,8 +299,12 @@ def test_cluster_writes_the_serial_rows(exploration, serial_folder, tmp_path, re
     and the chunks were evaluated on the workers."""
     client = request.getfixturevalue(cluster)
     folder = tmp_path / "study"
-    explore(exploration, folder, client=client, progress=False)
+    run = explore(exploration, folder, client=client, progress=False)
     assert_same_study(folder, serial_folder, exploration)
+    assert sorted((timing.model, timing.chunk) for timing in run.timings) == sorted(all_chunks(exploration))
+    workers = {timing.worker for timing in run.timings}
+    assert len(workers) == 2 and f"{socket.gethostname()}:{os.getpid()}" not in workers  # written by the workers
+    assert run.threads == 2 and 0.0 <= run.idle_fraction < 1.0
     splits_formed = client.run(lambda: len(getattr(sys.modules.get("study.exploration"), "_SPLITS", {})))
     assert len(splits_formed) == 2 and sum(splits_formed.values()) >= 1
 
