@@ -29,7 +29,8 @@ $(foreach name,RINGDOWN ASB_DATA REFERENCE,$(if $(filter command line environmen
 SURROGACY := $(BIN)/surrogacy --run-log $(RUN_LOG)
 DEMO := $(SURROGACY) demo --data $(ASB_DATA) --reference $(REFERENCE) --ringdown $(RINGDOWN) --mode-hz $(MODE_HZ) \
   --designs $(STUDY_DESIGNS) --chunk $(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
-STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb confidence-asb report
+STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb fit-beams confidence-asb \
+  confidence-beams report
 
 .PHONY: demo test test-slow $(STEPS) study study-full fe-convergence calibrate bench clean system-packages
 
@@ -43,9 +44,9 @@ test: $(STAMP)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow -n $(TEST_WORKERS) --dist loadfile
 
-# One step of the demo each (discrepancy-modal-asb, the one-mode loop on the six ASB backbones, and confidence-asb,
-# the surrogacy confidence at the ASB's bounds from the data, are not in the demo); a stage's inputs are made first,
-# and a stage whose output is current does nothing.
+# One step of the demo each (not in the demo: discrepancy-modal-asb, the one-mode loop on the six ASB backbones;
+# fit-beams, the beams' calibration; confidence-asb and confidence-beams, the surrogacy confidence at each dataset's
+# bounds from the data); a stage's inputs are made first, and a stage whose output is current does nothing.
 $(STEPS): $(STAMP)
 	$(DEMO) --steps $@
 fe: beams
@@ -53,6 +54,8 @@ rom: fe
 study-beams: rom
 fit-asb: study-asb
 confidence-asb: fit-asb
+fit-beams: study-beams
+confidence-beams: fit-beams
 discrepancy: freevib
 study: study-asb study-beams
 

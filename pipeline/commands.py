@@ -41,6 +41,6 @@ def register(subparsers) -> None:
     command.add_argument("--chunk", type=int, default=defaults.chunk, help="designs per chunk")
     command.add_argument("--scheduler", help="dask.distributed address or 'local' for the studies")
     command.add_argument("--steps", nargs="+", choices=demo.STEPS, default=list(demo.DEMO_STEPS),
-                         help="steps to run, in the demo's order (default all but discrepancy-modal-asb and "
-                              "confidence-asb)")
+                         help="steps to run, in the demo's order (default all but discrepancy-modal-asb, "
+                              "fit-beams, confidence-asb and confidence-beams)")
     command.set_defaults(run=run)

@@ -7,8 +7,9 @@ geometry, FE and reduction stages compute on one core: it runs beside them (its 
 ``results/study-asb.log``) and compiles the QSMA kernel into numba's cache for the beams' study as well. Its
 calibration (``surrogacy fit``, which also derives acceptance bounds from the data) then runs beside the beams'
 study and the discrepancy loops, and the report waits for it. The surrogacy confidence at those bounds
-(``surrogacy confidence --bounds``, each model: step ``confidence-asb``) is one step away, not in the demo. A failed stage stops the demo with its exit status; Ctrl-C
-stops every stage still running (each exits 130, finished results kept).
+(``surrogacy confidence --bounds``, each model: step ``confidence-asb``) is one step away, not in the demo, as are
+the beams' calibration and confidence (``fit-beams``, ``confidence-beams``). A failed stage stops the demo with its
+exit status; Ctrl-C stops every stage still running (each exits 130, finished results kept).
 """
 
 from __future__ import annotations
@@ -25,10 +26,12 @@ from reduction.superelement import ASB_CONFIGURATIONS
 from study.datasets import DEFAULT_MODELS
 
 STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "fit-asb", "study-beams", "discrepancy", "discrepancy-modal-asb",
-         "confidence-asb", "report")
-DEMO_STEPS = tuple(step for step in STEPS if step not in ("discrepancy-modal-asb", "confidence-asb"))
-"""The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more) and the
-surrogacy confidence at the ASB's bounds from the data (about 1 minute per friction model)."""
+         "fit-beams", "confidence-asb", "confidence-beams", "report")
+DEMO_STEPS = tuple(step for step in STEPS if step not in ("discrepancy-modal-asb", "fit-beams", "confidence-asb",
+                                                          "confidence-beams"))
+"""The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more), the
+beams' calibration (about 3 minutes) and the surrogacy confidence at each dataset's bounds from the data (about 1
+minute per friction model)."""
 BESIDE = {"study-asb": "fit-asb", "fit-asb": "report"}
 """Steps run in the background -> the step that waits for them: the ASB study beside beams, fe and rom (which
 compute on one core), its calibration beside the beams' study and the discrepancy loops."""
@@ -92,9 +95,7 @@ def plan(options: DemoOptions) -> list[Step]:
                                        "--out", str(results / "freevib")),)))  # measured; its file does not say
     else:
         steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
-    fit = results / "fit-asb"
-    steps.append(Step("fit-asb", (("fit", "--study", str(results / "study-asb"), "--out", str(fit)),))
-                 if backbones.is_dir() else Step("fit-asb", skipped=f"{backbones} not found"))
+    steps.append(fit_step(results, "asb", backbones.is_dir(), f"{backbones} not found"))
     if table1.is_file():
         steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
                                            *study_options(options)),)))
@@ -115,13 +116,28 @@ def plan(options: DemoOptions) -> list[Step]:
         ("discrepancy", str(path), "--out", str(results / "discrepancy" / path.name.split("_20Nm")[0]))
         for path in asb_files if path.is_file())) if any(path.is_file() for path in asb_files)
         else Step("discrepancy-modal-asb", skipped=f"{backbones} holds no ASB backbone"))
-    steps.append(Step("confidence-asb", tuple(
-        ("confidence", "--study", str(results / "study-asb"), "--model", model, "--bounds", str(fit / "bounds.csv"),
-         "--out", str(fit / f"confidence_{model}.csv")) for model in DEFAULT_MODELS["asb"]))
-        if backbones.is_dir() else Step("confidence-asb", skipped=f"{backbones} not found"))
+    steps.append(fit_step(results, "beams", table1.is_file(), f"{table1} not found (the paper's Table 1)"))
+    steps += [confidence_step(results, "asb", backbones.is_dir(), f"{backbones} not found"),
+              confidence_step(results, "beams", table1.is_file(), f"{table1} not found (the paper's Table 1)")]
     steps.append(Step("report", (("report", "--build", str(build), "--results", str(results), "--out",
                                   str(results / "report.md")),)))
     return steps
+
+
+def fit_step(results: Path, dataset: str, available: bool, why: str) -> Step:
+    """``fit-<dataset>``: the calibration of the dataset's study (``surrogacy fit``), with its bounds from the data."""
+    return (Step(f"fit-{dataset}", (("fit", "--study", str(results / f"study-{dataset}"), "--out",
+                                     str(results / f"fit-{dataset}")),))
+            if available else Step(f"fit-{dataset}", skipped=why))
+
+
+def confidence_step(results: Path, dataset: str, available: bool, why: str) -> Step:
+    """``confidence-<dataset>``: each model's surrogacy confidence at the bounds ``fit-<dataset>`` derived."""
+    fit = results / f"fit-{dataset}"
+    return (Step(f"confidence-{dataset}", tuple(
+        ("confidence", "--study", str(results / f"study-{dataset}"), "--model", model, "--bounds",
+         str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv")) for model in DEFAULT_MODELS[dataset]))
+        if available else Step(f"confidence-{dataset}", skipped=why))
 
 
 def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:

@@ -183,6 +183,8 @@ def calibration_section(results: Path, out: Path) -> list[str]:
         lines += [_image(path, path.stem, out) for path in sorted(table.parent.glob("fits_*.png"))]
         for path in sorted(table.parent.glob("confidence_*.csv")):
             lines += confidence_matrix(path, out)
+            figure = path.with_suffix(".png")
+            lines += [_image(figure, figure.stem, out), ""] if figure.exists() else []
     return lines + ([] if tables else ["_calibration not run_"])
 
 

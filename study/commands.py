@@ -34,10 +34,11 @@ from study import workflow
 from study.datasets import DEFAULT_DAMPING_CASE
 from study.analysis import model_errors
 from study.errors import accepted
+from study.figures import plot_confidence_against_scale
 from study.parameters import defaults
 from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
                                      write_subset_csv)
-from study.surrogacy import surrogacy_matrix
+from study.surrogacy import SurrogacyMatrix, surrogacy_matrix
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -109,14 +110,20 @@ def read_bounds(path: Path, model: str, names: list[str]) -> tuple[np.ndarray, n
     return frequency, damping
 
 
-def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds):
-    """SC_IJ counted on the study's own sample (brute force) at the same bounds, where the exploration holds the
-    model (``study.surrogacy.surrogacy_matrix``); None where it does not."""
+BOUND_SCALES = np.geomspace(0.5, 8.0, 25)  # factors on the chosen bounds of the figure's sample curves
+
+
+def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds,
+                      scales=(1.0,)):
+    """SC_IJ counted on the study's own sample (brute force) at ``scales`` (a,) times the bounds (each structure's
+    own, (S,) Hz and -), where the exploration holds the model (``study.surrogacy.surrogacy_matrix``), the
+    SurrogacyMatrix's fields stacked on a leading axis (a,); None where it does not."""
     if not (folder.paths.designs / model).is_dir():
         return None
     errors = model_errors(folder.paths.designs, model, folder.exploration.names, case)
-    return surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, frequency_bounds,
-                                     damping_bounds))
+    matrices = [surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, scale * frequency_bounds,
+                                          scale * damping_bounds)) for scale in scales]
+    return SurrogacyMatrix(*map(np.stack, zip(*matrices)))
 
 
 def run_confidence(arguments: argparse.Namespace) -> None:
@@ -134,7 +141,9 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
     out = Path(arguments.out)
-    sample = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds)
+    scales = np.append(1.0, BOUND_SCALES)
+    sweep = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, scales)
+    sample = None if sweep is None else SurrogacyMatrix(*(field[0] for field in sweep))
     tables = []
     with workflow.cluster_client(arguments.scheduler) as client:
         for surrogate in arguments.surrogate or exploration.names:
@@ -151,6 +160,11 @@ def run_confidence(arguments: argparse.Namespace) -> None:
                                        sample))
     table = pd.concat(tables, ignore_index=True)
     write_subset_csv(table, out)
+    if sweep is not None:
+        figure = out.with_suffix(".png")
+        plot_confidence_against_scale(figure, arguments.model, exploration.names, BOUND_SCALES,
+                                      SurrogacyMatrix(*(field[1:] for field in sweep)), table)
+        print(f"wrote {figure}")
     print(table[["surrogate", "real", "confidence", "lower", "upper", "sample_confidence", "families",
                  "surrogate_probability", "evaluations"]].to_string(index=False))
     print(f"wrote {out}")

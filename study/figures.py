@@ -74,3 +74,41 @@ def plot_responses(destination: Path, model: str, curves, title: str | None = No
     figure.suptitle(title or f"{model}: representative Pareto designs against the measurement")
     figure.tight_layout()
     save(figure, destination)
+
+
+def plot_confidence_against_scale(destination: Path, model: str, names, scales, sweep, chosen) -> None:
+    """SC_IJ against a common factor k on every structure's own acceptance bounds (each structure accepts a design
+    when both its errors are within k times its bounds), one panel per surrogate I: the study's sample (line,
+    95 % band where it accepted a design) and subset simulation at the chosen bounds k = 1 (points with their
+    95 % interval); the chosen bounds dashed.
+
+    scales: (a,) factors k; sweep: ``study.surrogacy.SurrogacyMatrix`` of the sample with leading axis (a,);
+    chosen: the ``surrogacy confidence`` table (``study.subset_simulation.SUBSET_COLUMNS``), rows (I, J)."""
+    columns = min(3, len(names))
+    rows = -(-len(names) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False, sharey=True)
+    for axis in axes.ravel()[len(names):]:
+        axis.set_visible(False)
+    for surrogate, (axis, name) in enumerate(zip(axes.ravel(), names)):
+        estimates = chosen[chosen["surrogate"] == name].set_index("real")
+        for real, other in enumerate(names):
+            if real == surrogate:
+                continue
+            line, = axis.plot(scales, sweep.confidence[:, surrogate, real], "-", lw=1.2, label=other)
+            axis.fill_between(scales, sweep.lower[:, surrogate, real], sweep.upper[:, surrogate, real],
+                              color=line.get_color(), alpha=0.15)
+            if other in estimates.index and np.isfinite(estimates.loc[other, "confidence"]):
+                value = estimates.loc[other]
+                axis.errorbar([1.0], [value["confidence"]], yerr=[[value["confidence"] - value["lower"]],
+                                                                   [value["upper"] - value["confidence"]]],
+                              fmt="o", ms=4, capsize=3, color=line.get_color())
+        axis.axvline(1.0, color="k", ls="--", lw=0.8)
+        axis.set(xscale="log", title=f"surrogate {name}", xlabel="factor k on each structure's bounds",
+                 ylim=(-0.02, 1.02))
+        axis.legend(fontsize=7, title="real structure", title_fontsize=7)
+    for axis in axes[:, 0]:
+        axis.set_ylabel("SC (surrogate for real)")
+    figure.suptitle(f"{model}: surrogacy confidence against the bounds from the data (lines: the study's sample; "
+                    "points: subset simulation at k = 1)", fontsize=9)
+    figure.tight_layout()
+    save(figure, destination)

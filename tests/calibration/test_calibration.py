@@ -278,6 +278,7 @@ def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp
     np.testing.assert_array_equal(written["sample_confidence"], counted.confidence[0])
     assert (written["sample_accepted_surrogate"] == counted.accepted_counts[0]).all()
     assert written["note"].isna().all()
+    assert (tmp_path / "c1.png").read_bytes().startswith(b"\x89PNG")  # SC against a factor on these bounds
     complete.loc[0, "frequency_bound_hz"] = 1e-9  # no design fits C1 to a nanohertz: the chains cannot get there
     complete.to_csv(tmp_path / "bounds.csv", index=False)
     assert surrogacy([*command, "--bounds", str(tmp_path / "bounds.csv"), "--out", str(tmp_path / "none.csv")]) == 0

@@ -52,7 +52,12 @@ def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_pa
     assert steps["confidence-asb"].runs == tuple(
         ("confidence", "--study", study, "--model", model, "--bounds", str(fit / "bounds.csv"), "--out",
          str(fit / f"confidence_{model}.csv")) for model in ("jenkins", "iwan4", "iwan5", "iwan4_core"))
-    assert "confidence-asb" not in demo.DEMO_STEPS
+    beams_fit, beams_study = tmp_path / "results" / "fit-beams", str(tmp_path / "results" / "study-beams")
+    assert steps["fit-beams"].runs == (("fit", "--study", beams_study, "--out", str(beams_fit)),)
+    assert steps["confidence-beams"].runs == tuple(
+        ("confidence", "--study", beams_study, "--model", model, "--bounds", str(beams_fit / "bounds.csv"), "--out",
+         str(beams_fit / f"confidence_{model}.csv")) for model in ("jenkins", "iwan4", "iwan5", "iwan4_stuck"))
+    assert not {"confidence-asb", "fit-beams", "confidence-beams"} & set(demo.DEMO_STEPS)
     loops = steps["discrepancy"].runs
     assert steps["freevib"].runs == (("freevib", str(tmp_path / "hits.mat"), "--mode-hz", "80.5", "--per-channel",
                                       "--provenance", "measured", "--out", str(tmp_path / "results" / "freevib")),)
