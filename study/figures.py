@@ -89,6 +89,7 @@ def plot_confidence_against_scale(destination: Path, model: str, names, scales, 
     figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False, sharey=True)
     for axis in axes.ravel()[len(names):]:
         axis.set_visible(False)
+    ticks = [k for k in (0.5, 1, 2, 4, 8, 16) if scales[0] <= k <= scales[-1]]
     for surrogate, (axis, name) in enumerate(zip(axes.ravel(), names)):
         estimates = chosen[chosen["surrogate"] == name].set_index("real")
         for real, other in enumerate(names):
@@ -104,7 +105,9 @@ def plot_confidence_against_scale(destination: Path, model: str, names, scales, 
                               fmt="o", ms=4, capsize=3, color=line.get_color())
         axis.axvline(1.0, color="k", ls="--", lw=0.8)
         axis.set(xscale="log", title=f"surrogate {name}", xlabel="factor k on each structure's bounds",
-                 ylim=(-0.02, 1.02))
+                 xlim=(scales[0], scales[-1]), ylim=(-0.02, 1.02))
+        axis.set_xticks(ticks, [f"{k:g}" for k in ticks])
+        axis.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         axis.legend(fontsize=7, title="real structure", title_fontsize=7)
     for axis in axes[:, 0]:
         axis.set_ylabel("SC (surrogate for real)")
