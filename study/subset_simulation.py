@@ -301,11 +301,15 @@ def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int
             record["level_probabilities"].append(float(final.mean()))
             record["gammas"][-1] = chain_correlation_factor(final.reshape(record["chains"]))
             break
-        if not np.isfinite(threshold) or record["level"] + 1 >= MAX_LEVELS:
-            raise RegionNotReached(f"subset simulation of structure {surrogate}: misfit threshold {threshold:.4g} at "
-                             f"level {record['level']} (expected to reach 1 within {MAX_LEVELS} levels; more than "
-                             f"{1 - settings.level_probability:.0%} of the designs not converged, or the region "
-                             "empty?)")
+        if not np.isfinite(threshold):
+            raise RegionNotReached(f"subset simulation of structure {surrogate}: at level {record['level']} more than "
+                                   f"{1 - settings.level_probability:.0%} of the designs did not converge (the region "
+                                   f"was not reached within {MAX_LEVELS} levels)")
+        if record["level"] + 1 >= MAX_LEVELS:
+            raise RegionNotReached(f"subset simulation of structure {surrogate}: the region was not reached within "
+                                   f"{MAX_LEVELS} levels; the misfit threshold stalled at {threshold:.4g}, the lowest "
+                                   f"misfit reached {np.min(misfits):.4g} (the region is empty, or reached only "
+                                   "through a passage the chains did not find)")
         record["thresholds"].append(threshold)
         record["level_probabilities"].append(fraction)
         record["gammas"][-1] = chain_correlation_factor((misfits <= threshold).reshape(record["chains"]))

@@ -13,7 +13,7 @@ from statsmodels.stats.proportion import proportion_confint
 from study.designs import design_chunk
 from study.errors import accepted, scaled_misfit
 from study.exploration import structure_errors
-from study.subset_simulation import (Settings, chain_correlation_factor, family_confidence, study_subset_simulation,
+from study.subset_simulation import (RegionNotReached, Settings, chain_correlation_factor, family_confidence, study_subset_simulation,
                                      subset_simulation)
 from study.surrogacy import surrogacy_matrix
 
@@ -229,3 +229,14 @@ def test_each_structure_its_own_bounds_agrees_with_brute_force(asb):
     scalar = study_subset_simulation(asb, model, asb.names[1], case, 2.0, 5e-3, settings)
     arrays = study_subset_simulation(asb, model, asb.names[1], case, np.full(3, 2.0), np.full(3, 5e-3), settings)
     np.testing.assert_array_equal(scalar.confidence, arrays.confidence)
+
+
+def test_an_empty_region_is_reported_with_the_lowest_misfit_reached():
+    """A surrogate no design fits (the misfit never falls below 1.02, at u = 0.5 in every coordinate): the
+    thresholds close in on 1.02 and the run stops after 40 levels naming the lowest misfit reached."""
+    def misfit(unit, structures):
+        return np.repeat(1.02 + np.sum((unit - 0.5) ** 2, axis=1, keepdims=True), len(structures), axis=1)
+
+    with pytest.raises(RegionNotReached, match=r"not reached within 40 levels; the misfit threshold stalled at "
+                                               r"1\.02\d*, the lowest misfit reached 1\.02"):
+        subset_simulation(misfit, DIMENSION, 1, 0, Settings(seed=1, n_per_level=500, n_runs=1))
