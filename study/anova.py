@@ -34,14 +34,19 @@ def surrogacy_anova(frame: pd.DataFrame) -> pd.DataFrame:
 
     Returns a DataFrame with ``TABLE_COLUMNS``, one row per factor (``FACTORS`` names) and a last row
     "residuals" (f_value, p_value NaN): df, sum of squares (-^2), mean square = sum_sq / df, F = mean square /
-    residual mean square and its p-value, Pr(F(df, df_residual) > F).
+    residual mean square and its p-value, Pr(F(df, df_residual) > F). A factor observed at one level only (a study
+    of one friction model) has no effect to test: it stays out of the model, and its row has df 0, sum of squares
+    0 and the rest NaN.
     """
-    formula = "confidence ~ " + " + ".join(f"C({column})" for column in FACTORS)
-    fit = smf.ols(formula, data=frame).fit()
-    table = anova_lm(fit, typ=2)
+    varied = [column for column in FACTORS if frame[column].nunique() > 1]
+    formula = "confidence ~ " + (" + ".join(f"C({column})" for column in varied) or "1")
+    table = anova_lm(smf.ols(formula, data=frame).fit(), typ=2)
     table.index = [FACTORS[term[2:-1]] if term.startswith("C(") else "residuals" for term in table.index]
     table = table.rename(columns={"F": "f_value", "PR(>F)": "p_value"})
-    table["mean_sq"] = table["sum_sq"] / table["df"]
+    constant = pd.DataFrame({"df": 0.0, "sum_sq": 0.0, "f_value": np.nan, "p_value": np.nan},
+                            index=[FACTORS[column] for column in FACTORS if column not in varied])
+    table = pd.concat([table, constant]).reindex([*FACTORS.values(), "residuals"])
+    table["mean_sq"] = table["sum_sq"] / table["df"].where(table["df"] > 0)
     table["df"] = table["df"].round().astype(int)
     return table.rename_axis("factor").reset_index()[list(TABLE_COLUMNS)]
 
@@ -70,7 +75,7 @@ def anova_markdown(table: pd.DataFrame, paper: pd.DataFrame | None = None, left_
              "|---" * 11 + "|"]
     for row in table.itertuples():
         theirs = paper_rows.get(row.factor)
-        ours = (f"{row.df}", f"{row.sum_sq:.4g}", f"{row.mean_sq:.4g}",
+        ours = (f"{row.df}", f"{row.sum_sq:.4g}", "" if np.isnan(row.mean_sq) else f"{row.mean_sq:.4g}",
                 "" if np.isnan(row.f_value) else f"{row.f_value:.4g}", p_value_text(row.p_value))
         reference = ("",) * 5 if theirs is None else (
             f"{theirs.df}", f"{theirs.sum_sq:g}", f"{theirs.mean_sq:g}",

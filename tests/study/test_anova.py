@@ -95,3 +95,20 @@ def test_paper_table6_is_read():
         pytest.skip(f"paper Table 6 not available at {PAPER_TABLE6}")
     paper = read_paper_anova(PAPER_TABLE6)
     assert list(paper.df) == [2, 2, 3, 2, 1070] and paper.p_value[0] == "<2e-16" and np.isnan(paper.f_value[4])
+
+
+def test_a_study_of_one_friction_model_tests_the_other_three_factors():
+    """A study of one model (``--set study.models=...``): the model factor has one level and no effect to test
+    (df 0); the others are the three-way ANOVA's, whose sums of squares are the one-way between-group sums of
+    the balanced design."""
+    frame = balanced_observations(seed=2)
+    frame = frame[frame.model == "iwan4"]
+    table = surrogacy_anova(frame).set_index("factor")
+    assert list(table.index) == ["surrogate_beam", "real_beam", "friction_model", "linearized_zeta", "residuals"]
+    assert list(table.df) == [2, 2, 0, 2, 270 - 7]
+    assert table.sum_sq["friction_model"] == 0.0 and np.isnan(table.p_value["friction_model"])
+    confidence = frame.confidence.to_numpy()
+    groups = [confidence[(frame.surrogate == level).to_numpy()] for level in STRUCTURES]
+    between = sum(len(group) * (group.mean() - confidence.mean()) ** 2 for group in groups)
+    np.testing.assert_allclose(table.sum_sq["surrogate_beam"], between, rtol=1e-10)
+    assert table.p_value["surrogate_beam"] < 1e-6 and "| friction_model | 0 |" in anova_markdown(table.reset_index())
