@@ -7,13 +7,14 @@ analysed in a fresh process each: the streamed pass of the analyse step (``study
 at the bounds, the 8 x 8 bounds sweep, replicate counts of every damping case, the fronts) and, beside it, the
 whole error arrays in memory (``study.analysis.model_errors``), which the analysis held before it streamed. The
 streamed pass's peak memory stays flat from N to 4 N; the in-memory one grows with N. Then the paper's scale
-(5,000,000 designs per model, 4 models) projected from the streamed rate, beside the analysis measured there
-before it streamed (``MEASURED_IN_MEMORY``; not repeated by the benchmark).
+(5,000,000 designs per model, 4 models) projected from the streamed rate, beside the analysis and report measured
+there when the analysis held the whole arrays (``MEASURED_IN_MEMORY``; not repeated by the benchmark).
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -38,9 +39,10 @@ SWEEP = np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])  # bounds over the 
 PAPER_DESIGNS = 5_000_000  # per model (paper section 4.3)
 PAPER_MODELS = 4
 MEASURED_IN_MEMORY = row(
-    "analysis", "paper scale, in memory (before)", 9 * 60, 6.1 * 1024,
-    note="NOT measured by this run: the analyse step holding each model's whole error arrays, 5,000,000 designs "
-         "per model, 4 models, 3 beams, this 2-core machine, measured once")
+    "analysis", "paper scale, in memory, 2026-11-23", 8 * 60 + 55,
+    note="NOT measured by this run: analysis and report of `make study-full` when the analysis held each model's "
+         "whole error arrays (5,000,000 designs per model, 4 models, 3 beams, this 2-core machine): 8 min 55 s, "
+         "peak 6.1 GB")
 
 
 def synthetic_chunk(model: str, chunk: int, length: int, chunk_size: int, structures, cases, n_replicates: int,
@@ -93,17 +95,27 @@ def synthetic_exploration(folder: Path, model: str, n_designs: int, chunk_size: 
     return folder
 
 
-def streamed(folder: Path) -> int:
-    """The analyse step's pass over one model's chunks; returns the designs read."""
+def _peak_mib() -> float:
+    """Peak resident memory of this process so far (MiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def streamed(folder: Path) -> tuple[int, float]:
+    """The analyse step's pass over one model's chunks; returns the designs read and the peak memory (MiB) before
+    the pass (the modules imported)."""
+    before = _peak_mib()
     counts = sample_counts(folder, MODEL, list(STRUCTURES), CASES, CASES[0], FREQUENCY_TOLERANCE_HZ,
                            DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ * SWEEP, DAMPING_TOLERANCE * SWEEP,
                            progress=False)
-    return counts.n_designs
+    return counts.n_designs, before
 
 
-def in_memory(folder: Path) -> int:
-    """One model's whole error arrays of each damping case, as the analysis held them before it streamed."""
-    return sum(len(model_errors(folder, MODEL, list(STRUCTURES), case).design) for case in CASES)
+def in_memory(folder: Path) -> tuple[int, float]:
+    """One model's whole error arrays of each damping case, as the analysis held them before it streamed; returns
+    the designs read and the peak memory (MiB) before."""
+    before = _peak_mib()
+    errors = [model_errors(folder, MODEL, list(STRUCTURES), case) for case in CASES]
+    return len(errors[0].design), before
 
 
 def rows(n_designs: int = 100_000) -> Iterator[dict]:
@@ -112,16 +124,18 @@ def rows(n_designs: int = 100_000) -> Iterator[dict]:
     with tempfile.TemporaryDirectory() as temporary:
         for size in (n_designs, 4 * n_designs):
             folder = synthetic_exploration(Path(temporary) / f"n{size}", MODEL, size)
-            seconds, peak, read = measure(streamed, folder)
+            seconds, peak, (read, imported) = measure(streamed, folder)
             assert read == size
             rate = size / seconds
             yield row("analysis", f"streamed, {size:,} designs", seconds, peak, rate, "designs/s",
-                      f"synthetic errors, 1 model x {len(STRUCTURES)} structures x {len(CASES)} damping cases, "
-                      f"chunks of {CHUNK:,}; counts, 8 x 8 bounds sweep, replicates, fronts; fresh process")
-            seconds, peak, _ = measure(in_memory, folder)
-            yield row("analysis", f"in memory, {size:,} designs", seconds, peak, size * len(CASES) / seconds,
-                      "designs/s", "the same folder's whole error arrays of each damping case (model_errors), "
-                                   "no counting: the memory the analysis held before it streamed")
+                      f"{peak - imported:.0f} MiB above the imported modules; synthetic errors, 1 model x "
+                      f"{len(STRUCTURES)} structures x {len(CASES)} damping cases, chunks of {CHUNK:,}: counts, "
+                      f"8 x 8 bounds sweep, replicates, fronts; wall time, fresh process")
+            seconds, peak, (read, imported) = measure(in_memory, folder)
+            assert read == size
+            yield row("analysis", f"in memory, {size:,} designs", seconds, peak, size / seconds, "designs/s",
+                      f"{peak - imported:.0f} MiB above the imported modules; the same folder's whole error arrays "
+                      f"of each damping case held at once (model_errors), nothing counted")
     projected = PAPER_DESIGNS * PAPER_MODELS / rate
     yield row("analysis", "paper scale, streamed, projected", projected,
               note=f"{projected / 60:.1f} min: {PAPER_DESIGNS:,} designs x {PAPER_MODELS} models at the streamed "

@@ -29,7 +29,7 @@ from study.pareto import non_dominated
 from study.surrogacy import bounds_joint_counts, joint_counts, replicate_from_counts, replicate_joint_counts, \
     replicate_table
 
-PLOTTED_DESIGNS = 200_000
+PLOTTED_DESIGNS = 100_000
 """Designs of a sample drawn in the error plane of the fronts' figure (the first ones: every replicate
 population's first chunks); the fronts themselves are over the whole sample."""
 

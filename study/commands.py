@@ -32,12 +32,12 @@ from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
 from study.datasets import DEFAULT_DAMPING_CASE
-from study.analysis import model_errors
+from study.analysis import chunk_errors
 from study.errors import accepted
 from study.parameters import defaults
 from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
                                      write_subset_csv)
-from study.surrogacy import surrogacy_matrix
+from study.surrogacy import joint_counts, matrix_from_counts
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -107,13 +107,14 @@ def read_bounds(path: Path, model: str, names: list[str]) -> tuple[np.ndarray, n
 
 
 def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds):
-    """SC_IJ counted on the study's own sample (brute force) at the same bounds, where the exploration holds the
-    model (``study.surrogacy.surrogacy_matrix``); None where it does not."""
+    """SC_IJ counted on the study's own sample (brute force) at the same bounds, chunk by chunk, where the
+    exploration holds the model (``study.surrogacy.matrix_from_counts``); None where it does not."""
     if not (folder.paths.designs / model).is_dir():
         return None
-    errors = model_errors(folder.paths.designs, model, folder.exploration.names, case)
-    return surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, frequency_bounds,
-                                     damping_bounds))
+    counts = sum(joint_counts(accepted(errors[case].frequency_error_hz, errors[case].damping_error, frequency_bounds,
+                                       damping_bounds))
+                 for errors in chunk_errors(folder.paths.designs, model, folder.exploration.names, [case]))
+    return matrix_from_counts(counts)
 
 
 def run_confidence(arguments: argparse.Namespace) -> None:
