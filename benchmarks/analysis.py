@@ -67,8 +67,10 @@ def synthetic_chunk(model: str, chunk: int, length: int, chunk_size: int, struct
 
     for name in structures:
         failed = rng.uniform(size=length) < 0.05
-        columns[f"frequency_error_hz[{name}]"] = np.where(failed, np.nan, errors("frequency", 4 * FREQUENCY_TOLERANCE_HZ))
-        columns.update({f"damping_error[{name}][{case}]": np.where(failed, np.nan, errors("damping", 4 * DAMPING_TOLERANCE))
+        columns[f"frequency_error_hz[{name}]"] = np.where(failed, np.nan,
+                                                          errors("frequency", 4 * FREQUENCY_TOLERANCE_HZ))
+        columns.update({f"damping_error[{name}][{case}]": np.where(failed, np.nan,
+                                                                   errors("damping", 4 * DAMPING_TOLERANCE))
                         for case in cases})
         columns[f"converged[{name}]"] = ~failed
         reason = np.where(failed, np.where(rng.uniform(size=length) < 0.7, "no equilibrium", "reversed element"), "")

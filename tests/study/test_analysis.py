@@ -88,6 +88,11 @@ def test_anova_observations_equal_those_of_the_whole_sample(folder, streamed):
                                   pd.concat(expected, ignore_index=True))
 
 
+def dominates(first, second) -> np.ndarray:
+    """(m, k) whether row i of first (m, 2) dominates row j of second (k, 2): no worse in both, better in one."""
+    return (np.all(first[:, None] <= second[None], axis=2) & np.any(first[:, None] < second[None], axis=2))
+
+
 def test_streamed_fronts_equal_the_whole_samples_ties_included(folder, streamed):
     whole = model_errors(folder, MODEL, NAMES, "high")
     for structure in range(len(NAMES)):
@@ -98,7 +103,6 @@ def test_streamed_fronts_equal_the_whole_samples_ties_included(folder, streamed)
         # is dominated by one on it
         points = np.column_stack([whole.frequency_error_hz[:, structure], whole.damping_error[:, structure]])
         front = np.column_stack(expected[1:])
-        dominates = lambda a, b: np.all(a[:, None] <= b[None], axis=2) & np.any(a[:, None] < b[None], axis=2)  # noqa: E731
         assert not dominates(points[~np.isnan(points).any(axis=1)], front).any()
         off = ~np.isin(whole.design, expected.design) & ~np.isnan(points).any(axis=1)
         assert dominates(front, points[off]).any(axis=0).all()
