@@ -3,7 +3,8 @@
 Stages, in order: geometry (each beam meshed), fem (each beam's FE steps and CalculiX beside them; coarse meshes
 by default, ``--fem-meshes default`` for the default meshes: the run then nears 30 min), reduction (each beam's
 superelement from build/fe), qsma and study (designs per second per core per friction model, the paper-scale
-study projected and the one measured earlier), calibration (time and evaluations per ASB configuration and
+study projected and the one measured earlier), analysis (the analyse step's pass over N and 4 N synthetic designs:
+wall time and peak memory, flat in N), calibration (time and evaluations per ASB configuration and
 model), surrogacy (subset simulation against brute force for SC at tightening bounds), dask (serial against
 LocalClusters of 1 and 2 workers), and last the wall time of the whole run. The table (``benchmarks.table``) is also written to
 ``<out>/bench.md`` and ``<out>/bench.csv``.
@@ -19,7 +20,7 @@ import os
 import time
 from pathlib import Path
 
-from benchmarks import calibration, dask_speedup, fem, geometry, qsma, reduction, study, surrogacy_confidence
+from benchmarks import analysis, calibration, dask_speedup, fem, geometry, qsma, reduction, study, surrogacy_confidence
 from benchmarks.table import row, show, write
 
 
@@ -39,7 +40,7 @@ def main(argv=None) -> None:
                 f"{os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}; other work may share the machine, so the "
                 f"timings are noisy (+-10 % or more); FE on {arguments.fem_meshes} meshes"]
     stages = itertools.chain(geometry.rows(), fem.rows(coarse=arguments.fem_meshes == "coarse"), reduction.rows(),
-                             qsma.rows(), study.rows(), calibration.rows(), surrogacy_confidence.rows(),
+                             qsma.rows(), study.rows(), analysis.rows(), calibration.rows(), surrogacy_confidence.rows(),
                              dask_speedup.rows())
     rows = show(itertools.chain(stages, _whole_run(start)), preamble)
     markdown, table = write(rows, arguments.out, preamble)

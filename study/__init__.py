@@ -21,5 +21,6 @@ Answers (:mod:`study.surrogacy`, :mod:`study.subset_simulation`, :mod:`study.par
 Files (:mod:`study.parameters`, :mod:`study.workflow`, :mod:`study.analysis`, :mod:`study.figures`, :mod:`study.report`)
     defaults                    the configuration's sections ([study], [sample], [acceptance], [pareto])
     run_steps                   measurements, explore, analyse, report on files
+    sample_counts               one pass over a model's chunks: every count and front the analysis needs
     analysis tables and figures, report.md
 """

@@ -32,13 +32,13 @@ from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
 from study.datasets import DEFAULT_DAMPING_CASE
-from study.analysis import model_errors
+from study.analysis import chunk_errors
 from study.errors import accepted
 from study.figures import plot_confidence_against_scale
 from study.parameters import defaults
 from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
                                      write_subset_csv)
-from study.surrogacy import SurrogacyMatrix, surrogacy_matrix
+from study.surrogacy import SurrogacyMatrix, joint_counts, matrix_from_counts
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -115,15 +115,16 @@ BOUND_SCALES = np.geomspace(0.5, 8.0, 25)  # factors on the chosen bounds of the
 
 def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds,
                       scales=(1.0,)):
-    """SC_IJ counted on the study's own sample (brute force) at ``scales`` (a,) times the bounds (each structure's
-    own, (S,) Hz and -), where the exploration holds the model (``study.surrogacy.surrogacy_matrix``), the
-    SurrogacyMatrix's fields stacked on a leading axis (a,); None where it does not."""
+    """SC_IJ counted on the study's own sample (brute force) chunk by chunk at ``scales`` (a,) times the bounds
+    (each structure's own, (S,) Hz and -), where the exploration holds the model (``study.surrogacy
+    .matrix_from_counts``: the fields with a leading axis (a,)); None where it does not."""
     if not (folder.paths.designs / model).is_dir():
         return None
-    errors = model_errors(folder.paths.designs, model, folder.exploration.names, case)
-    matrices = [surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, scale * frequency_bounds,
-                                          scale * damping_bounds)) for scale in scales]
-    return SurrogacyMatrix(*map(np.stack, zip(*matrices)))
+    factor = np.asarray(scales, dtype=float)[:, None, None]  # (a, 1, 1) against a chunk's (n, S) errors
+    counts = sum(joint_counts(accepted(errors[case].frequency_error_hz, errors[case].damping_error,
+                                       factor * frequency_bounds, factor * damping_bounds))
+                 for errors in chunk_errors(folder.paths.designs, model, folder.exploration.names, [case]))
+    return matrix_from_counts(counts)
 
 
 def run_confidence(arguments: argparse.Namespace) -> None:

@@ -23,9 +23,11 @@ def save(figure, destination: Path) -> None:
     plt.close(figure)
 
 
-def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance) -> None:
+def plot_fronts(destination: Path, model: str, names, errors, n_designs: int, fronts, acceptance) -> None:
     """Each structure's sample in the error plane (log axes), its non-dominated front, NSGA-II's front and the
-    acceptance box (paper Fig. 6)."""
+    acceptance box (paper Fig. 6). errors: ``study.analysis.ModelErrors`` of the sample's designs drawn (all of
+    its n_designs, or its first ones, said in the legend); fronts: ``study.workflow.Fronts``."""
+    label = "sample" if len(errors.design) == n_designs else f"sample (first {len(errors.design):,} of {n_designs:,})"
     columns = min(3, len(names))
     rows = -(-len(names) // columns)
     figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False)
@@ -33,7 +35,7 @@ def plot_fronts(destination: Path, model: str, names, errors, fronts, acceptance
         axis.set_visible(False)
     for index, (axis, name) in enumerate(zip(axes.ravel(), names)):
         axis.loglog(errors.frequency_error_hz[:, index], errors.damping_error[:, index], ".", ms=1.5,
-                    color="0.75", label="sample", rasterized=True)
+                    color="0.75", label=label, rasterized=True)
         front = fronts.sample[index]
         axis.loglog(front.frequency_error_hz, front.damping_error, "o-", ms=3, color="C0", label="sample front")
         nsga = fronts.nsga2_errors[index]

@@ -8,7 +8,8 @@ import json
 from pathlib import Path
 
 from pipeline.files import atomic_path
-from study.exploration import manifest, read_exploration
+from study.analysis import reason_counts
+from study.exploration import manifest
 
 
 def _section(path: Path) -> str:
@@ -16,15 +17,15 @@ def _section(path: Path) -> str:
 
 
 def flag_table(designs: Path, models, names) -> str:
-    """Markdown table of designs not converged, per model and structure, by reason."""
+    """Markdown table of designs not converged, per model and structure, by reason (most frequent first),
+    counted chunk by chunk (``study.analysis.reason_counts``)."""
     lines = ["| model | structure | designs | not converged | reasons |", "|---|---|---|---|---|"]
     for model in models:
-        frame = read_exploration(designs, model, [f"reason[{name}]" for name in names])
+        n_designs, reasons = reason_counts(designs, model, names)
         for name in names:
-            reasons = frame[f"reason[{name}]"].astype(str)
-            failed = reasons[reasons != ""]
-            counts = "; ".join(f"{reason}: {count}" for reason, count in failed.value_counts().items())
-            lines.append(f"| {model} | {name} | {len(frame)} | {len(failed)} | {counts or '-'} |")
+            ranked = sorted(reasons[name].items(), key=lambda item: -item[1])
+            counts = "; ".join(f"{reason}: {count}" for reason, count in ranked)
+            lines.append(f"| {model} | {name} | {n_designs} | {sum(reasons[name].values())} | {counts or '-'} |")
     return "\n".join(lines)
 
 

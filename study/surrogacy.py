@@ -18,7 +18,6 @@ the paper's value beside ours where the paper gives one (its CSV is read from a 
 
 from __future__ import annotations
 
-import itertools
 import warnings
 from pathlib import Path
 from typing import Mapping, NamedTuple, Sequence
@@ -67,19 +66,25 @@ class ReplicateSurrogacy(NamedTuple):
     standard_deviation: np.ndarray
 
 
+def joint_counts(accepted_designs) -> np.ndarray:
+    """n_IJ = sum_n 1_I(x_n) 1_J(x_n) (paper Eq. 29) of accepted_designs (..., n_designs, S) bool: (..., S, S)
+    int64, rows surrogate I, columns real J, diagonal n_I. Counts add over disjoint sets of designs, so a sample
+    read in chunks has the sum of its chunks' counts."""
+    indicator = np.asarray(accepted_designs, dtype=bool).astype(float)  # 1_I(x_n); sums exact below 2^53
+    return np.rint(np.swapaxes(indicator, -1, -2) @ indicator).astype(np.int64)
+
+
 def surrogacy_matrix(accepted_designs, level: float = CONFIDENCE_LEVEL,
                      method: str = INTERVAL_METHOD) -> SurrogacyMatrix:
     """SC_IJ = n_IJ / n_I (paper Eq. 29) of accepted_designs (n_designs, S) bool, with the two-sided binomial
-    confidence interval at ``level`` of each cell (``statsmodels.stats.proportion.proportion_confint``;
-    method "beta" is Clopper-Pearson, "wilson", "jeffreys", ... as statsmodels names them)."""
-    accepted_designs = np.asarray(accepted_designs, dtype=bool)
-    joint = np.stack([np.count_nonzero(accepted_designs & accepted_designs[:, [surrogate]], axis=0)
-                      for surrogate in range(accepted_designs.shape[1])])
-    return _matrix_from_counts(joint, level, method)
+    confidence interval at ``level`` of each cell (``matrix_from_counts``)."""
+    return matrix_from_counts(joint_counts(accepted_designs), level, method)
 
 
-def _matrix_from_counts(joint_counts, level: float, method: str) -> SurrogacyMatrix:
-    """SurrogacyMatrix from n_IJ (..., S, S), whose diagonal is n_I."""
+def matrix_from_counts(joint_counts, level: float = CONFIDENCE_LEVEL, method: str = INTERVAL_METHOD) -> SurrogacyMatrix:
+    """SurrogacyMatrix from n_IJ (..., S, S), whose diagonal is n_I: SC_IJ = n_IJ / n_I and the two-sided binomial
+    confidence interval at ``level`` of each cell (``statsmodels.stats.proportion.proportion_confint``; method
+    "beta" is Clopper-Pearson, "wilson", "jeffreys", ... as statsmodels names them)."""
     joint_counts = np.asarray(joint_counts, dtype=np.int64)
     counts = np.diagonal(joint_counts, axis1=-2, axis2=-1).copy()
     trials = np.broadcast_to(counts[..., :, None], joint_counts.shape)
@@ -90,26 +95,48 @@ def _matrix_from_counts(joint_counts, level: float, method: str) -> SurrogacyMat
     return SurrogacyMatrix(counts, joint_counts, confidence, lower, upper)
 
 
-def replicate_surrogacy(accepted_designs, replicate) -> ReplicateSurrogacy:
-    """SC of each replicate population and its mean and standard deviation over the replicates.
-
-    accepted_designs: (n_designs, S) bool; replicate: (n_designs,) integer label of the population each
-    design belongs to (e.g. ``np.arange(n) % R`` for R interleaved LHS populations). The standard deviation is
-    the replicate-to-replicate spread of one population's estimate, about sqrt(SC (1 - SC) / n_I).
-    """
+def replicate_joint_counts(accepted_designs, replicate) -> tuple[np.ndarray, np.ndarray]:
+    """(labels (R,) sorted, n_IJ (R, S, S) of each replicate population) of accepted_designs (n_designs, S) bool
+    and replicate (n_designs,) the integer label of the population each design belongs to."""
     accepted_designs = np.asarray(accepted_designs, dtype=bool)
     labels, population = np.unique(np.asarray(replicate), return_inverse=True)
-    n_structures = accepted_designs.shape[1]
-    joint = np.zeros((labels.size, n_structures, n_structures), dtype=np.int64)
-    for surrogate, real in itertools.product(range(n_structures), repeat=2):
-        joint[:, surrogate, real] = np.bincount(population, minlength=labels.size,
-                                                weights=accepted_designs[:, surrogate] & accepted_designs[:, real])
-    matrices = _matrix_from_counts(joint, CONFIDENCE_LEVEL, INTERVAL_METHOD)
+    counts = [joint_counts(accepted_designs[population == index]) for index in range(labels.size)]
+    shape = (0, accepted_designs.shape[1], accepted_designs.shape[1])
+    return labels, np.stack(counts) if counts else np.zeros(shape, dtype=np.int64)
+
+
+def replicate_surrogacy(accepted_designs, replicate) -> ReplicateSurrogacy:
+    """SC of each replicate population and its mean and standard deviation over the replicates
+    (``replicate_from_counts`` of ``replicate_joint_counts``).
+
+    accepted_designs: (n_designs, S) bool; replicate: (n_designs,) integer label of the population each
+    design belongs to (e.g. ``np.arange(n) % R`` for R interleaved LHS populations).
+    """
+    return replicate_from_counts(*replicate_joint_counts(accepted_designs, replicate))
+
+
+def replicate_from_counts(labels, joint_counts) -> ReplicateSurrogacy:
+    """SC of each replicate population from its counts n_IJ (R, S, S) (labels (R,)), and the mean and standard
+    deviation over the replicates. The standard deviation is the replicate-to-replicate spread of one
+    population's estimate, about sqrt(SC (1 - SC) / n_I)."""
+    matrices = matrix_from_counts(joint_counts)
     with warnings.catch_warnings():  # a cell with fewer than two replicate values has no mean or spread: NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         mean = np.nanmean(matrices.confidence, axis=0)
         spread = np.nanstd(matrices.confidence, axis=0, ddof=1)
-    return ReplicateSurrogacy(labels, matrices.accepted_counts, matrices.confidence, mean, spread)
+    return ReplicateSurrogacy(np.asarray(labels), matrices.accepted_counts, matrices.confidence, mean, spread)
+
+
+def bounds_joint_counts(frequency_error_hz, damping_error, frequency_bounds_hz, damping_bounds) -> np.ndarray:
+    """n_IJ (a, b, S, S) at every pair of acceptance bounds: frequency_bounds_hz (a,) Hz, damping_bounds (b,) of
+    the errors frequency_error_hz, damping_error (n_designs, S) (Hz, -; NaN where QSMA did not converge)."""
+    frequency_bounds_hz = np.atleast_1d(np.asarray(frequency_bounds_hz, dtype=float))
+    damping_bounds = np.atleast_1d(np.asarray(damping_bounds, dtype=float))
+    n_structures = np.shape(frequency_error_hz)[-1]
+    return np.array([[joint_counts(accepted(frequency_error_hz, damping_error, frequency_bound, damping_bound))
+                      for damping_bound in damping_bounds] for frequency_bound in frequency_bounds_hz],
+                    dtype=np.int64).reshape(frequency_bounds_hz.size, damping_bounds.size, n_structures,
+                                            n_structures)
 
 
 def surrogacy_against_bounds(frequency_error_hz, damping_error, frequency_bounds_hz, damping_bounds,
@@ -120,13 +147,8 @@ def surrogacy_against_bounds(frequency_error_hz, damping_error, frequency_bounds
     converge; frequency_bounds_hz: (a,) Hz; damping_bounds: (b,). Returns a SurrogacyMatrix whose fields have
     leading axes (a, b): accepted_counts (a, b, S), joint_counts, confidence, lower, upper (a, b, S, S).
     """
-    frequency_bounds_hz = np.atleast_1d(np.asarray(frequency_bounds_hz, dtype=float))
-    damping_bounds = np.atleast_1d(np.asarray(damping_bounds, dtype=float))
-    joint = np.stack([np.stack([surrogacy_matrix(accepted(frequency_error_hz, damping_error, frequency_bound,
-                                                          damping_bound)).joint_counts
-                                for damping_bound in damping_bounds])
-                      for frequency_bound in frequency_bounds_hz])
-    return _matrix_from_counts(joint, level, method)
+    return matrix_from_counts(bounds_joint_counts(frequency_error_hz, damping_error, frequency_bounds_hz,
+                                                  damping_bounds), level, method)
 
 
 def plot_bounds_sensitivity(sweep: SurrogacyMatrix, frequency_bounds_hz, damping_bounds,

@@ -30,11 +30,11 @@ from pipeline.config import resolve
 from pipeline.files import atomic_path, sha256_file, write_json
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
-from study.analysis import anova_observations, model_errors, representative_designs, sample_front
+from study.analysis import anova_observations, design_rows, representative_designs, sample_counts
 from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
-from study.errors import accepted, design_errors
-from study.exploration import Explored, Exploration, StudyError, check_explored, explore, read_exploration
+from study.errors import design_errors
+from study.exploration import Explored, Exploration, StudyError, check_explored, explore
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
@@ -164,8 +164,7 @@ def front_designs(paths: Paths, model: str, n_groups: int, structure: str) -> Fr
     fronts = fronts[fronts["structure"] == structure]
     names = parameter_names(model, n_groups)
     sample = fronts[fronts["source"] == "sample"]
-    frame = read_exploration(paths.designs, model, ["design", *names]).set_index("design")
-    designs = np.vstack([frame.loc[sample["design"], names].to_numpy(),
+    designs = np.vstack([design_rows(paths.designs, model, sample["design"].to_numpy(), names),
                          fronts.loc[fronts["source"] == "nsga2", names].to_numpy()])
     labels = [f"sample {d}" for d in sample["design"]] + [f"nsga2 {i}" for i in range(len(designs) - len(sample))]
     errors = np.vstack([sample[["frequency_error_hz", "damping_error"]].to_numpy(),
@@ -181,7 +180,8 @@ def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: 
 def analyse(paths: Paths, parameters: dict) -> None:
     """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress. Refused
     (StudyError) unless the designs folder holds the whole exploration of the current inputs
-    (``study.exploration.check_explored``)."""
+    (``study.exploration.check_explored``). Each model's chunks are read once (``study.analysis.sample_counts``):
+    memory bounded by a chunk and the counts, whatever the number of designs."""
     study, acceptance = parameters["study"], parameters["acceptance"]
     explored = exploration(paths, parameters)
     check_explored(explored, paths.designs)
@@ -192,27 +192,28 @@ def analyse(paths: Paths, parameters: dict) -> None:
              if study.dataset == "beams" else None)
     sweep_frequency = acceptance.frequency_tolerance_hz * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     sweep_damping = acceptance.damping_tolerance * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
+    counts = {}
     for model in explored.models:
-        errors = model_errors(paths.designs, model, names, case)
-        acceptance_mask = accepted(errors.frequency_error_hz, errors.damping_error,
-                                   acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
-        table = surrogacy.surrogacy_table({model: surrogacy.surrogacy_matrix(acceptance_mask)}, names, paper)
-        spread = surrogacy.replicate_surrogacy(acceptance_mask, errors.replicate)
+        sample = counts[model] = sample_counts(paths.designs, model, names, list(explored.damping_cases), case,
+                                               acceptance.frequency_tolerance_hz, acceptance.damping_tolerance,
+                                               sweep_frequency, sweep_damping)
+        matrix = surrogacy.matrix_from_counts(sample.joint_counts)
+        table = surrogacy.surrogacy_table({model: matrix}, names, paper)
+        spread = surrogacy.replicate_from_counts(sample.replicate_labels, sample.replicate_joint_counts[case])
         table["replicate_mean"] = spread.mean.ravel()
         table["replicate_standard_deviation"] = spread.standard_deviation.ravel()
         surrogacy.write_surrogacy_csv(table, out / f"surrogacy_{model}.csv")
         surrogacy.write_surrogacy_markdown(table, out / f"surrogacy_{model}.md")
-        sweep = surrogacy.surrogacy_against_bounds(errors.frequency_error_hz, errors.damping_error, sweep_frequency,
-                                                   sweep_damping)
+        sweep = surrogacy.matrix_from_counts(sample.bounds_joint_counts)
         surrogacy.plot_bounds_sensitivity(sweep, sweep_frequency, sweep_damping, names,
                                           out / f"surrogacy_bounds_{model}.png", acceptance.frequency_tolerance_hz,
                                           acceptance.damping_tolerance, title=model)
-        fronts = pareto_fronts(paths, parameters, explored, model, errors)
-        figures.plot_fronts(out / f"pareto_{model}.png", model, names, errors, fronts, acceptance)
+        fronts = pareto_fronts(paths, parameters, explored, model, sample.fronts, sample.n_designs)
+        figures.plot_fronts(out / f"pareto_{model}.png", model, names, sample.plotted, sample.n_designs, fronts,
+                            acceptance)
         responses(paths, parameters, explored, model, fronts)
     if study.dataset == "beams":
-        observations = anova_observations(paths.designs, explored.models, names, list(explored.damping_cases),
-                                          acceptance.frequency_tolerance_hz, acceptance.damping_tolerance)
+        observations = anova_observations(counts, names)
         table = anova.surrogacy_anova(observations)
         anova.write_anova_markdown(table, out / "anova.md", paths.reference / "paper_table6_anova.csv",
                                    int(observations["confidence"].isna().sum()))
@@ -220,9 +221,10 @@ def analyse(paths: Paths, parameters: dict) -> None:
             table.to_csv(temporary, index=False)
         if prestress.MODEL in explored.models:
             sbrb = explored.structures[names.index(prestress.BEAM)]
-            designs = read_exploration(paths.designs, prestress.MODEL,
-                                       parameter_names(prestress.MODEL, explored.n_groups))
-            comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs.to_numpy()[:prestress.DESIGNS],
+            designs = design_rows(paths.designs, prestress.MODEL,
+                                  np.arange(min(prestress.DESIGNS, explored.sample.n_designs)),
+                                  parameter_names(prestress.MODEL, explored.n_groups))
+            comparison = prestress.compare(paths.rom / f"{prestress.BEAM}.npz", designs,
                                            sbrb.measurement.low_amplitude_frequency_hz)
             prestress.write_comparison(comparison, out / "prestress.md", out / "prestress.png")
 
@@ -235,18 +237,16 @@ class Fronts(NamedTuple):
     nsga2_designs: list
 
 
-def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: str, errors) -> Fronts:
-    """The sample's front on each structure and an NSGA-II run seeded from it (paper Fig. 6), written to
+def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: str, sample_fronts: list,
+                  n_designs: int) -> Fronts:
+    """NSGA-II on each structure seeded from the sample's front there (``study.analysis.Front``, one per
+    structure) and ``population`` designs drawn from the sample's n_designs (paper Fig. 6), both fronts written to
     fronts_<model>.csv (the column source: "sample" or "nsga2")."""
     settings, case = parameters["pareto"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
     limits = parameter_limits(model, explored.n_groups)
     names = parameter_names(model, explored.n_groups)
-    frame = read_exploration(paths.designs, model, ["design", *names])
-    parameters_of = frame.set_index("design")[names]
-    sample_fronts, nsga_errors, nsga_designs, rows = [], [], [], []
-    for index, structure in enumerate(explored.structures):
-        front = sample_front(errors, index)
-        sample_fronts.append(front)
+    nsga_errors, nsga_designs, rows = [], [], []
+    for index, (structure, front) in enumerate(zip(explored.structures, sample_fronts)):
         zeta0 = explored.damping_cases[case][index]
         split = modal_split(structure.space)
 
@@ -256,9 +256,10 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
             return np.column_stack([result.frequency_error_hz, result.damping_error[:, 0]])
 
         rng = np.random.default_rng([parameters["sample"].seed, index])
-        seeds = to_unit(parameters_of.loc[front.design].to_numpy(), *limits)
-        extra = to_unit(parameters_of.to_numpy()[rng.choice(len(parameters_of), settings.population, replace=False)]
-                        if len(parameters_of) > settings.population else parameters_of.to_numpy(), *limits)
+        drawn = (rng.choice(n_designs, settings.population, replace=False) if n_designs > settings.population
+                 else np.arange(n_designs))
+        seeds = to_unit(design_rows(paths.designs, model, front.design, names), *limits)
+        extra = to_unit(design_rows(paths.designs, model, drawn, names), *limits)
         result = pareto.nsga2_front(objective, np.vstack([seeds, extra]), generations=settings.generations,
                                     population=settings.population, seed=parameters["sample"].seed + index)
         designs, values = result.designs, result.errors
@@ -270,20 +271,19 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
                   "damping_error": z, **dict(zip(names, from_unit(u, *limits)))} for u, (f, z) in zip(designs, values)]
     with atomic_path(paths.analysis / f"fronts_{model}.csv") as temporary:
         pd.DataFrame(rows).to_csv(temporary, index=False)
-    return Fronts(sample_fronts, nsga_errors, nsga_designs)
+    return Fronts(list(sample_fronts), nsga_errors, nsga_designs)
 
 
 def responses(paths: Paths, parameters: dict, explored: Exploration, model: str, fronts: Fronts) -> None:
     """Backbones of representative front designs of each structure against its measurement (Figs. 9-11)."""
     acceptance, case = parameters["acceptance"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
     names = parameter_names(model, explored.n_groups)
-    frame = read_exploration(paths.designs, model, ["design", *names]).set_index("design")
     curves = []
     for index, structure in enumerate(explored.structures):
         front = fronts.sample[index]
         chosen = representative_designs(front, acceptance.frequency_tolerance_hz, acceptance.damping_tolerance,
                                         parameters["pareto"].representatives)
-        designs = frame.loc[front.design[chosen]].to_numpy()
+        designs = design_rows(paths.designs, model, front.design[chosen], names)
         curves.append((structure, front.design[chosen], designs, explored.damping_cases[case][index]))
     figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves, rule=explored.damping_rule)
 
