@@ -3,7 +3,9 @@ polishes along its front, then the best compromise with its uncertainty (docs/de
 
 Global phase. NSGA-II (``study.pareto.nsga2_front``) over the unit box of ``calibration.objectives`` (the joint's
 Table 3 parameters and zeta_0) on the two L-infinity errors, seeded with the designs a study found (its sample's
-and its NSGA-II front, zeta_0 at the study's value and spread over its range) and run until the front stops
+and its NSGA-II front, zeta_0 at the study's value and spread over its range; for a model that contains another,
+iwan5 and iwan4_core containing iwan4, also that model's calibrated front, so the larger model fits at least as
+well) and run until the front stops
 moving: pymoo's ``DefaultMultiObjectiveTermination`` (its default tolerances: the ideal, nadir and front move
 by less than 0.25 % over 30 generations), at most ``MAX_GENERATIONS`` (a run that reaches the cap says so).
 
@@ -73,10 +75,12 @@ def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.rando
 
 
 def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study_zeta0: float, seed: int = 0,
-              max_generations: int = MAX_GENERATIONS) -> Calibration:
+              max_generations: int = MAX_GENERATIONS, fitted_seeds=None) -> Calibration:
     """Calibrate ``model`` on ``structure`` (module docstring). seeds_unit: (n, d) the study's designs in Table 3
     unit coordinates; study_zeta0: the study's linear damping for the structure; seed: NSGA-II's random seed
-    (the same seed gives the same calibration); max_generations: the global phase's cap."""
+    (the same seed gives the same calibration); max_generations: the global phase's cap; fitted_seeds: (k, d + 1)
+    points of the fit's box (design and zeta_0) to seed besides, e.g. the calibrated front of the model this one
+    contains, so that the larger model fits at least as well."""
     space = fit_space(model, n_groups, structure.measurement)
     split = modal_split(structure.space)
     measurement = structure.measurement
@@ -85,6 +89,8 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
         return linf_errors(measurement, model_curves(structure, space, unit, split))
 
     seeds = seed_points(space, seeds_unit, study_zeta0, np.random.default_rng(seed))
+    if fitted_seeds is not None and len(fitted_seeds):
+        seeds = np.vstack([seeds, fitted_seeds])
     termination = DefaultMultiObjectiveTermination(n_max_gen=max_generations)
     found = nsga2_front(objective, seeds, population=POPULATION, seed=seed, termination=termination)
     fits = []

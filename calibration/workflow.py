@@ -6,13 +6,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
 from calibration.bounds import bounds_table, write_bounds
 from calibration.calibrate import MAX_GENERATIONS, calibrate
 from calibration.files import calibration_record, plot_fits, read_calibration, write_fronts, write_markdown
 from calibration.objectives import fit_space
-from nonlinear.joint import parameter_limits, parameter_names, to_unit
+from nonlinear.friction_models import MODEL_NAMES, friction_model
+from nonlinear.joint import contained_unit_designs, parameter_limits, parameter_names, to_unit
 from pipeline.cache import package_versions
 from pipeline.files import sha256_file, sha256_json, stage_folder, write_json
 from study.datasets import DEFAULT_DAMPING_CASE
@@ -22,25 +24,42 @@ from study.workflow import Paths, front_designs, read_study
 VERSIONS = package_versions("numpy", "scipy", "numba", "pymoo")
 
 
-def calibration_key(paths: Paths, model: str, structure: Structure, seed: int, max_generations: int) -> str:
+def calibration_key(paths: Paths, model: str, structure: Structure, seed: int, max_generations: int,
+                    fitted_seeds) -> str:
     """What a calibration's result depends on: the study's fronts file, the measurement's levels, the seed, the
-    generation cap and the versions (SHA-256 of their JSON)."""
+    generation cap, the seeds from the contained model's calibration and the versions (SHA-256 of their JSON)."""
     measurement = structure.measurement
     return sha256_json({"fronts": sha256_file(paths.analysis / f"fronts_{model}.csv"),
                         "measurement": {"amplitude": measurement.amplitude.tolist(),
                                         "frequency_hz": measurement.frequency_hz.tolist(),
                                         "damping": measurement.damping.tolist()},
-                        "seed": seed, "max_generations": max_generations, "versions": VERSIONS})
+                        "seed": seed, "max_generations": max_generations, "versions": VERSIONS,
+                        "fitted_seeds": np.asarray(fitted_seeds).tolist()})
+
+
+def contained_seeds(model: str, n_groups: int, measurement, record: dict | None) -> np.ndarray:
+    """The calibrated front and best compromise of the model ``model`` contains (its record on the structure that
+    made ``measurement``, or None where it was not calibrated in this run), as points (k, d + 1) of ``model``'s fit
+    box: the added parameters at ``nonlinear.friction_models.CONTAINED_UNIT``, zeta_0 kept
+    (``nonlinear.joint.contained_unit_designs``)."""
+    if record is None:
+        return np.empty((0, len(parameter_names(model, n_groups)) + 1))
+    inner = fit_space(friction_model(model).contains, n_groups, measurement)
+    best = to_unit(np.array([[record["best"]["parameters"][name] for name in inner.names]]), inner.lower,
+                   inner.upper, inner.logarithmic)
+    points = np.vstack([np.array(record["front"]["unit"]), best])
+    return np.column_stack([contained_unit_designs(points[:, :-1], model, n_groups), points[:, -1]])
 
 
 def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
                     max_generations: int = MAX_GENERATIONS) -> Path:
-    """Calibrate ``models`` (default: the study's) on ``structures`` (default: the study's) of the study in
-    ``study``, seeded with its Pareto designs and its zeta_0; write ``out`` (``calibration.files``) and return it.
+    """Calibrate ``models`` (default: the study's; in the registry's order) on ``structures`` (default: the
+    study's) of the study in ``study``, seeded with its Pareto designs and its zeta_0, and a model that contains
+    another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out`` (``calibration.files``) and return it.
     Raises ValueError for a model or structure the study does not hold, a cap below one, or a study without its
     analysis, before the output folder is touched."""
     paths, parameters, explored = read_study(study)
-    models = list(models or explored.models)
+    models = sorted(models or explored.models, key=MODEL_NAMES.index)  # a contained model before its container
     structures = list(structures or explored.names)
     unknown = [m for m in models if m not in explored.models] + [s for s in structures if s not in explored.names]
     if unknown:
@@ -53,22 +72,26 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
     fronts = {(model, index): front_designs(paths, model, explored.n_groups, explored.names[index])
               for model, index in chosen}  # every input read before the output folder is touched
     with stage_folder(out) as out:
-        records = {model: [] for model in models}
+        records, calibrated = {model: [] for model in models}, {}
         for model, index in tqdm(chosen, desc="calibrations", unit="fit"):
             structure, front = explored.structures[index], fronts[model, index]
-            key = calibration_key(paths, model, structure, seed, max_generations)
+            contained = friction_model(model).contains
+            fitted = contained_seeds(model, explored.n_groups, structure.measurement,
+                                     calibrated.get((contained, index)) if contained else None)
+            key = calibration_key(paths, model, structure, seed, max_generations, fitted)
             path = out / model / f"{structure.name.replace(' ', '_')}.json"
             record = read_calibration(path, key)
             if record is None:
                 result = calibrate(structure, model, explored.n_groups,
                                    to_unit(front.designs, *parameter_limits(model, explored.n_groups)),
-                                   explored.damping_cases[case][index], seed + index, max_generations)
+                                   explored.damping_cases[case][index], seed + index, max_generations, fitted)
                 sources = {name: front.errors[[label.startswith(name) for label in front.labels]]
                            for name in ("sample", "nsga2")}
                 record = calibration_record(result, key, {k: v for k, v in sources.items() if len(v)})
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_json(path, record)
             records[model].append(record)
+            calibrated[model, index] = record
         structure_of = dict(zip(explored.names, explored.structures))
         for model, model_records in records.items():
             names = parameter_names(model, explored.n_groups)

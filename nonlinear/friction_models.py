@@ -53,6 +53,10 @@ ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1
 slip law well defined and are never read for those elements; K_c = 0 is no core."""
 ELEMENT_PARAMETERS = ("F_S", "K_T", "chi", "beta", "theta", "K_z", "K_c")
 """Every element parameter, in the order of ``nonlinear.joint.PatchElements``' fields."""
+CONTAINED_UNIT = {"theta": 1.0, "K_c": 0.0}
+"""Unit coordinate in Table 3's box of each parameter a model adds to the model it contains (``FrictionModel
+.contains``), at which it is that model: theta = 1, no stiction drop; K_c at its lower limit, 1e2 N/m, a core
+negligible beside the joint (the calibration of the larger model starts from the smaller one's optimum there)."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +69,7 @@ class FrictionModel:
     in the paper's tables. discrepancy_effects: what it adds to the macroslip reference in the discrepancy loop's
     effect library (``discrepancy.superelement_route``), or None where the loop does not use it. in_paper: one of
     paper Table 2's models (the beams' study runs those by default, so that its ANOVA and Table 5 compare).
+    contains: the model it reduces to with its added parameters at ``CONTAINED_UNIT`` (None: none).
     """
 
     name: str
@@ -74,6 +79,7 @@ class FrictionModel:
     paper_name: str | None = None
     discrepancy_effects: tuple[str, ...] | None = None
     in_paper: bool = True
+    contains: str | None = None
 
     @property
     def min_groups(self) -> int:
@@ -135,11 +141,11 @@ FRICTION_MODELS = {model.name: model for model in (
     FrictionModel("jenkins", ("F_S", "K_T", "K_z"), "jenkins", discrepancy_effects=()),
     FrictionModel("iwan4", ("F_S", "K_T", "chi", "beta", "K_z"), "iwan4", discrepancy_effects=("microslip",)),
     FrictionModel("iwan5", ("F_S", "K_T", "chi", "beta", "theta", "K_z"), "iwan5",
-                  discrepancy_effects=("microslip", "stiction")),
+                  discrepancy_effects=("microslip", "stiction"), contains="iwan4"),
     FrictionModel("iwan4_stuck", ("F_S", "K_T", "chi", "beta", "K_z"), "iwan4", stuck_group=True,
                   paper_name="iwan4_middle_stuck"),
     FrictionModel("iwan4_core", ("F_S", "K_T", "chi", "beta", "K_c", "K_z"), "iwan4",
-                  discrepancy_effects=("microslip", "stuck_core"), in_paper=False),
+                  discrepancy_effects=("microslip", "stuck_core"), in_paper=False, contains="iwan4"),
 )}
 """Every friction model by name, in the order the study seeds them (``study.designs``)."""
 MODEL_NAMES = tuple(FRICTION_MODELS)

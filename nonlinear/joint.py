@@ -19,7 +19,8 @@ from typing import NamedTuple
 import numpy as np
 
 from nonlinear import slip_laws
-from nonlinear.friction_models import ELEMENT_DEFAULTS, ELEMENT_PARAMETERS, TABLE3_LIMITS, FrictionModel, friction_model
+from nonlinear.friction_models import (CONTAINED_UNIT, ELEMENT_DEFAULTS, ELEMENT_PARAMETERS, TABLE3_LIMITS,
+                                       FrictionModel, friction_model)
 from nonlinear.parameters import FrictionParameterError
 
 BRB_PATCH_GROUPS = (0, 1, 2, 1, 0)
@@ -59,6 +60,20 @@ class PatchElements(NamedTuple):
 def parameter_names(model: str, n_groups: int, stuck_group: int | None = None) -> list[str]:
     """Names of the design vector's entries, e.g. 'F_S[0]' (group index in brackets)."""
     return friction_model(model).parameter_names(n_groups, stuck_group)
+
+
+def contained_unit_designs(unit, model: str, n_groups: int) -> np.ndarray:
+    """Unit designs (n, d) of ``model`` that are the unit designs (n, d') of the model it contains
+    (``FrictionModel.contains``): its shared parameters copied, those it adds at
+    ``nonlinear.friction_models.CONTAINED_UNIT``. Raises FrictionParameterError for a model that contains none."""
+    inner = friction_model(model).contains
+    if inner is None:
+        raise FrictionParameterError(f"the {model} model contains no other model")
+    unit = np.atleast_2d(np.asarray(unit, dtype=float))
+    position = {name: k for k, name in enumerate(parameter_names(inner, n_groups))}
+    columns = [unit[:, position[name]] if name in position else np.full(len(unit), CONTAINED_UNIT[name.split("[")[0]])
+               for name in parameter_names(model, n_groups)]
+    return np.column_stack(columns)
 
 
 def parameter_limits(model: str, n_groups: int, stuck_group: int | None = None):
