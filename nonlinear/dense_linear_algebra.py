@@ -122,41 +122,22 @@ def ldl_eliminate(a, n, width):
     """Symmetric Gaussian elimination (LDL^T: no square roots, which would lengthen the chain of dependent
     operations) of the symmetric positive definite leading n x n block of ``a`` (its upper triangle is read),
     in place, each row carried to column ``width``: a[j, i] = d_j L[i, j] above the diagonal and 1 / d_j on it,
-    and columns n to width (right-hand sides B) left holding L^-1 B. Pivots are taken two at a time: the second
-    pivot's row is eliminated by the first, then every later row by both in one pass (the same operations in the
-    same order as one pivot at a time, with half the loads and stores of the rows updated: 1.4 times as fast at
-    n = 25). The inner loops run over row views from index 0, so that the compiler sees non-negative indices
-    (no wrap-around test) and vectorises them: 1.6 to 2 times as fast as indexing from a row's diagonal at
-    n = 15. Returns False, leaving ``a`` spoiled, where a pivot is not positive and finite (the block not
-    numerically positive definite)."""
-    for j in range(0, n - 1, 2):
-        first = _ldl_pivot(a, j)
-        if first == 0.0:
+    and columns n to width (right-hand sides B) left holding L^-1 B. The inner loops run over row views from
+    index 0, so that the compiler sees non-negative indices (no wrap-around test) and vectorises them: 1.6 to
+    2 times as fast as indexing from a row's diagonal at n = 15. Returns False, leaving ``a`` spoiled, where a
+    pivot is not positive and finite (the block not numerically positive definite)."""
+    for j in range(n):
+        pivot = a[j, j]
+        if not 0.0 < pivot < np.inf:
             return False
-        multiplier = a[j, j + 1] * first  # L[j + 1, j]
-        target, source = a[j + 1, j + 1:width], a[j, j + 1:width]
-        for i in range(target.size):
-            target[i] -= multiplier * source[i]
-        second = _ldl_pivot(a, j + 1)
-        if second == 0.0:
-            return False
-        for k in range(j + 2, n):
-            multiplier, following = a[j, k] * first, a[j + 1, k] * second  # L[k, j], L[k, j + 1]
-            target, source, next_source = a[k, k:width], a[j, k:width], a[j + 1, k:width]
+        inverse = 1.0 / pivot
+        a[j, j] = inverse
+        for k in range(j + 1, n):
+            multiplier = a[j, k] * inverse  # L[k, j]
+            target, source = a[k, k:width], a[j, k:width]
             for i in range(target.size):
-                target[i] = (target[i] - multiplier * source[i]) - following * next_source[i]
-    return n % 2 == 0 or _ldl_pivot(a, n - 1) != 0.0
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
-def _ldl_pivot(a, j):
-    """1 / d_j into a[j, j] and returned, or 0 (``a`` left alone) where the pivot d_j = a[j, j] is not positive
-    and finite."""
-    pivot = a[j, j]
-    if not 0.0 < pivot < np.inf:
-        return 0.0
-    a[j, j] = 1.0 / pivot
-    return a[j, j]
+                target[i] -= multiplier * source[i]
+    return True
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
