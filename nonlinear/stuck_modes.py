@@ -122,14 +122,15 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augm
         for k in range(n_low):
             augmented[i, m + k] = low_modes[i, k]
     symmetric_solve(augmented, m)
-    s[:] = 0.0
-    for k in range(m):  # Phi_L^T Z summed over the rows in order, along contiguous rows
+    for i in range(m):
+        for k in range(n_low):
+            z[i, k] = augmented[i, m + k]
+    for i in range(n_low):
         for j in range(n_low):
-            z[k, j] = augmented[k, m + j]
-        for i in range(n_low):
-            factor = low_modes[k, i]
-            for j in range(n_low):
-                s[i, j] += factor * z[k, j]
+            total = 0.0
+            for k in range(m):
+                total += low_modes[k, i] * z[k, j]
+            s[i, j] = total
     for i in range(n_low):
         s[i, i] += low_eigenvalues[i] - mu
     for i in range(n_low):  # exact symmetry for the eigen-solve
@@ -243,9 +244,14 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _high_projection(z, high_modes, projection):
     """Z^T Phi_E (n_L, n_E) into ``projection``: the high modes' share of the joint forces Z (m, n_L), rows
-    contiguous, each row by ``rmatvec`` (four rows of Phi_E per pass)."""
-    for k in range(z.shape[1]):
-        rmatvec(high_modes, z[:, k], projection[k])
+    contiguous."""
+    m, n_low = z.shape
+    projection[:] = 0.0
+    for k in range(n_low):
+        for i in range(m):
+            factor = z[i, k]
+            for e in range(high_modes.shape[1]):
+                projection[k, e] += factor * high_modes[i, e]
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -374,11 +380,11 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
         _high_projection(z0, high_modes, high0)
         for k in range(n_low):  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
-            for j in range(k + 1):
+            for j in range(n_low):
                 total = 1.0 if k == j else 0.0
                 for e in range(n_high):
                     total += high0[k, e] * high0[j, e] * inverse_square[e]
-                metric[k, j] = metric[j, k] = total
+                metric[k, j] = total
         cholesky(metric, metric_factor)
         projected[:] = s0
         forward_substitute(metric_factor, projected)
