@@ -16,6 +16,7 @@ Joint space and stuck modes (:mod:`nonlinear.condensation`, :mod:`nonlinear.stuc
     stuck_modes, stuck_designs  linear modes with the joint stuck: one design, many designs (compiled)
 Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
     cholesky, ldl_eliminate, ldl_back_substitute, solve_dense, symmetric_eigen: factorisations, solves, Jacobi
+    drop_stale_kernels (:mod:`nonlinear.compiled_cache`)  the kernels' disk cache keyed on all their sources
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once
@@ -23,3 +24,7 @@ Transient (:mod:`nonlinear.transient`)
     ring_down                   Newmark free decay; its sensors are an ``experiment.ringdown.RingDown``
     Hammer, hammer_impulse, sensor_modes
 """
+
+from nonlinear.compiled_cache import drop_stale_kernels
+
+drop_stale_kernels()

@@ -1,0 +1,56 @@
+"""numba's on-disk cache of the compiled kernels, kept consistent with their sources.
+
+numba checks a cached kernel against the source file that defines it only (its modification time and size), but
+the kernels inline functions of the other kernel files (``nonlinear.dense_linear_algebra`` into
+``nonlinear.stuck_modes`` and ``nonlinear.qsma_kernel``): after a change to one file alone (an edit, a
+``git pull``) the others would load compiled code of the old one. ``drop_stale_kernels`` keys the cache on every
+kernel file at once: the SHA-256 of their sources and of the numba and Python versions is stamped beside the
+cache, and where it differs every compiled file of those kernels is removed, so that they compile afresh. It runs
+when the package is imported (``nonlinear/__init__.py``), before any kernel is called.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import sys
+from pathlib import Path
+
+import numba
+
+KERNEL_MODULES = ("dense_linear_algebra", "stuck_modes", "qsma_kernel")
+STAMP = "compiled-kernels.sha256"
+
+
+def kernel_digest(folder: Path) -> str:
+    """SHA-256 of the kernel modules' sources in ``folder``, numba's version and Python's."""
+    digest = hashlib.sha256(f"numba {numba.__version__} python {sys.version}".encode())
+    for module in KERNEL_MODULES:
+        digest.update((folder / f"{module}.py").read_bytes())
+    return digest.hexdigest()
+
+
+def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
+    """Remove numba's cached index and data files (``.nbi``, ``.nbc``) of the kernel modules in
+    ``folder/__pycache__`` unless the stamp there holds the current ``kernel_digest``, then stamp it; returns the
+    files removed. Nothing is done where the folder cannot be written (numba then caches elsewhere, and an
+    installed package's files change all together)."""
+    cache = folder / "__pycache__"
+    if not os.access(folder, os.W_OK):
+        return []
+    current = kernel_digest(folder)
+    stamp = cache / STAMP
+    with contextlib.suppress(OSError):
+        if stamp.read_text() == current:
+            return []
+    removed = [path for module in KERNEL_MODULES for pattern in (f"{module}.*.nbi", f"{module}.*.nbc")
+               for path in cache.glob(pattern)]
+    for path in removed:
+        with contextlib.suppress(FileNotFoundError):  # another process starting at once removed it first
+            path.unlink()
+    cache.mkdir(exist_ok=True)
+    temporary = cache / f".{STAMP}-{os.getpid()}"
+    temporary.write_text(current)
+    os.replace(temporary, stamp)
+    return removed
