@@ -34,21 +34,21 @@ from benchmarks.study import DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
 from geometry.parameters import BEAM_NAMES  # noqa: E402
 from benchmarks.table import row, show  # noqa: E402
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
-from study.exploration import Exploration, Sample, explore  # noqa: E402
+from study.exploration import Exploration, Sample, explore, local_cluster  # noqa: E402
 
 SETUPS = (("serial, this process", None), ("LocalCluster, 1 worker", 1), ("LocalCluster, 2 workers", 2))
 
 
 @contextlib.contextmanager
 def _client(workers: int | None):
-    """None (serial), or a client of a LocalCluster of ``workers`` single-threaded worker processes."""
+    """None (serial), or a client of a LocalCluster of ``workers`` single-threaded worker processes, started as
+    the study starts it (``study.exploration.local_cluster``)."""
     if workers is None:
         yield None
         return
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    with (LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                       silence_logs=logging.ERROR) as cluster,
+    with (local_cluster(workers, dashboard_address=None, silence_logs=logging.ERROR) as cluster,
           Client(cluster) as client):
         yield client
 

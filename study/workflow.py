@@ -34,7 +34,7 @@ from study.analysis import anova_observations, design_rows, representative_desig
 from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import design_errors
-from study.exploration import Explored, Exploration, StudyError, check_explored, explore
+from study.exploration import Explored, Exploration, StudyError, check_explored, explore, local_cluster
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
@@ -295,15 +295,15 @@ def report(paths: Paths, parameters: dict) -> Path:
 
 @contextmanager
 def cluster_client(scheduler: str | None):
-    """A dask.distributed client: None (serial), ``local`` (a LocalCluster, one single-threaded worker process
-    per core) or a scheduler address."""
+    """A dask.distributed client: None (serial), ``local`` (``study.exploration.local_cluster``: one
+    single-threaded worker process per core) or a scheduler address."""
     if not scheduler:
         yield None
         return
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler == "local":
-        with LocalCluster(threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
+        with local_cluster() as cluster, Client(cluster) as client:
             yield client
     else:
         with Client(scheduler) as client:
