@@ -44,10 +44,10 @@ PAPER_DESIGNS = 5e6  # per beam and model (paper section 4.3)
 PAPER_MODELS = models_for(3, in_paper=True)  # the paper's four friction models
 CORES = 2  # of the machine the projection is for
 MEASURED_FULL_SCALE = row(
-    "study", "paper scale, measured 2026-11-26", 1662, 1376,
-    note="27 min 42 s, NOT measured by this run: the explore step of `surrogacy study --scheduler local`, 5,000,000 "
+    "study", "paper scale, measured 2026-11-26", 1550, 1359,
+    note="25 min 50 s, NOT measured by this run: the explore step of `surrogacy study --scheduler local`, 5,000,000 "
          "designs per model, 4 models, 3 beams, chunks of 5,000 written by two workers, this 2-core machine; wall "
-         "time, peak resident memory of the whole process tree (the whole command with the analysis: 29 min 52 s)")
+         "time, peak resident memory of the whole process tree (the whole command with the analysis: 28 min 4 s)")
 
 
 def beams():
