@@ -55,7 +55,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                     max_generations: int = MAX_GENERATIONS) -> Path:
     """Calibrate ``models`` (default: the study's; in the registry's order) on ``structures`` (default: the
     study's) of the study in ``study``, seeded with its Pareto designs and its zeta_0, and a model that contains
-    another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out`` (``calibration.files``) and return it.
+    another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out``
+    (``calibration.files``) and return it.
     Raises ValueError for a model or structure the study does not hold, a cap below one, or a study without its
     analysis, before the output folder is touched."""
     paths, parameters, explored = read_study(study)
