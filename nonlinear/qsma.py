@@ -42,12 +42,32 @@ CONVERGED = ""
 NOT_CONVERGED = "solver did not converge"
 MACROSLIP = "no equilibrium: force above the macroslip limit"
 AMBIGUOUS_MODE = "target mode ambiguous: MAC < 0.5 (veering modes)"
-JUMPED = ("loading path jumps here (an element with stiction changed between micro- and macroslip since the last "
-          "level): the equilibrium reached by following the load from the last level's")
-UNLOADED = ("loading path leaves the backbone: an element with stiction that slid at the last converged level "
-            "unloads into microslip or slides the other way here (the backbone holds while slip grows; past such "
-            "a jump the descent may reach either of neighbouring equilibria)")
+JUMPED = ("loading path jumps: an element with stiction crosses macroslip (its force drops) on the way to this "
+          "level; the equilibrium past the drop depends on the jump's dynamics, not on the load alone")
+PAST_JUMP = "past a jump: the loading path jumped, or was lost at a level that failed, before this level"
 SUBSTEPS = 8  # geometric substeps of a level where the loading path may jump (``nonlinear.qsma_kernel``'s)
+
+
+def follow_load(solve, crossed, start, start_level, level, substeps: int = SUBSTEPS):
+    """The loading path from the equilibrium ``start`` at ``start_level`` to ``level`` (docs/design.md section
+    5.1): ``substeps`` geometric substeps, each solved from the equilibrium of the one before.
+
+    solve(level, start) -> (solution, converged); crossed(solution, start) -> whether an element with stiction
+    is on the other side of macroslip at solution than at start. Levels are modal amplitudes or forces, positive
+    and increasing. Returns (solution, reason): CONVERGED where every substep converged without such a crossing,
+    else JUMPED at the first substep that crossed or NOT_CONVERGED at the first that failed, with that substep's
+    solution. ``nonlinear.qsma_kernel.solve_levels`` follows the same rule compiled.
+    """
+    solution = start
+    for k in range(1, substeps + 1):
+        substep = level if k == substeps else start_level * (level / start_level) ** (k / substeps)
+        trial, converged = solve(substep, solution)
+        if not converged:
+            return trial, NOT_CONVERGED
+        if crossed(trial, solution):
+            return trial, JUMPED
+        solution = trial
+    return solution, CONVERGED
 
 
 class QSMAResult(NamedTuple):
@@ -60,10 +80,7 @@ class QSMAResult(NamedTuple):
         0 for stuck patches);
     converged: (levels,) bool; reason: (levels,) '' when converged, else why not (solver failure, no
         equilibrium above the macroslip force, or an ambiguous target mode);
-    stuck_frequency: omega_0 (rad/s) of the tracked mode; mac: its MAC against the reference mode;
-    note: (levels,) '' or, at a converged level, what the reader should know of it: where the loading path
-        jumps (stiction, ``JUMPED``) the level is the equilibrium reached by following the load from the last
-        converged level.
+    stuck_frequency: omega_0 (rad/s) of the tracked mode; mac: its MAC against the reference mode.
     """
 
     amplitude: np.ndarray
@@ -76,7 +93,6 @@ class QSMAResult(NamedTuple):
     reason: np.ndarray
     stuck_frequency: np.ndarray
     mac: np.ndarray
-    note: np.ndarray
 
 
 RAYLEIGH_REFINEMENTS = 3  # steps of Rayleigh quotient iteration after the dense eigen-solve (cubic convergence)
@@ -189,7 +205,7 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
     stiction = (law.s * (1.0 - law.theta) > 0.0)[0]  # elements whose force drops at macroslip
 
     def solve(value, start):
-        """One level from ``start`` (scaled): (r, converged, scaled solution)."""
+        """One level from ``start`` (scaled): (scaled solution, converged)."""
         linear = value * b if amplitude_control else value / eigenvalue * b
 
         def residual(x_scaled):
@@ -200,44 +216,37 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         r = solution.x * scale
         # Round-off floor of the residual: machine precision times its largest term.
         terms = np.max([np.abs(r), np.abs(linear), np.abs(compliance @ slip_deficit(r))])
-        return r, bool(np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms), solution.x
+        return solution.x, bool(np.all(np.isfinite(r)) and np.max(np.abs(solution.fun * scale)) <= 1e-10 * terms)
 
     def regime_changed(x_scaled, previous):
         return bool(np.any(stiction & ((np.abs(x_scaled) > 1.0) != (np.abs(previous) > 1.0))))
-
-    def left_macroslip(x_scaled, previous):
-        """An element with stiction beyond macroslip at ``previous`` and not beyond it on the same side at
-        ``x_scaled`` (``nonlinear.qsma_kernel._left_macroslip``)."""
-        return bool(np.any(stiction & (np.abs(previous) > 1.0) & (x_scaled * np.sign(previous) <= 1.0)))
 
     n_levels, n_unknowns = len(levels), len(rows)
     r_levels = np.full((n_levels, n_unknowns), np.nan)
     converged = np.zeros(n_levels, dtype=bool)
     reason = np.full(n_levels, NOT_CONVERGED, dtype=object)
-    note = np.full(n_levels, "", dtype=object)
-    x, previous_value = None, None
+    x, previous_value, lost = None, None, False
     for level, value in enumerate(levels):
+        if lost:
+            reason[level] = PAST_JUMP
+            continue
         linear = value * b if amplitude_control else value / eigenvalue * b
         # Continuation from the last level; for the convex laws (unique equilibrium) also a fresh start. The
         # stiction law (iwan5, theta < 1) can have several equilibria: it follows the loading path only, in
-        # SUBSTEPS from the last level's equilibrium where an element with stiction changed between micro- and
-        # macroslip (the path may jump there; docs/design.md section 5.1).
+        # SUBSTEPS from the last level's equilibrium where the level's solution failed or has an element with
+        # stiction across macroslip, and reports no level past a jump (docs/design.md section 5.1).
         starts = [linear / scale] if x is None else [x] if tangential.model.several_equilibria else [x, linear / scale]
         for start in starts:
-            r, ok, solution = solve(value, start)
+            solution, ok = solve(value, start)
             if ok:
                 break
-        if stiction.any() and x is not None and (not ok or regime_changed(solution, x)):
-            waypoint = x  # from the last equilibrium in SUBSTEPS, each from the last one reached (as the kernel)
-            for k in range(1, SUBSTEPS + 1):
-                substep = value if k == SUBSTEPS else previous_value * (value / previous_value) ** (k / SUBSTEPS)
-                r, ok, solution = solve(substep, waypoint)
-                waypoint = solution if ok else waypoint
-            if ok and regime_changed(solution, x):
-                note[level] = JUMPED
-        if ok and stiction.any() and x is not None and left_macroslip(solution, x):
-            reason[level], note[level] = UNLOADED, ""
-        elif ok:
+        if stiction.any() and (not ok or regime_changed(solution, np.zeros_like(solution) if x is None else x)):
+            solution, reason[level] = ((solution, JUMPED if ok else NOT_CONVERGED) if x is None else
+                                       follow_load(solve, regime_changed, x, previous_value, value))
+            ok = reason[level] == CONVERGED
+            lost = not ok
+        r = solution * scale
+        if ok:
             r_levels[level], converged[level], reason[level] = r, True, CONVERGED
             x, previous_value = solution, value
         elif not amplitude_control and not tangential.model.core and np.all(
@@ -251,7 +260,7 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         amplitude=amplitude, force=force, frequency=frequency, damping=damping, joint_displacement=r_levels,
         slip_ratio=np.where(tangential.stuck, 0.0, np.abs(r_levels) / scale),
         converged=converged, reason=reason.astype(str),
-        stuck_frequency=np.sqrt(eigenvalue), mac=mac, note=note.astype(str))
+        stuck_frequency=np.sqrt(eigenvalue), mac=mac)
 
 
 def modal_backbone(tangential, joint_displacement, joint_shape, eigenvalue, levels, amplitude_control: bool,

@@ -44,16 +44,13 @@ INLINE = "always"
 # UNBALANCED: the condensed residual vanishes but the slip forces do not balance the load on a mechanism.
 # FLAT: the residual vanishes on a point where every element along a joint mechanism slides beyond macroslip (the
 # energy flat along it, to alpha's coupling), but the Newton step from the point does not: no equilibrium there.
-# JUMPED: converged, where the loading path jumps (an element with a stiction drop changed between micro- and
-# macroslip since the last converged level): the level was followed there from that level's equilibrium.
-# UNLOADED: the equilibrium reached has an element with a stiction drop that slid at the last converged level back
-# below macroslip or sliding the other way (``_left_macroslip``): its slip shrank, where the backbone (monotonic
-# loading from the stuck state) no longer gives its force.
-CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED, UNLOADED = 0, 1, 2, 3, 4, 5, 6
+# JUMPED: an element with a stiction drop crossed macroslip on the loading path to the level (its force dropped:
+# the path jumps, and the equilibrium past the drop depends on the jump's dynamics, not on the load alone);
+# PAST_JUMP: the loading path jumped, or was lost (a level or substep that failed), at an earlier level.
+CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED, PAST_JUMP = 0, 1, 2, 3, 4, 5, 6
 # Geometric substeps of a level from the last converged one where the loading path may jump (stiction), each from
-# the equilibrium of the one before: a fold met on the way is left by descent from the last equilibrium before it,
-# at most one substep beyond it, and the load grows from the equilibrium reached (the same rule in
-# ``nonlinear.qsma`` and the 40-digit reference).
+# the equilibrium of the one before: a level is on the loading path where every substep converges without an
+# element with stiction crossing macroslip (the same rule in ``nonlinear.qsma`` and the 40-digit reference).
 SUBSTEPS = 8
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
@@ -606,23 +603,9 @@ def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
 def _regime_changed(x, previous, table):
     """Whether an element with a stiction drop (table: ``_law_table``) is on the other side of macroslip, |x| = 1,
-    at x than at the previous level's equilibrium: its force jumped, and so may the loading path."""
+    at x than at the previous equilibrium: its force jumped, and so does the loading path."""
     for i in range(x.size):
         if table[i, STICTION] > 0.0 and (abs(x[i]) > 1.0) != (abs(previous[i]) > 1.0):
-            return True
-    return False
-
-
-@numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _left_macroslip(x, previous, table):
-    """Whether an element with a stiction drop (table: ``_law_table``) that was beyond macroslip at the previous
-    level's equilibrium (|x| > 1) is not beyond it on the same side at x: it unloaded back into microslip or slides
-    the other way. QSMA gives each element the force of its backbone, the loading curve from the stuck state, which
-    holds while its slip grows; an element unloading from macroslip would follow its Masing unloading branch (from
-    the stiction-reduced force) instead, and the descent past the jump may reach either of neighbouring equilibria
-    (on a symmetric joint, mirror images: which side unloads is decided by round-off)."""
-    for i in range(x.size):
-        if table[i, STICTION] > 0.0 and abs(previous[i]) > 1.0 and x[i] * np.sign(previous[i]) <= 1.0:
             return True
     return False
 
@@ -677,6 +660,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
     compliance_pinv = np.empty((m, m))
     waypoint = np.empty(m)  # the last equilibrium reached on the loading path within a level
+    stuck_state = np.zeros(m)
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
@@ -697,6 +681,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 design_compliance[i, j] = compliance[d, i, j] - joint_shape[d, i] * joint_shape[d, j] * mode_share
         pinv_formed = False
         previous, before, earliest = -1, -1, -1  # the last three converged levels
+        lost = False  # whether the loading path jumped or was lost (stiction)
         for level in range(n_levels):
             value = levels[level]
             if amplitude_control:
@@ -726,21 +711,26 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                     x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
+            if lost:  # the loading path jumped or was lost at an earlier level
+                status[d, level] = PAST_JUMP
+                continue
             stuck_force = eigenvalue[d] * value if amplitude_control else value
-            if stiction and previous >= 0 and _regime_changed(x, solutions[d, previous], table):
-                code = NOT_CONVERGED  # the start already jumped: straight to the loading path's substeps
+            last = solutions[d, previous] if previous >= 0 else stuck_state
+            if stiction and previous >= 0 and _regime_changed(x, last, table):
+                code = NOT_CONVERGED  # the start already crossed: straight to the loading path's substeps
             else:
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                                  compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
                                                  mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
                                                  amplitude_control)
-            if stiction and previous >= 0 and (code != CONVERGED or _regime_changed(x, solutions[d, previous], table)):
-                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the last
-                # equilibrium reached (a substep that fails is passed: the next one starts where it started).
-                jumped = code == CONVERGED
+            if stiction and (code != CONVERGED or _regime_changed(x, last, table)):
+                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the one
+                # before, up to the first that fails or has an element with stiction cross macroslip (from the
+                # stuck state, the first level is its own substep).
+                code = JUMPED if code == CONVERGED and previous < 0 else code
                 for i in range(m):
-                    waypoint[i] = solutions[d, previous, i]
-                for k in range(1, SUBSTEPS + 1):
+                    waypoint[i] = last[i]
+                for k in range(1, SUBSTEPS + 1 if previous >= 0 else 0):
                     substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
                         k / SUBSTEPS)
                     for i in range(m):
@@ -751,11 +741,13 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                                      core_scaled, mechanisms, mechanism_load[d], joint_shape[d],
                                                      eigenvalue[d] * substep if amplitude_control else substep,
                                                      amplitude_control)
-                    if code == CONVERGED:
-                        for i in range(m):
-                            waypoint[i] = x[i]
-                if code == CONVERGED and (jumped or _regime_changed(x, solutions[d, previous], table)):
-                    code = JUMPED
+                    if code == CONVERGED and _regime_changed(x, waypoint, table):
+                        code = JUMPED
+                    if code != CONVERGED:
+                        break
+                    for i in range(m):
+                        waypoint[i] = x[i]
+                lost = code != CONVERGED
             elif code != CONVERGED and previous >= 0:
                 for i in range(m):
                     x[i] = linear[i] / phi[d, i]
@@ -763,11 +755,8 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                                  compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
                                                  mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
                                                  amplitude_control)
-            if stiction and previous >= 0 and (code == CONVERGED or code == JUMPED) and _left_macroslip(
-                    x, solutions[d, previous], table):
-                code = UNLOADED
             status[d, level] = code
-            if code != CONVERGED and code != JUMPED:
+            if code != CONVERGED:
                 earliest, before = -1, -1
                 continue
             earliest, before, previous = before, previous, level

@@ -15,7 +15,7 @@ import numpy as np
 from nonlinear import qsma_kernel
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, joint_mechanisms, stuck_modes
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
-from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, UNLOADED, QSMAResult
+from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, PAST_JUMP, QSMAResult
 
 NO_STUCK_MODE = "no stuck mode found below the modal split's cutoff"
 UNBALANCED = (f"slip forces off the load on a joint mechanism by more than {qsma_kernel.FORCE_ACCEPT:g} of the "
@@ -24,12 +24,11 @@ FLAT_ENERGY = ("flat energy: every element along a joint mechanism slides and th
                f"above {qsma_kernel.STEP_ACCEPT:g} of the joint motion (no resolved equilibrium there)")
 UNSTABLE = ("unstable: the stuck joint is too soft to carry the preload's geometric softening of the prestressed "
             "halves (a stuck mode of negative stiffness)")
-# Reason codes 0 to 8 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
-# mechanism, flat energy, an element with stiction unloaded from macroslip, unstable) and their texts, an object
-# array: indexing it with the codes gives the reason strings without copying them.
+# Reason codes 0 to 9 (converged, kernel failure, macroslip, ambiguous target, no stuck mode, unbalanced
+# mechanism, flat energy, the loading path jumps, past a jump, unstable) and their texts, an object array: indexing
+# it with the codes gives the reason strings without copying them.
 REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUCK_MODE, UNBALANCED, FLAT_ENERGY,
-                    UNLOADED, UNSTABLE], dtype=object)
-NOTES = np.array(["", JUMPED], dtype=object)  # per converged level: none, or where the loading path jumps
+                    JUMPED, PAST_JUMP, UNSTABLE], dtype=object)
 
 
 def kernel_array(values: np.ndarray) -> np.ndarray:
@@ -67,20 +66,20 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
         *map(kernel_array, (tangential.stiffness, tangential.core_stiffness, mechanisms.tangential,
                             modes.shape @ mechanisms.rigid.T)))
 
-    converged = (status == qsma_kernel.CONVERGED) | (status == qsma_kernel.JUMPED)
+    converged = status == qsma_kernel.CONVERGED
     code = np.where(converged, 0, 1).astype(np.int8)
     if not amplitude_control:
         code[status == qsma_kernel.UNRESTRAINED] = 2
     code[status == qsma_kernel.UNBALANCED] = 5
     code[status == qsma_kernel.FLAT] = 6
-    code[status == qsma_kernel.UNLOADED] = 7
+    code[status == qsma_kernel.JUMPED] = 7
+    code[status == qsma_kernel.PAST_JUMP] = 8
     code[modes.mac < UNAMBIGUOUS_MAC] = 3
     code[~modes.found] = 4
-    code[modes.unstable > 0] = 8
+    code[modes.unstable > 0] = 9
     converged &= code == 0
-    note = NOTES[(converged & (status == qsma_kernel.JUMPED)).astype(np.int8)]
     reason = REASONS[code]  # references to a few strings, not (designs, levels) copies of up to 50 characters
     return QSMAResult(
         amplitude=amplitude, force=force, frequency=frequency, damping=damping,
         joint_displacement=joint_displacement, slip_ratio=slip_ratio, converged=converged, reason=reason,
-        stuck_frequency=np.sqrt(np.where(modes.unstable > 0, np.nan, modes.eigenvalue)), mac=modes.mac, note=note)
+        stuck_frequency=np.sqrt(np.where(modes.unstable > 0, np.nan, modes.eigenvalue)), mac=modes.mac)

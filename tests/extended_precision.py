@@ -14,7 +14,8 @@ as exact. Per design:
    halved until E decreases; with 40 digits, E's round-off stays far below its changes even at 1e4 slip
    displacements, where float64 loses them;
    where an element with a stiction drop changed between micro- and macroslip since the previous level, the
-   level is followed from the previous level's solution in substeps (the float64 solvers' loading-path rule);
+   level is followed from the previous level's solution in substeps, up to the first that crosses (the float64
+   solvers' loading-path rule, ``nonlinear.qsma.follow_load``);
 5. the full equations checked on the result in the unjoined modal coordinates eta:
    Lambda eta + Phi^T f_J(Phi eta) = alpha psi with alpha = lambda_1 q - b_t^T g and
    eta = A^-1 (alpha psi + Phi_t^T g), residual relative to the largest term.
@@ -33,7 +34,7 @@ import numpy as np
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_rows)
-from nonlinear.qsma import SUBSTEPS, stuck_target_mode
+from nonlinear.qsma import CONVERGED, follow_load, stuck_target_mode
 
 DIGITS = 40
 NEWTON_TOLERANCE = mpmath.mpf(10) ** -32  # |gradient step| relative to |r| at which a level is solved
@@ -218,28 +219,35 @@ class ReferenceDesign:
 
 
 def reference_levels(space: JointSpace, model: str, design, amplitudes, linear_damping: float = 0.0,
-                     stuck_group: int | None = None, substeps: int = SUBSTEPS) -> list[ReferenceLevel]:
+                     stuck_group: int | None = None) -> tuple[list[ReferenceLevel], str]:
     """QSMA of one design at increasing modal amplitudes q (m kg^0.5) in extended precision, level by level
-    from the stuck solution, each level starting from the previous one. The loading path's rule of the float64
-    solvers (docs/design.md section 5.1): where an element with a stiction drop is on the other side of
-    macroslip than at the previous level, the level is followed again from the previous level's equilibrium in
-    ``substeps`` geometric substeps, each from the last one's equilibrium."""
+    from the stuck solution, each level starting from the previous one, up to the first level where the loading
+    path jumps. The loading path's rule of the float64 solvers (``nonlinear.qsma.follow_load``, docs/design.md
+    section 5.1): where an element with a stiction drop is on the other side of macroslip than at the previous
+    level, the level is followed again from the previous level's equilibrium in substeps. Returns the levels
+    before the jump and ``nonlinear.qsma.CONVERGED``, or ``JUMPED`` where the path jumped."""
     reference = ReferenceDesign(space, model, design, stuck_group)
     stiction = [reference.s[i] * (1 - reference.theta[i]) > 0 for i in range(len(reference.phi))]
 
     def regime(r):
         return [abs(r[i]) > reference.phi[i] for i in range(len(reference.phi))]
 
+    def crossed(r, start):
+        return any(a and b != c for a, b, c in zip(stiction, regime(r), regime(start)))
+
+    def solve(amplitude, start):
+        return reference.solve(amplitude, start)[0], True
+
     r = mpmath.mpf(float(amplitudes[0])) * reference.joint_shape
     levels, previous = [], None
     for amplitude in amplitudes:
         start = r
         r, steps = reference.solve(amplitude, start)
-        if previous is not None and any(a and b != c for a, b, c in zip(stiction, regime(r), regime(start))):
-            r = start
-            for k in range(1, substeps + 1):
-                substep = amplitude if k == substeps else previous * (amplitude / previous) ** (k / substeps)
-                r, steps = reference.solve(substep, r)
+        if previous is not None and crossed(r, start):
+            r, reason = follow_load(solve, crossed, start, previous, amplitude)
+            if reason != CONVERGED:
+                return levels, reason
+            r, steps = reference.solve(amplitude, r)  # the level's own Newton steps (a polish from there)
         levels.append(reference.level(amplitude, r, steps, linear_damping))
         previous = float(amplitude)
-    return levels
+    return levels, CONVERGED

@@ -19,7 +19,7 @@ from nonlinear import slip_laws
 from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space, stuck_modes
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_tangent)
-from nonlinear.qsma import MACROSLIP, qsma_reference
+from nonlinear.qsma import JUMPED, MACROSLIP, PAST_JUMP, qsma_reference
 from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table,
                                    _slip_power, slip_law)
 from nonlinear.qsma_vectorised import qsma_designs
@@ -59,8 +59,13 @@ def compare_designs_with_oracle(space, model, designs):
     oracle = [qsma_reference(space, model, design, amplitudes=AMPLITUDES, linear_damping=LINEAR_DAMPING)
               for design in designs]
     oracle_converged = np.array([result.converged for result in oracle])
-    assert vectorised.converged.mean() > 0.99
-    assert oracle_converged.mean() > 0.95
+    # levels at or past a jump of the loading path (stiction) are a verdict on the design, not a failure: both
+    # flag the same ones, up to an oracle that fails at the jump's level instead
+    path_jumps = np.isin(vectorised.reason, (JUMPED, PAST_JUMP))
+    oracle_jumps = np.isin(np.array([result.reason for result in oracle]), (JUMPED, PAST_JUMP))
+    assert not np.any(oracle_converged & path_jumps) and not np.any(vectorised.converged & oracle_jumps)
+    assert (vectorised.converged | path_jumps).mean() > 0.99
+    assert (oracle_converged | path_jumps).mean() > 0.95
     both = vectorised.converged & oracle_converged
     both &= unique_equilibrium(model, designs, vectorised, space.superelement.patch_groups)
     assert both.mean() > 0.8
@@ -225,14 +230,16 @@ def test_vectorised_qsma_converges_where_newton_straddles_a_kink_of_the_slip_law
     that halve |R| undoing the energy's descent; a softening stiction element (theta < 1) whose clipped slope
     left Newton only linearly convergent; and one that crawls through 60 energy-descent steps unless full steps
     that halve the level's smallest |R| are taken. Every level converges, equal to the oracle where it
-    converges (the oracle misses some of these levels)."""
+    converges (the oracle misses some of these levels), but where the loading path jumps: the stiction design's
+    element 2 crosses macroslip past level 6 (the levels from there on are flagged, the oracle's too)."""
     space = cd1_space
     chosen = random_designs(model, 4000, 3, np.random.default_rng(0))[design]
     amplitudes = np.geomspace(7e-6, 1.1e-4, 30)
     vectorised = qsma_designs(space, model, chosen[None, :], amplitudes=amplitudes, linear_damping=1e-3)
     oracle = qsma_reference(space, model, chosen, amplitudes=amplitudes, linear_damping=1e-3)
-    assert vectorised.converged.all()
+    path_jumps = np.isin(vectorised.reason[0], (JUMPED, PAST_JUMP))
+    assert np.all(vectorised.converged[0] | path_jumps) and not oracle.converged[path_jumps].any()
     both = oracle.converged
-    assert both.sum() >= 20
+    assert both.sum() >= min(20, vectorised.converged.sum())
     np.testing.assert_allclose(vectorised.frequency[0, both], oracle.frequency[both], rtol=1e-6)
     np.testing.assert_allclose(vectorised.damping[0, both], oracle.damping[both], rtol=1e-5)
