@@ -26,6 +26,7 @@ omega = sqrt(alpha / q) and zeta = sum_i 4 phi_i (x_i g_i - 2 G_i) / (2 pi q^2 o
 
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import mpmath
@@ -113,6 +114,23 @@ class ReferenceDesign:
             for j in range(m):
                 self.compliance[i, j] = compliance[i, j] - self.joint_shape[i] * self.joint_shape[j] / self.eigenvalue
         self.compliance_inverse = mpmath.inverse(self.compliance)
+
+    def on_condensation(self, compliance, joint_shape, eigenvalue) -> ReferenceDesign:
+        """A copy that solves the condensed problem of a float64 condensation taken as exact: the stuck tangential
+        compliance C (m, m) in m/N, the joint shape b (m,) and lambda_1 (rad^2/s^2), as ``nonlinear.condensation.
+        stuck_modes`` gives them; to check that a float64 level is an equilibrium of its own problem. Its
+        full-equation residual keeps the 40-digit stuck mode and is not meant to be read."""
+        other = copy.copy(self)
+        other.eigenvalue = mpmath.mpf(float(eigenvalue))
+        other.joint_shape = mpmath.matrix([mpmath.mpf(float(v)) for v in joint_shape])
+        m = len(joint_shape)
+        other.compliance = mpmath.matrix(m, m)
+        for i in range(m):
+            for j in range(m):
+                other.compliance[i, j] = (mpmath.mpf(float(compliance[i, j]))
+                                          - other.joint_shape[i] * other.joint_shape[j] / other.eigenvalue)
+        other.compliance_inverse = mpmath.inverse(other.compliance)
+        return other
 
     def _target_mode(self, space: JointSpace, joint_stiffness):
         """Inverse iteration from the float64 tracked mode, shifted by its eigenvalue; Rayleigh quotient."""
