@@ -37,6 +37,7 @@ import scipy.optimize
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, modal_assurance, stuck_stiffness_matrix
 from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, slip_displacement, stuck_stiffness,
                              tangential_dissipation, tangential_elements, tangential_rows, tangential_slip_deficit)
+from nonlinear.qsma_kernel import NEGLIGIBLE_DROP
 
 CONVERGED = ""
 NOT_CONVERGED = "solver did not converge"
@@ -202,7 +203,8 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         return tangential_slip_deficit(tangential, r[None, :])[0]
 
     law = scaled_law(tangential)
-    stiction = (law.s * (1.0 - law.theta) > 0.0)[0]  # elements whose force drops at macroslip
+    # elements whose force drops at macroslip (by more than ``qsma_kernel.NEGLIGIBLE_DROP``)
+    stiction = ((law.s * (1.0 - law.theta) > 0.0) & (law.theta < 1.0 - NEGLIGIBLE_DROP))[0]
 
     def solve(value, start):
         """One level from ``start`` (scaled): (scaled solution, converged)."""

@@ -52,6 +52,10 @@ CONVERGED, NOT_CONVERGED, UNRESTRAINED, UNBALANCED, FLAT, JUMPED, PAST_JUMP = 0,
 # the equilibrium of the one before: a level is on the loading path where every substep converges without an
 # element with stiction crossing macroslip (the same rule in ``nonlinear.qsma`` and the 40-digit reference).
 SUBSTEPS = 8
+# A stiction drop of less than this share of the slip force (1 - theta) is below the resolution of the slip forces'
+# balance (FORCE_ACCEPT): such an element crossing macroslip does not count as a jump of the loading path (the
+# law is continuous to that accuracy, and the rule continuous in theta at 1, where iwan5 is iwan4).
+NEGLIGIBLE_DROP = 1e-6
 TARGET_TOLERANCE = 1e-12  # iterate until max|R| / (largest term of R) is below this ...
 ACCEPT_TOLERANCE = 1e-10  # ... or stalls; accept below this (the oracle's criterion)
 REFINED_ERROR = 1e-6  # below this the residual's error is measured against the terms C g is summed from
@@ -630,11 +634,11 @@ def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH, inline=INLINE)
-def _regime_changed(x, previous, table):
-    """Whether an element with a stiction drop (table: ``_law_table``) is on the other side of macroslip, |x| = 1,
-    at x than at the previous equilibrium: its force jumped, and so does the loading path."""
+def _regime_changed(x, previous, dropping):
+    """Whether an element whose force drops at macroslip (dropping: (m,) bool) is on the other side of macroslip,
+    |x| = 1, at x than at the previous equilibrium: its force jumped, and so does the loading path."""
     for i in range(x.size):
-        if table[i, STICTION] > 0.0 and (abs(x[i]) > 1.0) != (abs(previous[i]) > 1.0):
+        if dropping[i] and (abs(x[i]) > 1.0) != (abs(previous[i]) > 1.0):
             return True
     return False
 
@@ -690,6 +694,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     compliance_pinv = np.empty((m, m))
     waypoint = np.empty(m)  # the last equilibrium reached on the loading path within a level
     stuck_state = np.zeros(m)
+    dropping = np.empty(m, dtype=np.bool_)  # the elements whose force drops at macroslip by more than NEGLIGIBLE_DROP
     design_compliance = np.empty((m, m))
     table = np.empty((m, N_LAW))
     stiffness_scaled = np.empty(m)
@@ -700,7 +705,8 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
         _law_table(r[d], s[d], chi[d], theta[d], table)
         stiction = False
         for i in range(m):
-            stiction = stiction or table[i, STICTION] > 0.0
+            dropping[i] = table[i, STICTION] > 0.0 and theta[d, i] < 1.0 - NEGLIGIBLE_DROP
+            stiction = stiction or dropping[i]
         for i in range(m):
             stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
             core_scaled[i] = core[d, i] * phi[d, i]
@@ -745,14 +751,14 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 continue
             stuck_force = eigenvalue[d] * value if amplitude_control else value
             last = solutions[d, previous] if previous >= 0 else stuck_state
-            if stiction and previous >= 0 and _regime_changed(x, last, table):
+            if stiction and previous >= 0 and _regime_changed(x, last, dropping):
                 code = NOT_CONVERGED  # the start already crossed: straight to the loading path's substeps
             else:
                 code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
                                                  compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
                                                  mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
                                                  amplitude_control)
-            if stiction and (code != CONVERGED or _regime_changed(x, last, table)):
+            if stiction and (code != CONVERGED or _regime_changed(x, last, dropping)):
                 # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the one
                 # before, up to the first that fails or has an element with stiction cross macroslip (from the
                 # stuck state, the first level is its own substep).
@@ -770,7 +776,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                                                      core_scaled, mechanisms, mechanism_load[d], joint_shape[d],
                                                      eigenvalue[d] * substep if amplitude_control else substep,
                                                      amplitude_control)
-                    if code == CONVERGED and _regime_changed(x, waypoint, table):
+                    if code == CONVERGED and _regime_changed(x, waypoint, dropping):
                         code = JUMPED
                     if code != CONVERGED:
                         break

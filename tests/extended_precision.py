@@ -35,7 +35,8 @@ import numpy as np
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_rows)
-from nonlinear.qsma import CONVERGED, follow_load, stuck_target_mode
+from nonlinear.qsma import CONVERGED, JUMPED, follow_load, stuck_target_mode
+from nonlinear.qsma_kernel import NEGLIGIBLE_DROP
 
 DIGITS = 40
 NEWTON_TOLERANCE = mpmath.mpf(10) ** -32  # |gradient step| relative to |r| at which a level is solved
@@ -245,7 +246,8 @@ def reference_levels(space: JointSpace, model: str, design, amplitudes, linear_d
     level, the level is followed again from the previous level's equilibrium in substeps. Returns the levels
     before the jump and ``nonlinear.qsma.CONVERGED``, or ``JUMPED`` where the path jumped."""
     reference = ReferenceDesign(space, model, design, stuck_group)
-    stiction = [reference.s[i] * (1 - reference.theta[i]) > 0 for i in range(len(reference.phi))]
+    stiction = [reference.s[i] * (1 - reference.theta[i]) > 0 and reference.theta[i] < 1 - NEGLIGIBLE_DROP
+                for i in range(len(reference.phi))]
 
     def regime(r):
         return [abs(r[i]) > reference.phi[i] for i in range(len(reference.phi))]
@@ -261,6 +263,8 @@ def reference_levels(space: JointSpace, model: str, design, amplitudes, linear_d
     for amplitude in amplitudes:
         start = r
         r, steps = reference.solve(amplitude, start)
+        if previous is None and crossed(r, 0 * r):  # the path from the stuck state crossed before the first level
+            return levels, JUMPED
         if previous is not None and crossed(r, start):
             r, reason = follow_load(solve, crossed, start, previous, amplitude)
             if reason != CONVERGED:

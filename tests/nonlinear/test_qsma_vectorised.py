@@ -24,6 +24,7 @@ from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _conv
                                    _slip_power, slip_law)
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import beam_superelement
+from extended_precision import reference_levels
 from test_qsma import REDUCED_MASS, two_body_space
 from test_stuck_modes import full_target_mode
 
@@ -60,10 +61,17 @@ def compare_designs_with_oracle(space, model, designs):
               for design in designs]
     oracle_converged = np.array([result.converged for result in oracle])
     # levels at or past a jump of the loading path (stiction) are a verdict on the design, not a failure: both
-    # flag the same ones, up to an oracle that fails at the jump's level instead
+    # flag the same ones, up to an oracle that fails at the jump's level instead, or stops on another equilibrium
+    # that does not cross (MINPACK's hybrid method is no descent method; measured: 2 of 1,000 CD1 designs), where
+    # the 40-digit loading path decides
     path_jumps = np.isin(vectorised.reason, (JUMPED, PAST_JUMP))
     oracle_jumps = np.isin(np.array([result.reason for result in oracle]), (JUMPED, PAST_JUMP))
-    assert not np.any(oracle_converged & path_jumps) and not np.any(vectorised.converged & oracle_jumps)
+    disputed = np.flatnonzero(np.any(oracle_converged & path_jumps | vectorised.converged & oracle_jumps, axis=1))
+    assert len(disputed) <= 0.01 * n_designs
+    for design in disputed:
+        first = int(np.argmax(path_jumps[design] | oracle_jumps[design]))
+        _, reason = reference_levels(space, model, designs[design], AMPLITUDES[:first + 1], LINEAR_DAMPING)
+        assert (reason == JUMPED) == path_jumps[design, first]
     assert (vectorised.converged | path_jumps).mean() > 0.99
     assert (oracle_converged | path_jumps).mean() > 0.95
     both = vectorised.converged & oracle_converged
