@@ -723,6 +723,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                 amplitude[d, level] = value
             else:
                 force[d, level] = value
+            if lost:  # the loading path jumped or was lost at an earlier level
+                status[d, level] = PAST_JUMP
+                continue
             # Start: the parabola through the last three solutions, else the secant through two, else
             # proportional to the level (exact while the joint is stuck), else the linear solution.
             weight_earliest, weight_before, weight_previous = 0.0, 0.0, 0.0
@@ -746,9 +749,6 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
                     x[i] += weight_before * solutions[d, before, i]
                 if earliest >= 0:
                     x[i] += weight_earliest * solutions[d, earliest, i]
-            if lost:  # the loading path jumped or was lost at an earlier level
-                status[d, level] = PAST_JUMP
-                continue
             stuck_force = eigenvalue[d] * value if amplitude_control else value
             last = solutions[d, previous] if previous >= 0 else stuck_state
             if stiction and previous >= 0 and _regime_changed(x, last, dropping):
