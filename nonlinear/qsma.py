@@ -49,6 +49,13 @@ PAST_JUMP = "past a jump: the loading path jumped, or was lost at a level that f
 SUBSTEPS = 8  # geometric substeps of a level where the loading path may jump (``nonlinear.qsma_kernel``'s)
 
 
+def drops_at_macroslip(s, theta):
+    """Whether an element's force drops at macroslip (stiction): s > 0 and 1 - theta above
+    ``qsma_kernel.NEGLIGIBLE_DROP``; s, theta the scaled law's constants (``nonlinear.joint.scaled_law``), arrays or
+    scalars of any precision. ``nonlinear.qsma_kernel.solve_levels`` forms the same mask compiled."""
+    return (s > 0.0) & (theta < 1.0 - NEGLIGIBLE_DROP)
+
+
 def follow_load(solve, crossed, start, start_level, level, substeps: int = SUBSTEPS):
     """The loading path from the equilibrium ``start`` at ``start_level`` to ``level`` (docs/design.md section
     5.1): ``substeps`` geometric substeps, each solved from the equilibrium of the one before.
@@ -203,8 +210,7 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
         return tangential_slip_deficit(tangential, r[None, :])[0]
 
     law = scaled_law(tangential)
-    # elements whose force drops at macroslip (by more than ``qsma_kernel.NEGLIGIBLE_DROP``)
-    stiction = ((law.s * (1.0 - law.theta) > 0.0) & (law.theta < 1.0 - NEGLIGIBLE_DROP))[0]
+    stiction = drops_at_macroslip(law.s, law.theta)[0]
 
     def solve(value, start):
         """One level from ``start`` (scaled): (scaled solution, converged)."""
@@ -242,9 +248,12 @@ def qsma_reference(space: JointSpace, model: str, design, amplitudes=None, force
             solution, ok = solve(value, start)
             if ok:
                 break
-        if stiction.any() and (not ok or regime_changed(solution, np.zeros_like(solution) if x is None else x)):
-            solution, reason[level] = ((solution, JUMPED if ok else NOT_CONVERGED) if x is None else
-                                       follow_load(solve, regime_changed, x, previous_value, value))
+        if stiction.any() and x is None:  # the first level: its path from the stuck state
+            lost = not ok or regime_changed(solution, np.zeros_like(solution))
+            reason[level] = JUMPED if ok and lost else reason[level]
+            ok = not lost
+        elif stiction.any() and (not ok or regime_changed(solution, x)):
+            solution, reason[level] = follow_load(solve, regime_changed, x, previous_value, value)
             ok = reason[level] == CONVERGED
             lost = not ok
         r = solution * scale

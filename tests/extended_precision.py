@@ -35,8 +35,7 @@ import numpy as np
 from nonlinear.condensation import JointSpace
 from nonlinear.joint import (joint_row_stiffness, patch_elements, scaled_law, stuck_stiffness, tangential_elements,
                              tangential_rows)
-from nonlinear.qsma import CONVERGED, JUMPED, follow_load, stuck_target_mode
-from nonlinear.qsma_kernel import NEGLIGIBLE_DROP
+from nonlinear.qsma import CONVERGED, JUMPED, drops_at_macroslip, follow_load, stuck_target_mode
 
 DIGITS = 40
 NEWTON_TOLERANCE = mpmath.mpf(10) ** -32  # |gradient step| relative to |r| at which a level is solved
@@ -246,8 +245,7 @@ def reference_levels(space: JointSpace, model: str, design, amplitudes, linear_d
     level, the level is followed again from the previous level's equilibrium in substeps. Returns the levels
     before the jump and ``nonlinear.qsma.CONVERGED``, or ``JUMPED`` where the path jumped."""
     reference = ReferenceDesign(space, model, design, stuck_group)
-    stiction = [reference.s[i] * (1 - reference.theta[i]) > 0 and reference.theta[i] < 1 - NEGLIGIBLE_DROP
-                for i in range(len(reference.phi))]
+    stiction = [drops_at_macroslip(reference.s[i], reference.theta[i]) for i in range(len(reference.phi))]
 
     def regime(r):
         return [abs(r[i]) > reference.phi[i] for i in range(len(reference.phi))]
