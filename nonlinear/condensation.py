@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg
 
 from nonlinear.joint import joint_row_stiffness, tangential_rows as tangential_joint_rows
-from nonlinear.stuck_modes import stuck_designs
+from nonlinear.stuck_modes import flexibility_basis, stuck_designs
 from reduction.superelement import Superelement, tied_modes
 
 RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
@@ -158,15 +158,15 @@ def modal_assurance(shapes, reference) -> np.ndarray:
 class ModalSplit(NamedTuple):
     """Unjoined modes split for the small stuck eigenproblem (``nonlinear.stuck_modes``).
 
-    low, high: indices of the modes below and above the cutoff lambda_c (rad^2/s^2); high_outer:
-    (n_high, m (m+1) / 2) products Phi[i, e] Phi[j, e] (i >= j, row-major lower triangle) of the high modes'
-    joint translations, from which the flexibility F(mu) is one matrix-vector product.
+    low, high: indices of the modes below and above the cutoff lambda_c (rad^2/s^2), the high ones by increasing
+    eigenvalue; flexibility: ``nonlinear.stuck_modes.flexibility_basis`` of the high modes' joint motions, from
+    which the flexibility F(mu) is one matrix-vector product.
     """
 
     low: np.ndarray
     high: np.ndarray
     cutoff: float
-    high_outer: np.ndarray
+    flexibility: np.ndarray
 
 
 def modal_split(space: JointSpace, cutoff_factor: float = CUTOFF_FACTOR) -> ModalSplit:
@@ -181,9 +181,8 @@ def modal_split(space: JointSpace, cutoff_factor: float = CUTOFF_FACTOR) -> Moda
     cutoff = cutoff_factor * tau
     low = np.flatnonzero(space.eigenvalues <= cutoff)
     high = np.flatnonzero(space.eigenvalues > cutoff)
-    rows, columns = np.tril_indices(space.joint_modes.shape[0])
-    phi = space.joint_modes[:, high]
-    return ModalSplit(low, high, cutoff, np.ascontiguousarray((phi[rows] * phi[columns]).T))
+    high = high[np.argsort(space.eigenvalues[high], kind="stable")]
+    return ModalSplit(low, high, cutoff, flexibility_basis(space.eigenvalues[high], space.joint_modes[:, high]))
 
 
 class StuckModes(NamedTuple):
@@ -223,7 +222,7 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
     k = np.ascontiguousarray(joint_row_stiffness(np.atleast_2d(joint_stiffness), phi.shape[0]), dtype=float)
     eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, estimates = stuck_designs(
         k, eigenvalues[split.low], np.ascontiguousarray(phi[:, split.low]), eigenvalues[split.high],
-        np.ascontiguousarray(phi[:, split.high]), split.high_outer, reference[split.low], reference[split.high],
+        np.ascontiguousarray(phi[:, split.high]), split.flexibility, reference[split.low], reference[split.high],
         UNAMBIGUOUS_MAC, np.arange(k.shape[1]) if rows is None else np.asarray(rows, dtype=np.int64))
     shape = np.empty((len(k), len(eigenvalues)))
     shape[:, split.low], shape[:, split.high] = shape_low, shape_high

@@ -658,7 +658,7 @@ def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
-                 amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load):
+                 amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load, defined):
     """All designs, all levels, and their modal backbone.
 
     levels: (L,) prescribed q (m kg^0.5, amplitude control) or alpha (N kg^-0.5, force control), increasing;
@@ -670,8 +670,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     joint_shape: (n_designs, m) b_t; linear_damping: zeta_0; stiffness: (n_designs, m) the elements' stuck
     tangents K_T (N/m); core: (n_designs, m) the core springs K_c in parallel with them (N/m, 0 where none; the
     compliance already holds them); mechanisms: (k, m) the joint's tangential mechanisms d_j and mechanism_load:
-    (n_designs, k) rigid_j^T psi (``nonlinear.condensation.joint_mechanisms``), for the force balance on them.
-    Each level starts from the parabola through the last three converged levels, or fewer, never across a level
+    (n_designs, k) rigid_j^T psi (``nonlinear.condensation.joint_mechanisms``), for the force balance on them;
+    defined: (n_designs,) bool, False where the stuck mode is not defined (not found, or the stuck structure
+    unstable): those designs are not solved (NOT_CONVERGED on every level). Each level starts from the parabola through the last three converged levels, or fewer, never across a level
     that failed (after one, from the last converged level scaled to this one); a level that fails from there is
     solved again from the stuck solution.
     Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
@@ -702,6 +703,8 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     active = np.empty(m, dtype=np.int64)
     x, linear = work[X], work[LINEAR]
     for d in range(n_designs):
+        if not defined[d]:
+            continue
         _law_table(r[d], s[d], chi[d], theta[d], table)
         stiction = False
         for i in range(m):

@@ -64,7 +64,7 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
                             tangential.stuck, modes.eigenvalue, b)),
         amplitude_control, float(linear_damping),
         *map(kernel_array, (tangential.stiffness, tangential.core_stiffness, mechanisms.tangential,
-                            modes.shape @ mechanisms.rigid.T)))
+                            modes.shape @ mechanisms.rigid.T, modes.found)))
 
     converged = status == qsma_kernel.CONVERGED
     code = np.where(converged, 0, 1).astype(np.int8)

@@ -59,6 +59,13 @@ ROOT_TOLERANCE = 1e-11
 FAST_STEP = 1e-7  # a relative step this small and 100 times smaller than the last: the next is below 1e-13
 MAX_NEWTON_ITERATIONS = 30
 MAX_POLISH_ITERATIONS = 6
+# F(mu) takes the high modes above SERIES_FACTOR times the lowest one by the Taylor series
+# 1 / (lambda_e - mu) = sum_k mu^k / lambda_e^(k+1) of SERIES_TERMS terms: for |mu| below the lowest high mode
+# (every mu the roots and the polish visit: the branch roots are bracketed below it) the truncation is below
+# (1 / SERIES_FACTOR)^SERIES_TERMS = 3e-17 of their sum, and F(mu) costs a third of the explicit sum on the beams
+# (22 terms instead of 74).
+SERIES_FACTOR = 32.0
+SERIES_TERMS = 11
 
 
 class _Work(NamedTuple):
@@ -82,6 +89,7 @@ class _Work(NamedTuple):
     zw: np.ndarray  # (m,) Z w
     v_high: np.ndarray  # (n_E,) a candidate mode's high-mode part
     b: np.ndarray  # (m,) a candidate's joint shape
+    coefficients: np.ndarray  # (SERIES_TERMS + n_E,) the coefficients of ``flexibility_basis``'s rows in F(mu)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -91,18 +99,51 @@ def _work(m, n_low, n_high):
                  np.empty((m, n_low)), np.empty((n_low, n_low)), np.empty(n_high), np.empty(n_high),
                  np.empty(m), np.empty(n_low), np.empty((n_low, n_low)), np.empty((n_low, n_low)),
                  np.empty(n_low), np.empty(m), np.empty(n_low), np.empty(n_low), np.empty(m), np.empty(n_high),
-                 np.empty(m))
+                 np.empty(m), np.empty(SERIES_TERMS + n_high))
+
+
+@numba.njit(cache=True)
+def near_modes(high_eigenvalues) -> int:
+    """The number of high modes (eigenvalues increasing, rad^2/s^2) below SERIES_FACTOR times the lowest: those
+    that F(mu) sums explicitly where the others enter by their series."""
+    count = 0
+    while count < high_eigenvalues.size and high_eigenvalues[count] < SERIES_FACTOR * high_eigenvalues[0]:
+        count += 1
+    return count
+
+
+def flexibility_basis(high_eigenvalues, high_modes) -> np.ndarray:
+    """The rows from which F(mu) is one matrix-vector product, (SERIES_TERMS + n_E, m (m+1) / 2), each a packed
+    m x m matrix (row-major lower triangle), m/N per unit coefficient: first the far modes' series terms
+    G_k = sum_{e far} Phi_e Phi_e^T / lambda_e^(k+1), k = 0 .. SERIES_TERMS - 1, then the products
+    Phi_e Phi_e^T of every high mode e. high_eigenvalues (n_E,) increasing, high_modes Phi_E (m, n_E)."""
+    rows, columns = np.tril_indices(high_modes.shape[0])
+    outer = (high_modes[rows] * high_modes[columns]).T
+    far = slice(near_modes(high_eigenvalues), None)
+    inverse_powers = high_eigenvalues[far] ** -(np.arange(1.0, SERIES_TERMS + 1.0)[:, None])
+    return np.ascontiguousarray(np.vstack([inverse_powers @ outer[far], outer]))
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _high_flexibility(mu, high_eigenvalues, high_outer, weights, packed):
+def _high_flexibility(mu, high_eigenvalues, flexibility, weights, coefficients, packed):
     """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T packed as its row-major lower triangle (m (m+1) / 2,) into
-    ``packed``, m/N, and 1 / (lambda_E - mu) into ``weights``.
-
-    high_outer: (n_E, m (m+1) / 2) products Phi_E[i, e] Phi_E[j, e] for i >= j, row-major lower triangle."""
-    for e in range(high_eigenvalues.size):
+    ``packed``, m/N, and 1 / (lambda_E - mu) into ``weights``, from ``flexibility_basis``'s rows: for |mu| below
+    the lowest high mode the far modes by their series (coefficients mu^k) and the near ones explicitly,
+    otherwise every high mode explicitly."""
+    n_high = high_eigenvalues.size
+    for e in range(n_high):
         weights[e] = 1.0 / (high_eigenvalues[e] - mu)
-    rmatvec(high_outer, weights, packed)
+    if not abs(mu) < high_eigenvalues[0]:
+        rmatvec(flexibility[SERIES_TERMS:], weights, packed)
+        return
+    power = 1.0
+    for k in range(SERIES_TERMS):
+        coefficients[k] = power
+        power *= mu
+    near = near_modes(high_eigenvalues)
+    for e in range(near):
+        coefficients[SERIES_TERMS + e] = weights[e]
+    rmatvec(flexibility[:SERIES_TERMS + near], coefficients[:SERIES_TERMS + near], packed)
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
@@ -140,7 +181,7 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augm
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
 def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
-                 high_outer, work):
+                 flexibility, work):
     """Root of the ``branch``-th smallest eigenvalue of S(mu) in (0, lambda_c), by Newton's method from mu,
     kept inside a bracket by bisection, to ESTIMATE_TOLERANCE. Returns mu; w (n_L,) unit and z = Z w (m,) in
     work.w, work.zw."""
@@ -151,7 +192,7 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     step = 0.0
     work.augmented[:, -1] = 0.0  # no further right-hand side
     for _ in range(MAX_NEWTON_ITERATIONS):
-        _high_flexibility(mu, high_eigenvalues, high_outer, work.weights, work.packed)
+        _high_flexibility(mu, high_eigenvalues, flexibility, work.weights, work.coefficients, work.packed)
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work.augmented, work)
         work.small[:] = work.s
         symmetric_eigen_in_place(work.small, work.values, work.vectors)
@@ -175,7 +216,7 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer, work):
+def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility, work):
     """Newton's method on the Rayleigh functional of the bordered form B(mu) x = 0, x = (f, v_L),
 
         B(mu) = [[X(mu), Phi_L], [Phi_L^T, mu - Lambda_L]],   dB/dmu = [[F'(mu), 0], [0, I]],
@@ -190,7 +231,7 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     product, augmented = work.product, work.augmented
     last_step = np.inf
     for _ in range(MAX_POLISH_ITERATIONS):
-        _high_flexibility(mu, high_eigenvalues, high_outer, weights, work.packed)
+        _high_flexibility(mu, high_eigenvalues, flexibility, weights, work.coefficients, work.packed)
         rmatvec(high_modes, force, high)
         for e in range(weights.size):
             high[e] *= weights[e] * weights[e]
@@ -298,13 +339,13 @@ def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_l
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
-def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, high_outer,
+def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
                   reference_low, reference_high, unambiguous_mac, rows):
     """Tracked stuck mode and joint-space compliance for every design.
 
     joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in
     rad^2/s^2 and low_/high_modes Phi_L (m, n_L), Phi_E (m, n_E): the modal data split at the cutoff;
-    high_outer as in ``_high_flexibility``; reference_low/high: the unit reference mode split alike. Returns the
+    flexibility: ``flexibility_basis`` of the high modes; reference_low/high: the unit reference mode split alike. Returns the
     eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
     joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
     on the joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, found (n_designs,) bool (False
@@ -346,7 +387,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     delta = np.empty(n_low)
     estimates = np.empty((n_low, n_low))
     inverse_square = np.empty(n_high)
-    _high_flexibility(0.0, high_eigenvalues, high_outer, inverse_square, static_packed)
+    _high_flexibility(0.0, high_eigenvalues, flexibility, inverse_square, work.coefficients, static_packed)
     for e in range(n_high):
         inverse_square[e] *= inverse_square[e]
     p = 0
@@ -425,12 +466,12 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                 mu = delta[branch]
             else:
                 mu = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues, low_modes,
-                                  high_eigenvalues, high_modes, high_outer, work)
+                                  high_eigenvalues, high_modes, flexibility, work)
             for i in range(m):
                 work.force[i] = -work.zw[i]
             work.v_low[:] = work.w
             mu, converged = _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
-                                    high_modes, high_outer, work)
+                                    high_modes, flexibility, work)
             candidate_mac = _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low,
                                         reference_high, work)
             if candidate_mac > best_mac:

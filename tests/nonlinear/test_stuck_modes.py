@@ -11,10 +11,11 @@ in the full space, which converges to the same eigenpair with a residual at roun
 import numpy as np
 import pytest
 
-from nonlinear.condensation import (CUTOFF_FACTOR, UNAMBIGUOUS_MAC, joint_space, modal_assurance, stuck_modes,
-                                    stuck_stiffness_matrix)
+from nonlinear.condensation import (CUTOFF_FACTOR, UNAMBIGUOUS_MAC, joint_space, modal_assurance, modal_split,
+                                    stuck_modes, stuck_stiffness_matrix)
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
 from nonlinear.qsma import stuck_target_mode
+from nonlinear.stuck_modes import SERIES_TERMS, _high_flexibility, near_modes
 
 
 def full_target_mode(space, joint_stiffness):
@@ -61,3 +62,29 @@ def test_ambiguous_targets_are_the_best_match_among_all_branches(asb_superelemen
         assert mac > 1.0 / CUTOFF_FACTOR
         assert small.eigenvalue[design] == pytest.approx(eigenvalue, rel=1e-9)
         assert small.mac[design] == pytest.approx(mac, abs=1e-6)
+
+
+@pytest.mark.parametrize("configuration", ["CD1", "C1"])
+def test_flexibility_from_the_far_modes_series_equals_the_explicit_sum(configuration, asb_superelement):
+    """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T with the far high modes by their Taylor series in mu equals the
+    sum over every high mode in 40-digit arithmetic within 1e-15 of its largest entry, for mu across the range the
+    solver visits (|mu| below the lowest high mode, and at and past it where the sum is explicit)."""
+    mpmath = pytest.importorskip("mpmath")
+    space = joint_space(asb_superelement(configuration))
+    split = modal_split(space)
+    high_eigenvalues = space.eigenvalues[split.high]
+    phi = space.joint_modes[:, split.high]
+    assert 0 < near_modes(high_eigenvalues) < high_eigenvalues.size  # both parts of the basis are exercised
+    rows, columns = np.tril_indices(phi.shape[0])
+    lowest = high_eigenvalues[0]
+    weights, coefficients = np.empty(high_eigenvalues.size), np.empty(SERIES_TERMS + high_eigenvalues.size)
+    packed = np.empty(rows.size)
+    with mpmath.workdps(40):
+        for mu in (-0.9 * lowest, 0.0, 1e-3 * lowest, 0.5 * lowest, 0.999 * lowest, 1.5 * lowest):
+            _high_flexibility(mu, high_eigenvalues, split.flexibility, weights, coefficients, packed)
+            exact = np.array([float(mpmath.fsum(mpmath.mpf(float(phi[i, e])) * mpmath.mpf(float(phi[j, e]))
+                                                / (mpmath.mpf(float(high_eigenvalues[e])) - mpmath.mpf(mu))
+                                                for e in range(high_eigenvalues.size)))
+                              for i, j in zip(rows, columns)])
+            assert np.abs(packed - exact).max() <= 1e-15 * np.abs(exact).max()
+            assert np.allclose(weights, 1.0 / (high_eigenvalues - mu), rtol=1e-15, atol=0.0)
