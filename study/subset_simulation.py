@@ -62,9 +62,9 @@ chains' correlation through their families (``family_confidence``): every design
 of its run, and designs of different families are independent.
 
 The evaluations are batched: one call of the misfit per step of all chains, in this process or spread over a
-dask.distributed cluster (``study_misfit``). The state after each level of each attempt of each run is a JSON file
-in ``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed run restarts
-from its last finished level, stalls and restarts again where it did, and gives the same numbers as an
+dask.distributed cluster (``study_misfit``). The state after each level of each run (and restart) is a JSON file in
+``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed estimate
+restarts from its last finished level, stalls and restarts again where it did, and gives the same numbers as an
 uninterrupted one.
 """
 
@@ -99,11 +99,11 @@ Misfit = Callable[[np.ndarray, Sequence[int]], np.ndarray]
 
 
 class Settings(NamedTuple):
-    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r]); n_per_level N
-    designs per level; level_probability p_0, the conditional probability between levels (p_0 N seeds of 1 / p_0
-    states each); n_conditional designs drawn in the surrogate's acceptance region for SC, per run; n_runs
-    independent runs; restarts: how often a stalled run is made again with twice the designs per level (module
-    docstring), so that a run uses at most n_per_level 2^restarts."""
+    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r], in restart a with
+    [seed, r, a]); n_per_level N designs per level; level_probability p_0, the conditional probability between
+    levels (p_0 N seeds of 1 / p_0 states each); n_conditional designs drawn in the surrogate's acceptance region
+    for SC, per run; n_runs independent runs; restarts: how often the runs are made again with twice the designs
+    per level where one stalls (module docstring), so that they use at most N 2^restarts."""
 
     seed: int = 2024
     n_per_level: int = 2000
@@ -190,8 +190,9 @@ def chain_correlation_factor(indicator) -> float:
 def conditional_chains(misfit: Misfit, surrogate: int, seeds, seed_misfit, threshold: float, length: int,
                        scale: float, rng: np.random.Generator):
     """Markov chains in {g_I <= threshold} from ``seeds`` (n_chains, d) in standard normal space with the proposal
-    of the module docstring at lambda = ``scale`` (s_i = 1 in a coordinate where the seeds do not differ): returns states (n_chains, length, d), their misfits (n_chains,
-    length), the fraction of proposals taken and the evaluations made ((length - 1) n_chains)."""
+    of the module docstring at lambda = ``scale`` (s_i = 1 in a coordinate where the seeds do not differ): returns
+    states (n_chains, length, d), their misfits (n_chains, length), the fraction of proposals taken and the
+    evaluations made ((length - 1) n_chains)."""
     seeds = np.asarray(seeds, dtype=float)
     n_chains, dimension = seeds.shape
     spread = seeds.std(axis=0, ddof=1) if n_chains > 1 else np.ones(dimension)
@@ -235,7 +236,8 @@ def stalled(thresholds) -> bool:
     thresholds = np.asarray(thresholds, dtype=float)
     if thresholds.size >= MAX_LEVELS:
         return True
-    return thresholds.size > STALL_LEVELS and not thresholds[-1] < (1.0 - STALL_SHARE) * thresholds[-1 - STALL_LEVELS]
+    return (thresholds.size > STALL_LEVELS
+            and not thresholds[-1] < (1.0 - STALL_SHARE) * thresholds[-1 - STALL_LEVELS])
 
 
 def _state_key(settings: Settings, surrogate: int, dimension: int, problem: str) -> str:
@@ -342,12 +344,12 @@ def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -
 def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, n_per_level: int,
                settings: Settings, run: int, restart: int, key: str, state_folder: Path | None) -> Run:
     """Run number ``run`` of subset simulation (module docstring) with ``n_per_level`` designs per level: its
-    levels (``levels``), then the conditional designs and their acceptance by every structure. Its generator is
+    levels (``subset_levels``), then the conditional designs and their acceptance by every structure. Its generator is
     seeded with [seed, run], or [seed, run, restart] in a restart; each finished level is saved in ``state_folder``
     under ``key`` and resumed from there. Raises RegionNotReached (with the evaluations made) where it stalls."""
     rng = np.random.default_rng([settings.seed, run] + [restart] * (restart > 0))
-    states, misfits, families, record, stall = levels(misfit, dimension, surrogate, n_per_level,
-                                                      settings.level_probability, rng, key, state_folder)
+    states, misfits, families, record, stall = subset_levels(misfit, dimension, surrogate, n_per_level,
+                                                             settings.level_probability, rng, key, state_folder)
     if stall is not None:
         raise RegionNotReached(f"run {run}: {stall}", record["evaluations"])
     probability, cov = _probability(record["level_probabilities"], record["gammas"], n_per_level)
@@ -364,13 +366,13 @@ def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int
                acceptance, np.repeat(families[accepted], length), int(evaluations))
 
 
-def levels(misfit: Misfit, dimension: int, surrogate: int, n_per_level: int, level_probability: float,
-           rng: np.random.Generator, key: str, folder: Path | None):
-    """The levels of one attempt of subset simulation (module docstring) with ``n_per_level`` designs each, from
+def subset_levels(misfit: Misfit, dimension: int, surrogate: int, n_per_level: int, level_probability: float,
+                  rng: np.random.Generator, key: str, folder: Path | None):
+    """The levels of one run of subset simulation (module docstring) with ``n_per_level`` designs each, from
     the prior to {g_I <= 1} or until they stall (``stalled``), each finished level saved in ``folder`` and resumed
     from there. Returns the last level's states (N, d) in standard normal space, misfits (N,) and families (N,), the
     record (thresholds, level_probabilities, gammas, scale, evaluations, chains) and None where the region is
-    reached, else why the attempt stalled."""
+    reached, else why the run stalled."""
     n_seeds = round(n_per_level * level_probability)
     chain_length = round(1.0 / level_probability)
     saved = _last_level(folder, key)
