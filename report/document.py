@@ -195,9 +195,9 @@ def confidence_matrix(path: Path, out: Path) -> list[str]:
     table = pd.read_csv(path)
     names = list(dict.fromkeys(table["real"]))
     lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({_relative(path, out)}; "
-             "subset simulation, in brackets its 95 % interval, \"not reached\" where its chains did not reach I's "
-             "region within 40 levels; after the slash the study's sample at the same bounds, - where it accepted "
-             "nothing):", "",
+             "subset simulation, in brackets its 95 % interval, \"not reached\" where its runs stalled short of I's "
+             "region at every number of designs per level tried; after the slash the study's sample at the same "
+             "bounds, - where it accepted nothing):", "",
              "| surrogate I (f bound Hz, zeta bound) | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
     for surrogate, rows in table.groupby("surrogate", sort=False):
         first = rows.iloc[0]

@@ -85,7 +85,9 @@ accepts at the given bounds, and writes one CSV row per surrogate I and real str
 effective sample size and families, P(accepted by I) with its c.o.v. and interval, the evaluations used and the
 seed, the same for every surrogate (docs/formats.md). Each level's state is saved under
 <out>.levels/<surrogate>/, so a killed run started again resumes from its last finished level. ``--scheduler``
-spreads each batch of evaluations over a dask.distributed cluster, with the same numbers as in one process.
+spreads each batch of evaluations over a dask.distributed cluster, with the same numbers as in one process. A run
+whose misfit threshold stalls short of the region is made again with twice the designs per level (``--restarts``
+times at most); the CSV says how many each run used, and a surrogate still not reached gets a row saying why.
 """
 
 
@@ -140,7 +142,8 @@ def run_confidence(arguments: argparse.Namespace) -> None:
         frequency_bounds, damping_bounds = (np.full(len(exploration.names), value)
                                             for value in (arguments.frequency_bound, arguments.damping_bound))
     case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
-    settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional)
+    settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
+                        restarts=arguments.restarts)
     out = Path(arguments.out)
     scales = np.append(1.0, BOUND_SCALES)
     sweep = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, scales)
@@ -167,7 +170,7 @@ def run_confidence(arguments: argparse.Namespace) -> None:
                                       SurrogacyMatrix(*(field[1:] for field in sweep)), table)
         print(f"wrote {figure}")
     print(table[["surrogate", "real", "confidence", "lower", "upper", "sample_confidence", "families",
-                 "surrogate_probability", "evaluations"]].to_string(index=False))
+                 "surrogate_probability", "designs_per_level", "evaluations"]].to_string(index=False))
     print(f"wrote {out}")
 
 
@@ -191,6 +194,9 @@ def register_confidence(subparsers) -> None:
                          help="conditional probability between levels")
     command.add_argument("--conditional", type=int, default=settings.n_conditional,
                          help="designs drawn in the surrogate's acceptance region for SC")
+    command.add_argument("--restarts", type=int, default=settings.restarts,
+                         help="how often a run whose misfit threshold stalls is made again with twice the designs per "
+                              "level")
     command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
                                              "(default: evaluate in this process)")
     command.add_argument("--out", type=Path, required=True, help="CSV file to write")

@@ -24,9 +24,30 @@ sampling (Papaioannou, Betz, Zwirglmaier & Straub 2015): the proposal z' = rho z
 sigma_i = min(lambda s_i, 1), rho_i = sqrt(1 - sigma_i^2), s_i the seeds' standard deviation in coordinate i, leaves
 the prior invariant, and z' is taken when g_I(z') <= b_{k+1}. lambda is fixed within a level (so that each chain is
 a Markov chain that keeps the conditional distribution) and moves between levels towards a fraction of 0.44 of the
-proposals taken (log lambda += a - 0.44). When the (p_0 N)-th smallest misfit is <= 1 the target is reached, and
+proposals taken (log lambda += a - 0.44); a coordinate in which the seeds do not differ (chains gathered on one
+design) takes the prior's spread s_i = 1. When the (p_0 N)-th smallest misfit is <= 1 the target is reached, and
 
-    P(accepted by I) = p_0^m P_m,    P_m = fraction of the last level's designs with g_I <= 1.
+    P(accepted by I) = prod_k p_k P_m,    P_m = fraction of the last level's designs with g_I <= 1,
+
+p_k = p_0 except at ties. Where the misfit is flat over part of the region (a stuck joint's damping error does not
+depend on its slip parameters) or the chains have gathered on one design, the (p_0 N)-th smallest misfit equals the
+current threshold. The next threshold is then the largest misfit below it, p_k the fraction of designs at or below
+that, and the p_0 N seeds are drawn from those fewer designs with replacement (each chain still starts in the
+conditional distribution); where no design lies below, the threshold stays and the level is another round of moves
+in the same region (p_k = 1).
+
+Stalls and restarts. A run stalls where the threshold falls by less than ``STALL_SHARE`` of itself over
+``STALL_LEVELS`` levels, or after ``MAX_LEVELS`` levels: its chains have gathered in a basin whose lowest misfit lies
+above 1 and lost the designs that led to the region (a small second basin, or a narrow passage). Whether a run keeps
+a design in the region's basin depends on how many designs each level holds, not on the level's share p_0, so where
+any run stalls, all R runs are made again with fresh random numbers and twice the designs per level, at most
+``restarts`` times (N, 2N, 4N, ...). The reported estimate is plain subset simulation at the N its runs used, with
+the same prior and meaning; the stalled estimates' designs are discarded (their evaluations are counted). Keeping
+only runs that reach the region selects on the outcome: a run that reaches a basin it seldom keeps over-represents
+it, by about the inverse of the chance that a run reaches the region at that N. Asking all R runs to reach at one N
+stops the doubling only where that chance is high (``tests/study/test_subset_simulation.py`` measures what is
+left on a region behind a near-miss basin). Still stalled at N 2^restarts, the estimate raises ``RegionNotReached``
+with the threshold the run stalled at and the lowest misfit reached.
 
 Au & Beck's (2001, Eq. 29) coefficient of variation of one run, delta^2 = sum_k (1 - p_k) / (p_k N) (1 + gamma_k),
 with gamma_k from the autocorrelation of the level's indicator along its chains (``chain_correlation_factor``),
@@ -41,9 +62,10 @@ chains' correlation through their families (``family_confidence``): every design
 of its run, and designs of different families are independent.
 
 The evaluations are batched: one call of the misfit per step of all chains, in this process or spread over a
-dask.distributed cluster (``study_misfit``). The state after each level of each run is a JSON file in
-``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed run restarts
-from its last finished level and gives the same numbers as an uninterrupted one.
+dask.distributed cluster (``study_misfit``). The state after each level of each run (and restart) is a JSON file in
+``state_folder`` (designs, misfits, families, thresholds, the generator's state), so that a killed estimate
+restarts from its last finished level, stalls and restarts again where it did, and gives the same numbers as an
+uninterrupted one.
 """
 
 from __future__ import annotations
@@ -69,22 +91,26 @@ TARGET_ACCEPTANCE = 0.44  # fraction of conditional moves taken that lambda is a
 INITIAL_SCALE = 0.6  # lambda of the first level's chains
 MIN_MINORITY_FAMILIES = 5  # families holding the rarer outcome needed to estimate the variance of SC
 MAX_LEVELS = 40
+STALL_LEVELS = 5  # levels over which the threshold must fall by STALL_SHARE of itself, else the run has stalled
+STALL_SHARE = 0.01
 
 Misfit = Callable[[np.ndarray, Sequence[int]], np.ndarray]
 """misfit(unit (n, d) in [0, 1], structures (k,) indices) -> (n, k) scaled misfit g_S; accepted where g_S <= 1."""
 
 
 class Settings(NamedTuple):
-    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r]); n_per_level N
-    designs per level; level_probability p_0, the conditional probability between levels (p_0 N seeds of 1 / p_0
-    states each); n_conditional designs drawn in the surrogate's acceptance region for SC, per run; n_runs
-    independent runs."""
+    """How the estimator samples: seed (run r draws from numpy's Generator seeded with [seed, r], in restart a with
+    [seed, r, a]); n_per_level N designs per level; level_probability p_0, the conditional probability between
+    levels (p_0 N seeds of 1 / p_0 states each); n_conditional designs drawn in the surrogate's acceptance region
+    for SC, per run; n_runs independent runs; restarts: how often the runs are made again with twice the designs
+    per level where one stalls (module docstring), so that they use at most N 2^restarts."""
 
     seed: int = 2024
     n_per_level: int = 2000
     level_probability: float = 0.1
     n_conditional: int = 2000
     n_runs: int = 4
+    restarts: int = 3
 
     def check(self) -> None:
         chains = self.n_per_level * self.level_probability
@@ -93,14 +119,19 @@ class Settings(NamedTuple):
             raise ValueError(f"level_probability {self.level_probability} with n_per_level {self.n_per_level}: "
                              "expected 1 / level_probability and n_per_level * level_probability whole numbers, "
                              "the latter at least 2")
-        for name in ("n_conditional", "n_runs"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be at least 1; got {getattr(self, name)}")
+        for name, least in (("n_conditional", 1), ("n_runs", 1), ("restarts", 0)):
+            if getattr(self, name) < least:
+                raise ValueError(f"{name} must be at least {least}; got {getattr(self, name)}")
 
 
 class RegionNotReached(ValueError):
-    """The chains did not reach the surrogate's acceptance region within ``MAX_LEVELS`` levels: the region is
-    too small or too narrow for the sampler (or the designs near it do not converge); SC is then not estimated."""
+    """A run stalled short of the surrogate's acceptance region at every number of designs per level it was given
+    (module docstring): the region is empty, or too small or too narrow for the sampler (or the designs near it do
+    not converge); SC is then not estimated. ``evaluations``: the misfit evaluations made on the way."""
+
+    def __init__(self, message: str, evaluations: int = 0):
+        super().__init__(message)
+        self.evaluations = evaluations
 
 
 class SubsetResult(NamedTuple):
@@ -113,7 +144,9 @@ class SubsetResult(NamedTuple):
     effective_size: (S,) effective sample size of SC_IJ (``family_confidence``); families: the independent level-0
     families the conditional designs descend from (fewer than about 10: the interval rests on few independent
     chains, raise n_per_level); n_conditional: designs drawn given I;
-    evaluations: misfit evaluations of single structures (designs x structures); seed.
+    evaluations: misfit evaluations of single structures (designs x structures), those of stalled runs included;
+    designs_per_level: the N every run used (``Settings.n_per_level`` 2^restarts); stalls: why each restart was made
+    (the run that stalled, its threshold and lowest misfit); seed.
     """
 
     surrogate: int
@@ -130,6 +163,8 @@ class SubsetResult(NamedTuple):
     families: int
     n_conditional: int
     evaluations: int
+    designs_per_level: int
+    stalls: tuple
     seed: int
 
 
@@ -155,12 +190,13 @@ def chain_correlation_factor(indicator) -> float:
 def conditional_chains(misfit: Misfit, surrogate: int, seeds, seed_misfit, threshold: float, length: int,
                        scale: float, rng: np.random.Generator):
     """Markov chains in {g_I <= threshold} from ``seeds`` (n_chains, d) in standard normal space with the proposal
-    of the module docstring at lambda = ``scale``: returns states (n_chains, length, d), their misfits (n_chains,
-    length), the fraction of proposals taken and the evaluations made ((length - 1) n_chains)."""
+    of the module docstring at lambda = ``scale`` (s_i = 1 in a coordinate where the seeds do not differ): returns
+    states (n_chains, length, d), their misfits (n_chains, length), the fraction of proposals taken and the
+    evaluations made ((length - 1) n_chains)."""
     seeds = np.asarray(seeds, dtype=float)
     n_chains, dimension = seeds.shape
     spread = seeds.std(axis=0, ddof=1) if n_chains > 1 else np.ones(dimension)
-    sigma = np.minimum(scale * spread, 1.0)
+    sigma = np.minimum(scale * np.where(spread > 0, spread, 1.0), 1.0)
     states, misfits, taken_count = [seeds], [np.asarray(seed_misfit, dtype=float)], 0
     for _ in range(1, length):
         proposal = np.sqrt(1.0 - sigma ** 2) * states[-1] + sigma * rng.standard_normal((n_chains, dimension))
@@ -178,13 +214,30 @@ def adapted_scale(scale: float, taken_fraction: float) -> float:
     return float(np.exp(np.log(scale) + taken_fraction - TARGET_ACCEPTANCE))
 
 
-def _choose_seeds(misfits, n_seeds: int, rng: np.random.Generator):
-    """The next threshold (the n_seeds-th smallest misfit), the fraction of designs at or below it, and the indices
-    of n_seeds of those designs (chosen at random among ties)."""
-    threshold = np.sort(misfits)[n_seeds - 1]
-    below = np.flatnonzero(misfits <= threshold)
-    chosen = np.sort(rng.choice(below, n_seeds, replace=False)) if below.size > n_seeds else below
-    return float(threshold), below.size / misfits.size, chosen
+def _choose_seeds(misfits, n_seeds: int, threshold: float, rng: np.random.Generator):
+    """The next threshold, the fraction of designs at or below it, and the indices of n_seeds of those designs, for
+    a level of designs with ``misfits`` (N,) in {g_I <= threshold} (module docstring): the threshold is the
+    n_seeds-th smallest misfit (the seeds chosen at random among ties), or where that equals ``threshold`` the
+    largest misfit below it (the seeds drawn from the fewer designs at or below it with replacement), or where no
+    design lies below, ``threshold`` itself."""
+    following = np.sort(misfits)[n_seeds - 1]
+    lower = misfits[misfits < threshold]
+    if following >= threshold and lower.size:
+        following = lower.max()
+    below = np.flatnonzero(misfits <= following)
+    chosen = (np.sort(rng.choice(below, n_seeds, replace=below.size < n_seeds)) if below.size != n_seeds
+              else below)
+    return float(following), below.size / misfits.size, chosen
+
+
+def stalled(thresholds) -> bool:
+    """Whether a run with intermediate thresholds b_1, ..., b_k (``thresholds``) has stalled: b_k fell by less than
+    ``STALL_SHARE`` of b_{k - STALL_LEVELS} over the last ``STALL_LEVELS`` levels, or k reached ``MAX_LEVELS``."""
+    thresholds = np.asarray(thresholds, dtype=float)
+    if thresholds.size >= MAX_LEVELS:
+        return True
+    return (thresholds.size > STALL_LEVELS
+            and not thresholds[-1] < (1.0 - STALL_SHARE) * thresholds[-1 - STALL_LEVELS])
 
 
 def _state_key(settings: Settings, surrogate: int, dimension: int, problem: str) -> str:
@@ -234,29 +287,44 @@ def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surroga
                       settings: Settings = Settings(), level: float = CONFIDENCE_LEVEL,
                       state_folder: Path | None = None, problem: str = "") -> SubsetResult:
     """P(accepted by I) and SC_IJ for every J from ``settings.n_runs`` independent runs of subset simulation
-    (module docstring): P and its interval by ``combined_probability``, SC from the conditional designs of every
-    run together, each run's families its own (``family_confidence``).
+    (module docstring), all with one number of designs per level: N, or where a run stalls, every run again with
+    2N, and so on ``settings.restarts`` times at most. P and its interval by ``combined_probability``, SC from the
+    conditional designs of every run together, each run's families its own (``family_confidence``).
 
     misfit: ``Misfit`` over unit designs of ``dimension`` parameters and ``n_structures`` structures; surrogate:
     index of I; level: confidence level of the intervals; state_folder: where each level's state is saved
-    (``run-<r>/level-<k>.json``) and a killed run is resumed from (None: nothing saved); problem: a text naming the
-    misfit (its study, model, bounds), part of the state's key. Raises ValueError where the surrogate's region is
-    not reached in MAX_LEVELS levels.
+    (``run-<r>/level-<k>.json``, those of restart a under ``restart-<a>/run-<r>/``) and a killed estimate is
+    resumed from (None: nothing saved); problem: a text naming the misfit (its study, model, bounds), part of the
+    state's key. Raises RegionNotReached where a run stalls at every number of designs per level.
     """
     settings.check()
     key = _state_key(settings, surrogate, dimension, problem)
-    runs = [subset_run(misfit, dimension, n_structures, surrogate, settings, run, key,
-                       None if state_folder is None else Path(state_folder) / f"run-{run}")
-            for run in range(settings.n_runs)]
+    stalls, evaluations = [], 0
+    for restart in range(settings.restarts + 1):
+        n_per_level = settings.n_per_level * 2 ** restart
+        folder = None if state_folder is None else Path(state_folder) / (f"restart-{restart}" if restart else "")
+        try:
+            runs = [subset_run(misfit, dimension, n_structures, surrogate, n_per_level, settings, run, restart, key,
+                               None if folder is None else folder / f"run-{run}")
+                    for run in range(settings.n_runs)]
+            break
+        except RegionNotReached as stall:
+            stalls.append(str(stall))
+            evaluations += stall.evaluations
+    else:
+        raise RegionNotReached(f"subset simulation of structure {surrogate}: the region was not reached with "
+                               f"{settings.n_per_level} to {n_per_level} designs per level ({settings.restarts} "
+                               f"restarts); {stalls[-1]}: the region is empty, or reached only through a passage "
+                               "the chains did not find", evaluations)
     probability, cov, probability_lower, probability_upper = combined_probability(
         [run.probability for run in runs], [run.cov for run in runs], level)
-    families = np.concatenate([run.families + index * settings.n_per_level for index, run in enumerate(runs)])
+    families = np.concatenate([run.families + index * n_per_level for index, run in enumerate(runs)])
     acceptance = np.vstack([run.acceptance for run in runs])
     confidence, lower, upper, effective = family_confidence(acceptance, families, level)
     return SubsetResult(surrogate, probability, cov, probability_lower, probability_upper,
                         np.array([run.probability for run in runs]), np.array([len(run.thresholds) for run in runs]),
                         confidence, lower, upper, effective, int(np.unique(families).size), acceptance.shape[0],
-                        sum(run.evaluations for run in runs), settings.seed)
+                        evaluations + sum(run.evaluations for run in runs), n_per_level, tuple(stalls), settings.seed)
 
 
 def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -> tuple[float, float, float, float]:
@@ -273,43 +341,66 @@ def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -
             float(np.exp(centre + quantile * error)))
 
 
-def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, settings: Settings, run: int,
-               key: str, state_folder: Path | None) -> Run:
-    """Run number ``run`` of subset simulation (module docstring), its generator seeded with [seed, run], each
-    finished level saved in ``state_folder`` under ``key`` and resumed from there."""
-    n_seeds = round(settings.n_per_level * settings.level_probability)
-    chain_length = round(1.0 / settings.level_probability)
-    rng = np.random.default_rng([settings.seed, run])
-    saved = _last_level(state_folder, key)
+def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, n_per_level: int,
+               settings: Settings, run: int, restart: int, key: str, state_folder: Path | None) -> Run:
+    """Run number ``run`` of subset simulation (module docstring) with ``n_per_level`` designs per level: its
+    levels (``subset_levels``), then the conditional designs and their acceptance by every structure. Its generator is
+    seeded with [seed, run], or [seed, run, restart] in a restart; each finished level is saved in ``state_folder``
+    under ``key`` and resumed from there. Raises RegionNotReached (with the evaluations made) where it stalls."""
+    rng = np.random.default_rng([settings.seed, run] + [restart] * (restart > 0))
+    states, misfits, families, record, stall = subset_levels(misfit, dimension, surrogate, n_per_level,
+                                                             settings.level_probability, rng, key, state_folder)
+    if stall is not None:
+        raise RegionNotReached(f"run {run}: {stall}", record["evaluations"])
+    probability, cov = _probability(record["level_probabilities"], record["gammas"], n_per_level)
+    accepted = np.flatnonzero(misfits <= 1.0)
+    length = -(-settings.n_conditional // accepted.size)
+    chains, _, _, used = conditional_chains(misfit, surrogate, states[accepted], misfits[accepted], 1.0, length,
+                                            record["scale"], rng)
+    others = [structure for structure in range(n_structures) if structure != surrogate]
+    conditional = chains.reshape(-1, dimension)
+    acceptance = np.ones((conditional.shape[0], n_structures), dtype=bool)
+    acceptance[:, others] = misfit(ndtr(conditional), others) <= 1.0
+    evaluations = record["evaluations"] + used + conditional.shape[0] * len(others)
+    return Run(probability, cov, np.array(record["thresholds"]), np.array(record["level_probabilities"]),
+               acceptance, np.repeat(families[accepted], length), int(evaluations))
+
+
+def subset_levels(misfit: Misfit, dimension: int, surrogate: int, n_per_level: int, level_probability: float,
+                  rng: np.random.Generator, key: str, folder: Path | None):
+    """The levels of one run of subset simulation (module docstring) with ``n_per_level`` designs each, from
+    the prior to {g_I <= 1} or until they stall (``stalled``), each finished level saved in ``folder`` and resumed
+    from there. Returns the last level's states (N, d) in standard normal space, misfits (N,) and families (N,), the
+    record (thresholds, level_probabilities, gammas, scale, evaluations, chains) and None where the region is
+    reached, else why the run stalled."""
+    n_seeds = round(n_per_level * level_probability)
+    chain_length = round(1.0 / level_probability)
+    saved = _last_level(folder, key)
     if saved is None:
-        states = rng.standard_normal((settings.n_per_level, dimension))
+        states = rng.standard_normal((n_per_level, dimension))
         misfits = misfit(ndtr(states), [surrogate])[:, 0]
-        families = np.arange(settings.n_per_level)
+        families = np.arange(n_per_level)
         record = {"level": 0, "thresholds": [], "level_probabilities": [], "gammas": [0.0], "scale": INITIAL_SCALE,
-                  "evaluations": settings.n_per_level, "chains": [settings.n_per_level, 1]}
-        _save_level(state_folder, key, record, states, misfits, families, rng)
+                  "evaluations": n_per_level, "chains": [n_per_level, 1]}
+        _save_level(folder, key, record, states, misfits, families, rng)
     else:
         states, misfits, families = (np.array(saved[name]) for name in ("states", "misfits", "families"))
         rng.bit_generator.state = saved["generator"]
         record = {name: saved[name] for name in ("level", "thresholds", "level_probabilities", "gammas", "scale",
                                                  "evaluations", "chains")}
     while True:
-        threshold, fraction, chosen = _choose_seeds(misfits, n_seeds, rng)
+        current = record["thresholds"][-1] if record["thresholds"] else np.inf
+        threshold, fraction, chosen = _choose_seeds(misfits, n_seeds, current, rng)
         if threshold <= 1.0:
             final = misfits <= 1.0
             record["thresholds"].append(1.0)
             record["level_probabilities"].append(float(final.mean()))
             record["gammas"][-1] = chain_correlation_factor(final.reshape(record["chains"]))
-            break
-        if not np.isfinite(threshold):
-            raise RegionNotReached(f"subset simulation of structure {surrogate}: at level {record['level']} more than "
-                                   f"{1 - settings.level_probability:.0%} of the designs did not converge (the region "
-                                   f"was not reached within {MAX_LEVELS} levels)")
-        if record["level"] + 1 >= MAX_LEVELS:
-            raise RegionNotReached(f"subset simulation of structure {surrogate}: the region was not reached within "
-                                   f"{MAX_LEVELS} levels; the misfit threshold stalled at {threshold:.4g}, the lowest "
-                                   f"misfit reached {np.min(misfits):.4g} (the region is empty, or reached only "
-                                   "through a passage the chains did not find)")
+            return states, misfits, families, record, None
+        if stalled([*record["thresholds"], threshold]):
+            return states, misfits, families, record, (
+                f"the misfit threshold stalled at {threshold:.4g}, the lowest misfit reached {np.min(misfits):.4g} "
+                f"(level {record['level'] + 1} with {n_per_level} designs per level)")
         record["thresholds"].append(threshold)
         record["level_probabilities"].append(fraction)
         record["gammas"][-1] = chain_correlation_factor((misfits <= threshold).reshape(record["chains"]))
@@ -322,19 +413,7 @@ def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int
         record["gammas"].append(0.0)
         record["chains"] = [n_seeds, chain_length]
         record["level"] += 1
-        _save_level(state_folder, key, record, states, misfits, families, rng)
-    probability, cov = _probability(record["level_probabilities"], record["gammas"], settings.n_per_level)
-    accepted = np.flatnonzero(misfits <= 1.0)
-    length = -(-settings.n_conditional // accepted.size)
-    chains, _, _, used = conditional_chains(misfit, surrogate, states[accepted], misfits[accepted], 1.0, length,
-                                            record["scale"], rng)
-    others = [structure for structure in range(n_structures) if structure != surrogate]
-    conditional = chains.reshape(-1, dimension)
-    acceptance = np.ones((conditional.shape[0], n_structures), dtype=bool)
-    acceptance[:, others] = misfit(ndtr(conditional), others) <= 1.0
-    evaluations = record["evaluations"] + used + conditional.shape[0] * len(others)
-    return Run(probability, cov, np.array(record["thresholds"]), np.array(record["level_probabilities"]),
-               acceptance, np.repeat(families[accepted], length), int(evaluations))
+        _save_level(folder, key, record, states, misfits, families, rng)
 
 
 def _probability(level_probabilities, gammas, n_per_level: int) -> tuple[float, float]:
@@ -443,8 +522,8 @@ SUBSET_COLUMNS = ("model", "surrogate", "real", "confidence", "lower", "upper", 
                   "surrogate_probability", "surrogate_probability_cov", "surrogate_probability_lower",
                   "surrogate_probability_upper", "frequency_tolerance_hz", "damping_tolerance",
                   "surrogate_frequency_tolerance_hz", "surrogate_damping_tolerance", "sample_confidence",
-                  "sample_lower", "sample_upper", "sample_accepted_surrogate", "runs", "n_conditional", "evaluations",
-                  "seed", "note")
+                  "sample_lower", "sample_upper", "sample_accepted_surrogate", "runs", "designs_per_level",
+                  "n_conditional", "evaluations", "seed", "note")
 
 
 def subset_table(result: SubsetResult | None, model: str, structures: Sequence[str], frequency_tolerance_hz,
@@ -452,8 +531,9 @@ def subset_table(result: SubsetResult | None, model: str, structures: Sequence[s
     """One row per real structure J (``SUBSET_COLUMNS``): SC_IJ with its interval and effective sample size, and
     the surrogate's P(accepted by I) with its c.o.v. and interval, J's and I's bounds (each one value or one per
     structure), SC_IJ counted on a sample at the same bounds where ``sample`` (a ``study.surrogacy``
-    SurrogacyMatrix) is given (NaN otherwise), the evaluations and the seed. Without a ``result`` (the region not
-    reached) the estimate's columns are NaN, ``surrogate`` says which structure I is and ``note`` why."""
+    SurrogacyMatrix) is given (NaN otherwise), the designs per level the runs used (N, or 2^k N after k restarts),
+    the evaluations, the seed, and in ``note`` the stalls that made the restarts. Without a ``result`` (the region
+    not reached) the estimate's columns are NaN, ``surrogate`` says which structure I is and ``note`` why."""
     bounds = np.column_stack([np.broadcast_to(np.asarray(value, dtype=float), (len(structures),))
                               for value in (frequency_tolerance_hz, damping_tolerance)])
     row = result.surrogate if result is not None else surrogate
@@ -475,8 +555,12 @@ def subset_table(result: SubsetResult | None, model: str, structures: Sequence[s
         "sample_lower": missing if sample is None else sample.lower[row],
         "sample_upper": missing if sample is None else sample.upper[row],
         "sample_accepted_surrogate": -1 if sample is None else int(sample.accepted_counts[row]),
-        "runs": np.nan if result is None else len(result.run_probabilities), "n_conditional": estimate("n_conditional"),
-        "evaluations": estimate("evaluations"), "seed": estimate("seed"), "note": note}, columns=list(SUBSET_COLUMNS))
+        "runs": np.nan if result is None else len(result.run_probabilities),
+        "designs_per_level": estimate("designs_per_level"),
+        "n_conditional": estimate("n_conditional"),
+        "evaluations": estimate("evaluations"), "seed": estimate("seed"),
+        "note": note if result is None else "; ".join(f"restarted with twice the designs per level: {stall}"
+                                                      for stall in result.stalls)}, columns=list(SUBSET_COLUMNS))
 
 
 def write_subset_csv(table: pd.DataFrame, destination: Path) -> None:
