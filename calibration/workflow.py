@@ -18,6 +18,7 @@ from nonlinear.joint import contained_unit_designs, parameter_limits, parameter_
 from pipeline.cache import package_versions
 from pipeline.files import sha256_file, sha256_json, stage_folder, write_json
 from study.datasets import DEFAULT_DAMPING_CASE
+from study.exploration import Exploration, structure_errors
 from study.structures import Structure
 from study.workflow import Paths, front_designs, read_study
 
@@ -49,6 +50,20 @@ def contained_seeds(model: str, n_groups: int, measurement, record: dict | None)
                    inner.upper, inner.logarithmic)
     points = np.vstack([np.array(record["front"]["unit"]), best])
     return np.column_stack([contained_unit_designs(points[:, :-1], model, n_groups), points[:, -1]])
+
+
+def study_errors(explored: Exploration, case: str, record: dict) -> tuple[float, float]:
+    """The L-infinity errors (e_f Hz, e_zeta -) of a calibration record's best compromise as the study evaluates a
+    design: its joint parameters with the study's zeta_0 for ``case`` and its damping rule
+    (``study.exploration.structure_errors``). Raises ValueError where that evaluation does not converge."""
+    index = explored.names.index(record["structure"])
+    design = np.array([[record["best"]["parameters"][name] for name in parameter_names(record["model"],
+                                                                                       explored.n_groups)]])
+    errors = structure_errors(explored, record["model"], design, structures=[index])[0]
+    if not errors.converged[0]:
+        raise ValueError(f"the best compromise of {record['model']} on {record['structure']}: not converged as the "
+                         f"study evaluates it ({errors.reason[0]})")
+    return float(errors.frequency_error_hz[0]), float(errors.damping_error[0, list(explored.damping_cases).index(case)])
 
 
 def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
@@ -102,7 +117,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                 (structure_of[r["structure"]], ["best compromise"], [[r["best"]["parameters"][n] for n in names]],
                  r["best"]["parameters"]["zeta_0"]) for r in model_records])
         every = [r for model_records in records.values() for r in model_records]
-        bounds = bounds_table(every, {name: s.measurement for name, s in structure_of.items()})
+        bounds = bounds_table(every, [study_errors(explored, case, record) for record in every],
+                              {name: s.measurement for name, s in structure_of.items()}, case)
         write_bounds(bounds, out / "bounds.csv")
         write_markdown(out / "calibration.md", every, bounds)
     return out

@@ -91,9 +91,10 @@ times at most); the CSV says how many each run used, and a surrogate still not r
 """
 
 
-def read_bounds(path: Path, model: str, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def read_bounds(path: Path, model: str, names: list[str], case: str) -> tuple[np.ndarray, np.ndarray]:
     """Each structure's acceptance bounds (Hz, -), in ``names``' order, for ``model`` from a bounds CSV
-    (``surrogacy fit``'s bounds.csv, docs/formats.md); ValueError naming the file and the field otherwise."""
+    (``surrogacy fit``'s bounds.csv, docs/formats.md), formed for the damping case ``case`` where the file says
+    (its ``damping_case`` column); ValueError naming the file and the field otherwise."""
     try:
         table = pd.read_csv(path)
     except (OSError, ValueError) as error:
@@ -103,6 +104,9 @@ def read_bounds(path: Path, model: str, names: list[str]) -> tuple[np.ndarray, n
     if missing:
         raise ValueError(f"{path}: field {missing[0]!r}: missing (expected the columns of surrogacy fit's bounds.csv)")
     rows = table[table["model"] == model].set_index("structure")
+    if "damping_case" in rows and not (rows["damping_case"].astype(str) == case).all():
+        raise ValueError(f"{path}: field 'damping_case': bounds formed for {sorted(set(rows['damping_case']))}; "
+                         f"expected {case!r}, the damping case of this estimate")
     absent = [name for name in names if name not in rows.index]
     if absent:
         raise ValueError(f"{path}: field 'structure': no row for model {model!r} and structure(s) {absent}")
@@ -136,12 +140,12 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     exploration = folder.exploration
     if (arguments.bounds is None) == (arguments.frequency_bound is None or arguments.damping_bound is None):
         raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
+    case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     if arguments.bounds is not None:
-        frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names)
+        frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names, case)
     else:
         frequency_bounds, damping_bounds = (np.full(len(exploration.names), value)
                                             for value in (arguments.frequency_bound, arguments.damping_bound))
-    case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
     out = Path(arguments.out)

@@ -232,16 +232,19 @@ def test_fit_refuses_a_study_without_its_analysis_naming_the_file(small_study, t
 
 
 def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp_path, capsys):
-    """bounds.csv holds the documented rule (twice the best compromise's L-infinity errors, at least twice the
-    measurement's largest uncertainty), recomputed here from the records and the study's measurements;
+    """bounds.csv holds the documented rule (twice the best compromise's L-infinity errors as the study evaluates it,
+    at least twice the measurement's largest uncertainty), recomputed here from the records, the study's own
+    evaluation of their best designs and its measurements, so that the best compromise's scaled misfit in the
+    study is at most one half; a bounds file formed for another damping case is refused;
     ``surrogacy confidence --bounds`` refuses a file without a row for every structure, naming the file and the
     field; with a row for each, its CSV holds each structure's bounds and, beside the estimate, SC counted on the
     study's own sample at the same bounds (recomputed here from the exploration's errors)."""
     import pandas as pd
 
     from calibration.bounds import MULTIPLE, NOISE_MULTIPLE
+    from nonlinear.joint import parameter_names
     from study.analysis import model_errors
-    from study.errors import accepted
+    from study.errors import accepted, design_errors, scaled_misfit
     from study.surrogacy import surrogacy_matrix
     from study.workflow import read_study
 
@@ -250,18 +253,31 @@ def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp
                       "5", "--out", str(out)]) == 0
     bounds = pd.read_csv(out / "bounds.csv")
     folder = read_study(small_study)
-    measurements = {s.name: s.measurement for s in folder.exploration.structures}
+    explored = folder.exploration
+    measurements = {s.name: s.measurement for s in explored.structures}
+    assert (bounds["damping_case"] == "measured").all()
     for row in bounds.itertuples():
-        best = json.loads((out / row.model / f"{row.structure.replace(' ', '_')}.json").read_text())["best"]["errors"]
+        best = json.loads((out / row.model / f"{row.structure.replace(' ', '_')}.json").read_text())["best"]
+        index = explored.names.index(row.structure)
+        design = [[best["parameters"][name] for name in parameter_names(row.model, explored.n_groups)]]
+        zeta0 = explored.damping_cases["measured"][index]
+        in_study = design_errors(explored.structures[index], row.model, design, [zeta0], rule=explored.damping_rule)
         sigma = measurements[row.structure]
-        assert row.frequency_bound_hz == max(MULTIPLE * best["frequency_linf_hz"],
+        assert row.calibrated_damping_error == best["errors"]["damping_linf"]
+        assert row.frequency_bound_hz == max(MULTIPLE * in_study.frequency_error_hz[0],
                                              NOISE_MULTIPLE * float(np.max(sigma.sigma_frequency)))
-        assert row.damping_bound == max(MULTIPLE * best["damping_linf"],
+        assert row.damping_bound == max(MULTIPLE * in_study.damping_error[0, 0],
                                         NOISE_MULTIPLE * float(np.max(sigma.sigma_damping)))
+        assert scaled_misfit(in_study.frequency_error_hz[0], in_study.damping_error[0, 0], row.frequency_bound_hz,
+                             row.damping_bound) <= 1.0 / MULTIPLE
     command = ["confidence", "--study", str(small_study), "--model", "jenkins", "--surrogate", "ASB C1",
                "--per-level", "300", "--conditional", "300", "--seed", "2"]
     assert surrogacy([*command, "--bounds", str(out / "bounds.csv"), "--out", str(tmp_path / "refused.csv")]) == 2
     assert f"{out / 'bounds.csv'}: field 'structure': no row for model 'jenkins'" in capsys.readouterr().err
+    bounds.assign(damping_case="other").to_csv(tmp_path / "other.csv", index=False)
+    assert surrogacy([*command, "--bounds", str(tmp_path / "other.csv"), "--out", str(tmp_path / "refused.csv")]) == 2
+    assert f"{tmp_path / 'other.csv'}: field 'damping_case': bounds formed for ['other']; expected 'measured'" \
+        in capsys.readouterr().err
     names = folder.exploration.names
     complete = pd.DataFrame({"model": "jenkins", "structure": names,
                              "frequency_bound_hz": np.linspace(0.5, 2.0, len(names)),
