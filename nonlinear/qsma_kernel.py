@@ -672,9 +672,9 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     compliance already holds them); mechanisms: (k, m) the joint's tangential mechanisms d_j and mechanism_load:
     (n_designs, k) rigid_j^T psi (``nonlinear.condensation.joint_mechanisms``), for the force balance on them;
     defined: (n_designs,) bool, False where the stuck mode is not defined (not found, or the stuck structure
-    unstable): those designs are not solved (NOT_CONVERGED on every level). Each level starts from the parabola through the last three converged levels, or fewer, never across a level
-    that failed (after one, from the last converged level scaled to this one); a level that fails from there is
-    solved again from the stuck solution.
+    unstable): those designs are not solved (NOT_CONVERGED on every level). Each level starts from the parabola
+    through the last three converged levels, or fewer, never across a level that failed (after one, from the last
+    converged level scaled to this one); a level that fails from there is solved again from the stuck solution.
     Returns the joint displacements r = phi x (m) and slip ratios |x| (0 where stuck), each
     (n_designs, L, m), status codes (n_designs, L), and amplitude q, force alpha, frequency omega (rad/s),
     damping zeta, each (n_designs, L); NaN where not converged (the prescribed level is kept).

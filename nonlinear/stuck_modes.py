@@ -133,7 +133,7 @@ def _high_flexibility(mu, high_eigenvalues, flexibility, weights, coefficients, 
     n_high = high_eigenvalues.size
     for e in range(n_high):
         weights[e] = 1.0 / (high_eigenvalues[e] - mu)
-    if not abs(mu) < high_eigenvalues[0]:
+    if n_high == 0 or not abs(mu) < high_eigenvalues[0]:
         rmatvec(flexibility[SERIES_TERMS:], weights, packed)
         return
     power = 1.0
