@@ -14,8 +14,9 @@ each quantity on its own: a design is accepted where it misses the measurement b
 design of its model misses it by, and never by less than the measurement's own noise allows. The calibrated
 optimum's scaled misfit (``study.errors.scaled_misfit``) is therefore at most 1 / MULTIPLE: every structure's
 acceptance region holds at least one design, and its surrogacy row is defined. The bounds hold for the damping case
-they were formed with (the ``damping_case`` column), which ``surrogacy confidence --bounds`` checks. The paper's fixed 2 Hz and 5e-3 (``study.errors``) stay the study's bounds for the comparison
-with its Table 5; these are read by ``surrogacy confidence --bounds`` (``bounds.csv``, docs/formats.md).
+they were formed with (the ``damping_case`` column), which ``surrogacy confidence --bounds`` checks when it reads
+them (``bounds.csv``, docs/formats.md). The paper's fixed 2 Hz and 5e-3 (``study.errors``) stay the study's bounds
+for the comparison with its Table 5.
 """
 
 from __future__ import annotations

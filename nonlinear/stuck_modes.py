@@ -343,17 +343,17 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                   reference_low, reference_high, unambiguous_mac, rows):
     """Tracked stuck mode and joint-space compliance for every design.
 
-    joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in
-    rad^2/s^2 and low_/high_modes Phi_L (m, n_L), Phi_E (m, n_E): the modal data split at the cutoff;
-    flexibility: ``flexibility_basis`` of the high modes; reference_low/high: the unit reference mode split alike. Returns the
-    eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the
-    joint shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T
-    on the joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, found (n_designs,) bool (False
-    where the root was not found to ROOT_TOLERANCE), and the estimates delta (n_designs, n_L) of the low stuck
-    eigenvalues (rad^2/s^2, increasing), whose signs are those of the stuck eigenvalues (S(0) and the stuck
-    matrix have as many negative eigenvalues, Sylvester's law of inertia): a negative one is a stuck mode the
-    joint does not hold (prestressed halves on too soft a joint), and the design's other outputs are then not
-    defined. Work arrays are allocated once per call.
+    joint_stiffness: (n_designs, m) stuck tangents k (N/m); low_/high_eigenvalues (n_L,), (n_E,) in rad^2/s^2 and
+    low_/high_modes Phi_L (m, n_L), Phi_E (m, n_E): the modal data split at the cutoff; flexibility:
+    ``flexibility_basis`` of the high modes; reference_low/high: the unit reference mode split alike. Returns the
+    eigenvalue mu (n_designs,), the unit shape split as v_L (n_designs, n_L) and v_E (n_designs, n_E), the joint
+    shape b (n_designs, m), the MAC (n_designs,), the compliance C = Phi (Lambda + Phi^T K Phi)^-1 Phi^T on the
+    joint rows ``rows`` (n_rows,) only (n_designs, n_rows, n_rows), m/N, found (n_designs,) bool (False where the
+    root was not found to ROOT_TOLERANCE), and the estimates delta (n_designs, n_L) of the low stuck eigenvalues
+    (rad^2/s^2, increasing), whose signs are those of the stuck eigenvalues (S(0) and the stuck matrix have as many
+    negative eigenvalues, Sylvester's law of inertia): a negative one is a stuck mode the joint does not hold
+    (prestressed halves on too soft a joint), and the design's other outputs are then not defined. Work arrays are
+    allocated once per call.
 
     Compliance, from the static problem at mu = 0 (load p on r; Z0, S0, X0 at mu = 0; W = K^-1 Z0):
 
