@@ -2,7 +2,7 @@
 
 Run as ``python -m benchmarks.compare_checkouts REFERENCE [--designs N] [--repeats R]`` from this checkout, REFERENCE
 the root of another (e.g. the main branch's). For every model the rows of one chunk of N designs on the three
-beams of ``benchmarks.study`` (``study.exploration.chunk_rows``: QSMA, errors, converged flags and reasons) are
+beams of ``benchmarks.study`` (``study.exploration.chunk_tables``: QSMA, errors, converged flags and reasons) are
 computed by each checkout in its own process (its own modules on the path; the kernels compiled and loaded
 first), alternating reference and this checkout, each the best of R timings of the chunk (CPU time of the process,
 ``time.process_time``, BLAS single-threaded). Printed per model: each checkout's design evaluations (designs x
@@ -38,18 +38,18 @@ def evaluate(model: str, n_designs: int, repeats: int, table_path: Path) -> floa
     import time
 
     from benchmarks.study import DAMPING_CASES, beams
-    from study.exploration import Exploration, Sample, chunk_rows, process_splits
+    from study.exploration import Exploration, Sample, chunk_tables, process_splits
 
     structures = beams()
     exploration = Exploration(structures, (model,), Sample(seed=SEED, n_designs=n_designs, chunk_size=n_designs),
                               DAMPING_CASES)
     splits = process_splits(exploration)
-    chunk_rows(Exploration(structures, (model,), Sample(seed=SEED + 1, n_designs=20, chunk_size=20), DAMPING_CASES),
-               model, 0, splits)  # compile and load the kernels first
+    chunk_tables(Exploration(structures, (model,), Sample(seed=SEED + 1, n_designs=20, chunk_size=20),
+                             DAMPING_CASES), 0, splits=splits)  # compile and load the kernels first
     best = np.inf
     for _ in range(repeats):
         start = time.process_time()
-        table = chunk_rows(exploration, model, 0, splits)
+        table = chunk_tables(exploration, 0, splits=splits)[model]
         best = min(best, time.process_time() - start)
     pq.write_table(table, table_path)
     return best

@@ -228,3 +228,29 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
     shape[:, split.low], shape[:, split.high] = shape_low, shape_high
     unstable = np.count_nonzero(estimates < -(2.0 * np.pi * RIGID_FREQUENCY) ** 2, axis=1)
     return StuckModes(eigenvalue, shape, joint_shape, mac, compliance, found & (unstable == 0), unstable)
+
+
+class StuckModeCache:
+    """The stuck modes of one structure (``stuck_modes`` with its ``split`` and joint ``rows``) for each batch
+    of joint tangents asked for, formed once per distinct batch: the friction models of a study take their stuck
+    joint (K_T, K_z, K_c) from the same columns of the sample (``study.designs``), so that models with the same
+    stuck joint share one solve per design and structure. A batch is found again only where it is equal to the
+    last bit. Holds the batches of one chunk of designs; not for long-lived use."""
+
+    def __init__(self, space: JointSpace, split: ModalSplit | None = None, rows=None):
+        self.space = space
+        self.split = modal_split(space) if split is None else split
+        self.rows = None if rows is None else np.asarray(rows, dtype=np.int64)
+        self._formed: dict[bytes, StuckModes] = {}
+
+    def __call__(self, joint_stiffness) -> StuckModes:
+        """``stuck_modes`` of the tangents (n_designs, 3 n_patches) N/m, formed where not formed before."""
+        stiffness = np.ascontiguousarray(np.atleast_2d(joint_stiffness), dtype=float)
+        key = np.asarray(stiffness.shape).tobytes() + stiffness.tobytes()
+        if key not in self._formed:
+            self._formed[key] = stuck_modes(self.space, stiffness, self.split, self.rows)
+        return self._formed[key]
+
+    def serves(self, space: JointSpace, rows) -> bool:
+        """Whether this cache's modes are those of ``space`` with the compliance on ``rows``."""
+        return space is self.space and self.rows is not None and np.array_equal(self.rows, rows)

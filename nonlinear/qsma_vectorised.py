@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from nonlinear import qsma_kernel
-from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, joint_mechanisms, stuck_modes
+from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, StuckModeCache, joint_mechanisms
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, PAST_JUMP, QSMAResult
 
@@ -39,11 +39,13 @@ def kernel_array(values: np.ndarray) -> np.ndarray:
 
 def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces=None,
                  linear_damping: float = 0.0, stuck_group: int | None = None,
-                 split: ModalSplit | None = None) -> QSMAResult:
+                 split: ModalSplit | None = None, stuck: StuckModeCache | None = None) -> QSMAResult:
     """QSMA of many designs (n_designs, n_parameters) at common increasing levels: modal amplitudes q
     (amplitude control) or modal forces alpha (force control), exactly one of them, shape (levels,).
-    split: ``nonlinear.condensation.modal_split(space)``, formed here when not given (once per structure
-    is enough).
+    split: ``nonlinear.condensation.modal_split(space)``, formed here when neither it nor ``stuck`` is given
+    (once per structure is enough). stuck: a ``StuckModeCache`` of ``space`` with the compliance on the tangential rows, shared by
+    calls whose designs may have the same stuck joint (the models of a study's chunk); a fresh one where not
+    given. ValueError where it is another structure's, or its compliance is on other rows.
 
     Returns ``QSMAResult`` with a leading design axis on every field.
     """
@@ -52,7 +54,12 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     elements = patch_elements(model, designs, space.superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
     rows = tangential_rows(space.superelement.n_patches)
-    modes = stuck_modes(space, stuck_stiffness(elements), split, rows)
+    if stuck is None:
+        stuck = StuckModeCache(space, split, rows)
+    elif not stuck.serves(space, rows):
+        raise ValueError("stuck: a StuckModeCache of another structure, or with the compliance on other rows than "
+                         "the tangential ones")
+    modes = stuck(stuck_stiffness(elements))
     b = np.ascontiguousarray(modes.joint_shape[:, rows])
     amplitude_control = amplitudes is not None
     levels = np.asarray(amplitudes if amplitude_control else forces, dtype=float)

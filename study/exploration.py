@@ -1,10 +1,11 @@
 """Design exploration: every chunk of every model's sample evaluated on every structure, streamed to Parquet.
 
-A task is one chunk of one friction model's sample (``study.designs``): its designs are regenerated from the
-seed, evaluated on each structure (``study.errors.design_errors``), reduced to one row per design, and written
-by the process that evaluated it: ``<folder>/<model>/chunk-<c>.parquet``, by an atomic rename, so a run killed
-at any point leaves whole chunks only, and a rerun evaluates exactly the chunks that are missing (nothing lost,
-nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
+A task is one chunk of the sample (``study.designs``) for every friction model whose file of it is missing: its
+designs are regenerated from the seed, evaluated on each structure (``study.errors.design_errors``; the stuck
+modes formed once for the models with the same stuck joint), reduced to one row per design, and written by the
+process that evaluated it: ``<folder>/<model>/chunk-<c>.parquet``, model by model, by an atomic rename, so a run
+killed at any point leaves whole chunk files only, and a rerun evaluates exactly the files that are missing
+(nothing lost, nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
 written chunk's study key and keeps the count. Memory stays that of the chunks in flight.
 
 Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address whose
@@ -41,12 +42,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
-from nonlinear.condensation import modal_split
+from nonlinear.condensation import StuckModeCache, modal_split
 from nonlinear.friction_models import MODEL_NAMES
-from nonlinear.joint import parameter_names
+from nonlinear.joint import parameter_names, tangential_rows
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
-from study.designs import design_chunk
+from study.designs import chunk_designs
 from study.errors import DAMPING_RULES, DesignErrors, design_errors
 from study.structures import Structure
 
@@ -153,42 +154,61 @@ def chunk_path(folder: Path, model: str, chunk: int) -> Path:
     return Path(folder) / model / f"chunk-{chunk:06d}.parquet"
 
 
-def chunk_rows(exploration: Exploration, model: str, chunk: int, splits=None) -> pa.Table:
-    """Evaluate one chunk on every structure: the rows of its designs (module docstring). splits: the
-    structures' ``modal_split``, formed here when not given."""
+def chunk_tables(exploration: Exploration, chunk: int, models=None, splits=None) -> dict[str, pa.Table]:
+    """Evaluate one chunk of each model's sample (``models``, default the study's) on every structure: the rows of
+    its designs (module docstring), by model. splits: the structures' ``modal_split``, formed here when not
+    given."""
     sample = exploration.sample
-    designs = design_chunk(sample.seed, model, chunk, sample.chunk_length(chunk), exploration.n_groups)
+    models = exploration.models if models is None else tuple(models)
+    designs = chunk_designs(sample.seed, models, chunk, sample.chunk_length(chunk), exploration.n_groups)
+    errors = models_errors(exploration, designs, splits)
     first = chunk * sample.chunk_size
-    columns = {"model": pa.array([model] * len(designs)).dictionary_encode(),
-               "design": np.arange(first, first + len(designs), dtype=np.int64),
-               "chunk": np.full(len(designs), chunk, dtype=np.int32),
-               "replicate": np.full(len(designs), chunk % sample.n_replicates, dtype=np.int16),
-               "seed": np.full(len(designs), sample.seed, dtype=np.int64)}
-    columns.update(zip(parameter_names(model, exploration.n_groups), designs.T))
     cases = list(exploration.damping_cases)
-    for structure, errors in zip(exploration.structures, structure_errors(exploration, model, designs, splits)):
-        name = structure.name
-        columns[f"frequency_error_hz[{name}]"] = errors.frequency_error_hz
-        columns.update({f"damping_error[{name}][{case}]": errors.damping_error[:, k] for k, case in enumerate(cases)})
-        columns[f"converged[{name}]"] = errors.converged
-        columns[f"reason[{name}]"] = pa.array(errors.reason).dictionary_encode()
-        columns[f"stuck_frequency_hz[{name}]"] = errors.stuck_frequency_hz
-    return pa.table(columns)
+    tables = {}
+    for model in models:
+        n = len(designs[model])
+        columns = {"model": pa.array([model] * n).dictionary_encode(),
+                   "design": np.arange(first, first + n, dtype=np.int64),
+                   "chunk": np.full(n, chunk, dtype=np.int32),
+                   "replicate": np.full(n, chunk % sample.n_replicates, dtype=np.int16),
+                   "seed": np.full(n, sample.seed, dtype=np.int64)}
+        columns.update(zip(parameter_names(model, exploration.n_groups), designs[model].T))
+        for structure, structure_error in zip(exploration.structures, errors[model]):
+            name = structure.name
+            columns[f"frequency_error_hz[{name}]"] = structure_error.frequency_error_hz
+            columns.update({f"damping_error[{name}][{case}]": structure_error.damping_error[:, k]
+                            for k, case in enumerate(cases)})
+            columns[f"converged[{name}]"] = structure_error.converged
+            columns[f"reason[{name}]"] = pa.array(structure_error.reason).dictionary_encode()
+            columns[f"stuck_frequency_hz[{name}]"] = structure_error.stuck_frequency_hz
+        tables[model] = pa.table(columns)
+    return tables
+
+
+def models_errors(exploration: Exploration, designs: dict, splits=None,
+                  structures=None) -> dict[str, list[DesignErrors]]:
+    """``study.errors.design_errors`` of each model's designs (model -> (n, d)) on each structure (all, or the
+    indices in ``structures``, in that order), damping errors for every damping case in the exploration's order.
+    On each structure the stuck modes are formed once for the models whose designs have the same stuck joint
+    (``nonlinear.condensation.StuckModeCache``; the sample's common columns, ``study.designs``). splits: the
+    structures' ``modal_split`` (all of them), formed here when not given."""
+    indices = range(len(exploration.structures)) if structures is None else structures
+    errors = {model: [] for model in designs}
+    for index in indices:
+        structure = exploration.structures[index]
+        zeta0 = [values[index] for values in exploration.damping_cases.values()]
+        stuck = StuckModeCache(structure.space, None if splits is None else splits[index],
+                               tangential_rows(structure.space.superelement.n_patches))
+        for model, model_designs in designs.items():
+            errors[model].append(design_errors(structure, model, model_designs, zeta0, stuck=stuck,
+                                               rule=exploration.damping_rule))
+    return errors
 
 
 def structure_errors(exploration: Exploration, model: str, designs, splits=None,
                      structures=None) -> list[DesignErrors]:
-    """``study.errors.design_errors`` of ``designs`` (n, d) on each structure (all, or the indices in
-    ``structures``, in that order), damping errors for every damping case in the exploration's order. splits: the
-    structures' ``modal_split`` (all of them), formed here when not given."""
-    indices = range(len(exploration.structures)) if structures is None else structures
-    results = []
-    for index in indices:
-        zeta0 = [values[index] for values in exploration.damping_cases.values()]
-        split = None if splits is None else splits[index]
-        results.append(design_errors(exploration.structures[index], model, designs, zeta0, split=split,
-                                     rule=exploration.damping_rule))
-    return results
+    """``models_errors`` of one model's ``designs`` (n, d): its errors on each structure."""
+    return models_errors(exploration, {model: designs}, splits, structures)[model]
 
 
 def write_chunk(table: pa.Table, destination: Path, key: str) -> None:
@@ -254,23 +274,23 @@ def check_explored(exploration: Exploration, folder: Path) -> None:
 
 
 class ChunkTiming(NamedTuple):
-    """One task: the chunk, the process that evaluated and wrote it (host:pid) and when (s since the epoch on
-    that host)."""
+    """One task: the chunk and the models whose files it wrote, the process that evaluated and wrote them
+    (host:pid) and when (s since the epoch on that host)."""
 
-    model: str
+    models: tuple[str, ...]
     chunk: int
     worker: str
     start: float
     end: float
 
 
-def evaluate_chunk(exploration: Exploration, folder: Path, model: str, chunk: int) -> ChunkTiming:
-    """One task, on a worker or in this process: the chunk's rows on every structure (the process's modal
-    splits), written atomically to its file in ``folder``."""
+def evaluate_chunk(exploration: Exploration, folder: Path, chunk: int, models: tuple[str, ...]) -> ChunkTiming:
+    """One task, on a worker or in this process: the chunk's rows of each of ``models`` on every structure (the
+    process's modal splits), each model's written atomically to its file in ``folder``."""
     start = time.time()
-    table = chunk_rows(exploration, model, chunk, process_splits(exploration))
-    write_chunk(table, chunk_path(folder, model, chunk), exploration.key())
-    return ChunkTiming(model, chunk, f"{socket.gethostname()}:{os.getpid()}", start, time.time())
+    for model, table in chunk_tables(exploration, chunk, models, process_splits(exploration)).items():
+        write_chunk(table, chunk_path(folder, model, chunk), exploration.key())
+    return ChunkTiming(tuple(models), chunk, f"{socket.gethostname()}:{os.getpid()}", start, time.time())
 
 
 class Explored(NamedTuple):
@@ -346,34 +366,35 @@ def explore(exploration: Exploration, folder: Path, client=None, progress: bool 
 def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> Explored:
     done = finished_chunks(exploration, folder)
     _write_manifest(exploration, folder)
-    pending = [(model, chunk) for model in exploration.models for chunk in range(exploration.sample.n_chunks)
-               if (model, chunk) not in done]
+    pending = [(chunk, missing) for chunk in range(exploration.sample.n_chunks)
+               if (missing := tuple(model for model in exploration.models if (model, chunk) not in done))]
     key = exploration.key()
     total = len(exploration.models) * exploration.sample.n_chunks
     threads = 1 if client is None else max(1, sum(client.nthreads().values()))
     timings = []
     start = time.perf_counter()
-    with tqdm(total=total, initial=total - len(pending), unit="chunk", disable=not progress,
-              desc=f"designs ({exploration.sample.chunk_size} per chunk)") as bar:
+    with tqdm(total=total, initial=total - sum(len(models) for _, models in pending), unit="chunk",
+              disable=not progress, desc=f"designs ({exploration.sample.chunk_size} per chunk and model)") as bar:
         for timing in _run_tasks(exploration, folder, pending, client, threads):
-            path = chunk_path(folder, timing.model, timing.chunk)
-            if stored_key(path) != key:
-                raise StudyError(f"{path}: the worker {timing.worker} reported it written, but it is missing or "
-                                 "not this study's chunk here; the workers must write to the folder this process "
-                                 "reads (the same machine, or a shared file system)")
+            for model in timing.models:
+                path = chunk_path(folder, model, timing.chunk)
+                if stored_key(path) != key:
+                    raise StudyError(f"{path}: the worker {timing.worker} reported it written, but it is missing "
+                                     "or not this study's chunk here; the workers must write to the folder this "
+                                     "process reads (the same machine, or a shared file system)")
             timings.append(timing)
-            bar.update()
+            bar.update(len(timing.models))
     paths = [chunk_path(folder, model, chunk) for model in exploration.models
              for chunk in range(exploration.sample.n_chunks)]
     return Explored(paths, timings, time.perf_counter() - start, threads)
 
 
 def _run_tasks(exploration: Exploration, folder: Path, pending: list, client, threads: int):
-    """The ChunkTiming of every pending (model, chunk): serially, or on the cluster with IN_FLIGHT_PER_THREAD
+    """The ChunkTiming of every pending (chunk, models): serially, or on the cluster with IN_FLIGHT_PER_THREAD
     tasks per worker thread in flight."""
     if client is None:
-        for model, chunk in pending:
-            yield evaluate_chunk(exploration, folder, model, chunk)
+        for chunk, models in pending:
+            yield evaluate_chunk(exploration, folder, chunk, models)
         return
     from distributed import as_completed
 
@@ -386,7 +407,7 @@ def _run_tasks(exploration: Exploration, folder: Path, pending: list, client, th
         task = next(tasks, None)
         if task is not None:
             stream.add(client.submit(evaluate_chunk, shared, folder, *task, pure=False,
-                                     key=f"chunk-{task[0]}-{task[1]}-{exploration.key()[:8]}"))
+                                     key=f"chunk-{task[0]}-{'-'.join(task[1])}-{exploration.key()[:8]}"))
 
     for _ in range(IN_FLIGHT_PER_THREAD * threads):
         submit()

@@ -30,13 +30,14 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+import nonlinear.condensation as condensation
 import study.exploration as exploration_module
 from experiment.backbone_files import read_asb_backbone
 from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from reduction.superelement import asb_data_folder
 from study.exploration import (ChunkTiming, Explored, Exploration, Sample, StudyError, check_explored, chunk_path,
-                               explore, finished_chunks, manifest, read_exploration)
+                               chunk_tables, explore, finished_chunks, manifest, read_exploration, write_chunk)
 from study.structures import asb_superelement, structure
 
 CONFIGURATIONS = ("C1", "C2", "C3")
@@ -45,7 +46,7 @@ SAMPLE = Sample(seed=11, n_designs=240, chunk_size=30, n_replicates=3)  # 8 chun
 DAMPING_CASES = {"low": (2e-4, 3e-4, 2e-4), "high": (1e-3, 1.5e-3, 1e-3)}  # zeta_0 of C1, C2, C3
 N_LEVELS = 8
 STARTUP_TIMEOUT_S = 120  # a process importing numba, scipy and the project on a busy 2-core machine
-KILLED_AT_WRITE = 10  # the killed study finishes jenkins chunks 0-7 and iwan4 chunk 0, dies writing iwan4 chunk 1
+KILLED_AT_WRITE = 10  # the killed study finishes chunks 0-3 of both models and jenkins' chunk 4, dies writing iwan4's
 
 
 def asb_files(configuration: str) -> tuple[Path, Path]:
@@ -162,8 +163,9 @@ explore(asb_exploration(), sys.argv[1], progress=False)
 def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, serial_folder, tmp_path,
                                                                    monkeypatch):
     """SIGKILL while a chunk's temporary file is half written: only whole chunks are visible (the temporary
-    file is neither a chunk nor read), the rerun evaluates exactly the missing chunks, leaves the finished ones
-    untouched (same inode, size and mtime), and the study equals an uninterrupted run."""
+    file is neither a chunk nor read), the rerun evaluates exactly the missing chunk files (of chunk 4 only
+    iwan4's, whose task had written jenkins'), leaves the finished ones untouched (same inode, size and mtime),
+    and the study equals an uninterrupted run."""
     script = tmp_path / "killed_study.py"
     script.write_text(KILLED_STUDY.format(tests=str(Path(__file__).parent), helpers=str(Path(__file__).parents[1]),
                                             killed_at=KILLED_AT_WRITE))
@@ -187,23 +189,23 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
             child.wait()
 
     finished = chunk_files(folder)
-    assert finished == {("jenkins", chunk) for chunk in range(8)} | {("iwan4", 0)}
+    assert finished == {(model, chunk) for model in MODELS for chunk in range(4)} | {("jenkins", 4)}
     temporary = sorted(folder.glob("*/.partial-*"))
     assert [path.parent.name for path in temporary] == ["iwan4"]
-    assert temporary[0].name.startswith(".partial-chunk-000001-")
+    assert temporary[0].name.startswith(".partial-chunk-000004-")
     with pytest.raises(pa.ArrowInvalid):
         pq.read_table(temporary[0])  # half a file: the kill left it partial (the rerun sweeps it)
     assert finished_chunks(exploration, folder) == finished
-    assert read_exploration(folder, "iwan4")["design"].tolist() == list(range(exploration.sample.chunk_size))
+    assert read_exploration(folder, "iwan4")["design"].tolist() == list(range(4 * exploration.sample.chunk_size))
     for model, chunk in finished:
         assert_same_chunk(chunk_path(folder, model, chunk), chunk_path(serial_folder, model, chunk))
     before = {name: identity for name, identity in file_identities(folder).items() if "/chunk-" in name}
 
     evaluated = []
 
-    def recording(exploration, folder, model, chunk):
-        evaluated.append((model, chunk))
-        return evaluate(exploration, folder, model, chunk)
+    def recording(exploration, folder, chunk, models):
+        evaluated.extend((model, chunk) for model in models)
+        return evaluate(exploration, folder, chunk, models)
 
     evaluate = exploration_module.evaluate_chunk
     monkeypatch.setattr(exploration_module, "evaluate_chunk", recording)
@@ -216,9 +218,27 @@ def test_killed_study_resumes_without_losing_or_repeating_a_chunk(exploration, s
     assert_same_study(folder, serial_folder, exploration)
 
 
+def test_models_evaluated_together_give_each_models_rows_alone(exploration, serial_folder, tmp_path, monkeypatch):
+    """jenkins and iwan4 take K_T and K_z from the same columns of the sample, so a chunk's task forms the stuck
+    modes once per structure (3 solves, not 6) for both; each model's rows are those of the model evaluated alone,
+    bit for bit."""
+    solves = []
+    stuck_modes = condensation.stuck_modes
+    monkeypatch.setattr(condensation, "stuck_modes", lambda *a, **k: solves.append(1) or stuck_modes(*a, **k))
+    together = chunk_tables(exploration, 2)
+    assert len(solves) == len(exploration.structures)
+    names = parameter_names("jenkins", exploration.n_groups)
+    for name in names:
+        assert together["jenkins"][name].equals(together["iwan4"][name])
+    for model in MODELS:
+        alone = chunk_tables(exploration, 2, (model,))[model]
+        write_chunk(alone, tmp_path / f"{model}.parquet", exploration.key())
+        assert_same_chunk(tmp_path / f"{model}.parquet", chunk_path(serial_folder, model, 2))
+
+
 def test_idle_fraction_is_the_threads_time_outside_the_chunks():
     """Two threads for 10 s that spent 6 s and 8 s in chunks were idle 6 s of their 20: 0.3."""
-    timings = [ChunkTiming("jenkins", 0, "a:1", 100.0, 106.0), ChunkTiming("jenkins", 1, "b:2", 101.0, 109.0)]
+    timings = [ChunkTiming(("jenkins",), 0, "a:1", 100.0, 106.0), ChunkTiming(("jenkins",), 1, "b:2", 101.0, 109.0)]
     assert Explored([], timings, 10.0, 2).idle_fraction == pytest.approx(0.3, abs=1e-12)
     assert np.isnan(Explored([], [], 10.0, 2).idle_fraction)
 
@@ -227,7 +247,7 @@ def test_a_chunk_reported_but_not_in_the_folder_is_refused(exploration, tmp_path
     """A worker that wrote where this process cannot read (another machine's disk) is caught at once, naming
     the chunk's file and what the workers need."""
     monkeypatch.setattr(exploration_module, "evaluate_chunk",
-                        lambda exploration, folder, model, chunk: ChunkTiming(model, chunk, "elsewhere:1", 0.0, 1.0))
+                        lambda exploration, folder, chunk, models: ChunkTiming(models, chunk, "elsewhere:1", 0.0, 1.0))
     with pytest.raises(StudyError, match=r"chunk-000000\.parquet: the worker elsewhere:1 reported it written.*shared "
                                          r"file system"):
         explore(exploration, tmp_path / "study", progress=False)
@@ -301,7 +321,8 @@ def test_cluster_writes_the_serial_rows(exploration, serial_folder, tmp_path, re
     folder = tmp_path / "study"
     run = explore(exploration, folder, client=client, progress=False)
     assert_same_study(folder, serial_folder, exploration)
-    assert sorted((timing.model, timing.chunk) for timing in run.timings) == sorted(all_chunks(exploration))
+    assert sorted((model, timing.chunk) for timing in run.timings for model in timing.models) == sorted(
+        all_chunks(exploration))
     workers = {timing.worker for timing in run.timings}
     assert len(workers) == 2 and f"{socket.gethostname()}:{os.getpid()}" not in workers  # written by the workers
     assert run.threads == 2 and 0.0 <= run.idle_fraction < 1.0

@@ -21,9 +21,10 @@ from experiment.backbone import Backbone, ModeBackbone
 from experiment.backbone_files import read_backbone, write_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import joint_space
+from nonlinear.friction_models import MODEL_NAMES
 from nonlinear.joint import parameter_limits, parameter_names, to_unit
 from study.datasets import dataset_structures, measurement_path
-from study.designs import design_chunk
+from study.designs import design_chunk, sample_parameters, unit_chunk
 from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
 from study.analysis import model_errors
@@ -123,6 +124,24 @@ def test_designs_are_a_latin_hypercube_within_table3():
     assert np.array_equal(designs, design_chunk(11, MODEL, 2, 250, 3))
     assert not np.array_equal(designs, design_chunk(11, MODEL, 3, 250, 3))
     assert len(parameter_names(MODEL, 3)) == designs.shape[1]
+
+
+def test_models_share_the_samples_columns_of_the_parameters_they_share():
+    """Common random numbers (``study.designs``): design i of a chunk has the same value of a parameter in every
+    model that has it (F_S, K_T, K_z ...), so that models with the same stuck joint share its stuck modes; each
+    model's sample is still a Latin hypercube of its own (the test above), and different parameters come from
+    independent columns (the 210 pairwise correlations of 250 designs within 0.35, 5.5 of their standard error
+    1 / sqrt(250))."""
+    columns = {model: dict(zip(parameter_names(model, 3), design_chunk(11, model, 2, 250, 3).T))
+               for model in MODEL_NAMES}
+    every = {**columns["iwan5"], **columns["iwan4_core"]}
+    for model in MODEL_NAMES:
+        for name, values in columns[model].items():
+            assert np.array_equal(values, every[name]), (model, name)
+    unit = unit_chunk(11, 2, 250, 3)
+    assert set(every) == set(sample_parameters(3)) and unit.shape == (250, len(every))
+    correlation = np.corrcoef(unit.T)
+    assert np.max(np.abs(correlation[np.triu_indices_from(correlation, 1)])) < 0.35
 
 
 def backbone_with(amplitude, frequency, damping) -> ModeBackbone:
