@@ -43,9 +43,10 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     """QSMA of many designs (n_designs, n_parameters) at common increasing levels: modal amplitudes q
     (amplitude control) or modal forces alpha (force control), exactly one of them, shape (levels,).
     split: ``nonlinear.condensation.modal_split(space)``, formed here when neither it nor ``stuck`` is given
-    (once per structure is enough). stuck: a ``StuckModeCache`` of ``space`` with the compliance on the tangential rows, shared by
-    calls whose designs may have the same stuck joint (the models of a study's chunk); a fresh one where not
-    given. ValueError where it is another structure's, or its compliance is on other rows.
+    (once per structure is enough). stuck: a ``StuckModeCache`` of ``space`` with the compliance on the
+    tangential rows, shared by calls whose designs may have the same stuck joint (the models of a study's
+    chunk); a fresh one where not given. ValueError where it is another structure's, or its compliance is on
+    other rows.
 
     Returns ``QSMAResult`` with a leading design axis on every field.
     """

@@ -48,8 +48,9 @@ def run(arguments: argparse.Namespace) -> None:
         for step, result in workflow.run_steps(paths, parameters, arguments.steps, arguments.scheduler,
                                                arguments.restart_stale):
             if step == "explore" and result.timings:
-                print(f"explored {len(result.timings)} chunk(s) in {result.wall_seconds:.0f} s on "
-                      f"{result.threads} worker thread(s), idle {result.idle_fraction:.1%} of their time")
+                files = sum(len(timing.models) for timing in result.timings)
+                print(f"explored {len(result.timings)} chunk(s) ({files} chunk files) in {result.wall_seconds:.0f} s "
+                      f"on {result.threads} worker thread(s), idle {result.idle_fraction:.1%} of their time")
             if step == "report":
                 print(f"wrote {result}")
 

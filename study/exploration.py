@@ -1,11 +1,11 @@
 """Design exploration: every chunk of every model's sample evaluated on every structure, streamed to Parquet.
 
 A task is one chunk of the sample (``study.designs``) for every friction model whose file of it is missing: its
-designs are regenerated from the seed, evaluated on each structure (``study.errors.design_errors``; the stuck
-modes formed once for the models with the same stuck joint), reduced to one row per design, and written by the
-process that evaluated it: ``<folder>/<model>/chunk-<c>.parquet``, model by model, by an atomic rename, so a run
-killed at any point leaves whole chunk files only, and a rerun evaluates exactly the files that are missing
-(nothing lost, nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
+designs are regenerated from the seed, evaluated on each structure (``study.errors.design_errors``; the stuck modes
+formed once for the models with the same stuck joint), reduced to one row per design, and written by the process
+that evaluated it: ``<folder>/<model>/chunk-<c>.parquet``, model by model, by an atomic rename, so a run killed at
+any point leaves whole chunk files only, and a rerun evaluates exactly the files that are missing (nothing lost,
+nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
 written chunk's study key and keeps the count. Memory stays that of the chunks in flight.
 
 Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address whose

@@ -53,7 +53,8 @@ def write_report(paths, parameters: dict) -> Path:
                       f"{float(row['difference_percent']):+.2f} |" for row in csv.DictReader(stream)]
     lines += ["", "## Sample", "",
               f"{sample.n_designs} designs per friction model (replicated Latin hypercube over paper Table 3, "
-              f"{sample.n_chunks} chunks of {sample.chunk_size}, {sample.n_replicates} replicate populations), "
+              f"{sample.n_chunks} chunks of {sample.chunk_size}, {sample.n_replicates} replicate populations; a "
+              "parameter two models share takes the same values in both, design by design), "
               f"seed {sample.seed}, {study.n_levels} levels per structure, models {', '.join(study.friction_models)}."
               f" Acceptance: L-inf(f) <= {parameters['acceptance'].frequency_tolerance_hz} Hz and L-inf(zeta) <= "
               f"{parameters['acceptance'].damping_tolerance}. Linear damping cases: "

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from nonlinear import slip_laws
-from nonlinear.condensation import UNAMBIGUOUS_MAC, joint_space, stuck_modes
+from nonlinear.condensation import UNAMBIGUOUS_MAC, StuckModeCache, joint_space, stuck_modes
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, stuck_stiffness, tangential_elements,
-                             tangential_tangent)
+                             tangential_rows, tangential_tangent)
 from nonlinear.qsma import JUMPED, MACROSLIP, PAST_JUMP, qsma_reference
 from nonlinear.qsma_kernel import (MACROSLIP_SLOPE, N_LAW, NEAR, STICTION, _convex_between, _law_table,
                                    _slip_power, slip_law)
@@ -251,3 +251,22 @@ def test_vectorised_qsma_converges_where_newton_straddles_a_kink_of_the_slip_law
     assert both.sum() >= min(20, vectorised.converged.sum())
     np.testing.assert_allclose(vectorised.frequency[0, both], oracle.frequency[both], rtol=1e-6)
     np.testing.assert_allclose(vectorised.damping[0, both], oracle.damping[both], rtol=1e-5)
+
+
+def test_shared_stuck_modes_are_each_models_own_and_checked(cd1_space, asb_superelement):
+    """A ``StuckModeCache`` handed to several models' calls solves each distinct stuck joint once and gives each
+    call the results it would form alone, bit for bit; one made for another structure (any other JointSpace
+    object), or with the compliance on other joint rows, is refused."""
+    designs = random_designs("iwan4", 30, 3, np.random.default_rng(4))
+    jenkins = designs[:, [0, 1, 4, 5, 6, 9, 10, 11, 14]]  # F_S, K_T, K_z of each group: the same stuck joint
+    stuck = StuckModeCache(cd1_space, rows=tangential_rows(cd1_space.superelement.n_patches))
+    for model, model_designs in (("iwan4", designs), ("jenkins", jenkins)):
+        shared = qsma_designs(cd1_space, model, model_designs, amplitudes=AMPLITUDES, stuck=stuck)
+        alone = qsma_designs(cd1_space, model, model_designs, amplitudes=AMPLITUDES)
+        for name in ("frequency", "damping", "stuck_frequency", "mac", "converged"):
+            np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
+    assert len(stuck._formed) == 1
+    with pytest.raises(ValueError, match="another structure"):
+        qsma_designs(joint_space(asb_superelement("CD1")), "jenkins", jenkins, amplitudes=AMPLITUDES, stuck=stuck)
+    with pytest.raises(ValueError, match="other rows"):
+        qsma_designs(cd1_space, "jenkins", jenkins, amplitudes=AMPLITUDES, stuck=StuckModeCache(cd1_space))
