@@ -21,6 +21,8 @@ from typing import Iterator, Mapping, NamedTuple
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
 from tqdm import tqdm
 
 from study.errors import accepted
@@ -208,6 +210,12 @@ def design_rows(folder: Path, model: str, designs, columns: list[str]) -> np.nda
     return values
 
 
+def string_counts(column: pa.ChunkedArray) -> dict[str, int]:
+    """Count of each non-empty string of a string column (dictionary-encoded or not, as the chunks write the
+    reasons), in the order of first appearance (pyarrow's value_counts: no Python object per row)."""
+    return {row["values"]: row["counts"] for row in pc.value_counts(column).to_pylist() if row["values"]}
+
+
 def reason_counts(folder: Path, model: str, names: list[str]) -> tuple[int, dict]:
     """(designs, structure -> Counter of the reasons of its designs not converged) of one model's sample, chunk
     by chunk (only the reason columns read); each Counter in the order in which the reasons first appear."""
@@ -217,8 +225,7 @@ def reason_counts(folder: Path, model: str, names: list[str]) -> tuple[int, dict
         table = read_chunk(path, columns)
         n_designs += table.num_rows
         for name, column in zip(names, columns):
-            values = table[column].to_pandas().astype(str)
-            reasons[name].update(values[values != ""].value_counts(sort=False).to_dict())
+            reasons[name].update(string_counts(table[column]))
     return n_designs, reasons
 
 
