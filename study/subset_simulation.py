@@ -52,8 +52,8 @@ with the threshold the run stalled at and the lowest misfit reached.
 Au & Beck's (2001, Eq. 29) coefficient of variation of one run, delta^2 = sum_k (1 - p_k) / (p_k N) (1 + gamma_k),
 with gamma_k from the autocorrelation of the level's indicator along its chains (``chain_correlation_factor``),
 ignores the correlation between levels, and on a narrow region reached through few chains the runs scatter far
-more than it says. The estimator therefore makes R independent runs (default 4) and takes P and its interval from
-their spread in log space (``combined_probability``).
+more than it says. The estimator therefore makes R independent runs (default 4) and takes P as their mean and its
+interval from their spread (``combined_probability``).
 
 Surrogacy. In each run the last level's designs with g_I <= 1 seed chains restricted to {g_I <= 1} until
 ``n_conditional`` states are drawn: a sample of the prior given acceptance by I. Every structure J is evaluated on
@@ -328,17 +328,21 @@ def subset_simulation(misfit: Misfit, dimension: int, n_structures: int, surroga
 
 
 def combined_probability(probabilities, covs, level: float = CONFIDENCE_LEVEL) -> tuple[float, float, float, float]:
-    """P(accepted by I) from R independent runs' estimates P_r: in log space, m = mean log P_r and its standard
-    error s = sd(log P_r) / sqrt(R) (the runs' spread, which holds every correlation between levels and chains);
-    returns P = exp(m), s (its c.o.v.) and the interval exp(m -/+ t s), t Student's quantile on R - 1 degrees of
-    freedom. A single run (R = 1) has s = its Au-Beck c.o.v. ``covs`` and the normal quantile."""
-    logs = np.log(np.asarray(probabilities, float))
-    runs = logs.size
-    error = np.std(logs, ddof=1) / np.sqrt(runs) if runs > 1 else float(np.asarray(covs, float)[0])
+    """P(accepted by I) from R independent runs' estimates P_r: their mean P = mean P_r (each run's estimate is
+    unbiased to O(1/N); the mean of their logarithms is low by half the variance of log P_r, which reaches orders
+    of magnitude where runs reach a region of several basins through different numbers of levels), its c.o.v.
+    c = sd(P_r) / (sqrt(R) P) (the runs' spread, which holds every correlation between levels and chains), and the
+    interval P exp(-/+ t s), s = sqrt(log(1 + c^2)) the spread of log P of a log-normal with that c.o.v., t Student's
+    quantile on R - 1 degrees of freedom, its upper end at most 1. A single run (R = 1) has c = its Au-Beck c.o.v.
+    ``covs`` and the normal quantile."""
+    values = np.asarray(probabilities, float)
+    runs = values.size
+    probability = values.mean()
+    cov = np.std(values, ddof=1) / (np.sqrt(runs) * probability) if runs > 1 else float(np.asarray(covs, float)[0])
+    spread = np.sqrt(np.log1p(cov ** 2))
     quantile = student_t.ppf(0.5 + level / 2, runs - 1) if runs > 1 else norm.ppf(0.5 + level / 2)
-    centre = logs.mean()
-    return (float(np.exp(centre)), float(error), float(np.exp(centre - quantile * error)),
-            float(np.exp(centre + quantile * error)))
+    return (float(probability), float(cov), float(probability * np.exp(-quantile * spread)),
+            float(min(1.0, probability * np.exp(quantile * spread))))
 
 
 def subset_run(misfit: Misfit, dimension: int, n_structures: int, surrogate: int, n_per_level: int,

@@ -40,7 +40,7 @@ def boxes(probability: float):
 @pytest.mark.parametrize("probability", [1e-2, 1e-6])
 def test_intervals_cover_the_exact_acceptance_probability_and_surrogacy(probability):
     """200 seeded estimates with the default settings (4 runs of 2000 designs per level). Measured coverage of the
-    nominal 95 % intervals: P 0.945 and SC_IJ 0.960 at P = 1e-2, P 0.975 and SC_IJ 0.980 at P = 1e-6 (about 110
+    nominal 95 % intervals: P 0.935 and SC_IJ 0.960 at P = 1e-2, P 0.975 and SC_IJ 0.980 at P = 1e-6 (about 110
     families); the estimates' spread of log P matches the stated c.o.v. within 30 %."""
     misfit, exact = boxes(probability)
     runs = [subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=seed)) for seed in range(200)]
@@ -287,9 +287,13 @@ def test_a_region_behind_a_near_miss_basin_is_reached_with_more_designs_per_leve
 def test_restarted_estimates_cover_the_probability_behind_a_near_miss_basin():
     """100 seeded estimates on ``near_miss_basin`` from 500 designs per level, restarted up to 64 times that: every
     one reaches the box (a run with 2000 designs per level reaches it in about 1 of 4 tries), at 4000 to 32,000
-    designs per level. Keeping only estimates whose four runs all reach leaves no bias the 100 estimates resolve:
-    measured mean log(P / P(I)) -0.09 with standard error 0.06; the 95 % intervals of P(I) cover it 0.88 of the
-    time (four runs, Student's t). About 12 s."""
+    designs per level. Keeping only estimates whose four runs all reach selects on the outcome a little: measured
+    mean log(P / P(I)) +0.17 with standard error 0.04 (P 18 % high, a seventh of the intervals' half-width in log
+    P); the 95 % intervals of P(I) cover it 0.85 of the time (four runs, Student's t). The mean of the runs'
+    logarithms, which the estimate once took, gave -0.09 here, its low bias of half the variance of log P_r
+    offsetting the selection, but 2,500 times below the runs' mean where they reach a region through different
+    basins (iwan5 on the measured ASB C3: runs of 1e-6, 4e-18, 6e-5 and 1e-5). Asserted: the bias below 30 % (log 0.26) and coverage at least 0.8. About
+    12 s."""
     misfit, probability, _ = near_miss_basin()
     results = [subset_simulation(misfit, 2, 3, 0, Settings(seed=seed, n_per_level=500, n_conditional=100,
                                                            restarts=6)) for seed in range(100)]
@@ -297,7 +301,7 @@ def test_restarted_estimates_cover_the_probability_behind_a_near_miss_basin():
     covered = np.mean([result.probability_lower <= probability <= result.probability_upper for result in results])
     print(f"mean log(P / P(I)) {logs.mean():.3f} (standard error {logs.std() / 10:.3f}), coverage {covered:.2f}, "
           f"designs per level {np.unique([result.designs_per_level for result in results], return_counts=True)}")
-    assert abs(logs.mean()) < 3 * logs.std() / 10 and covered >= 0.8
+    assert -3 * logs.std() / 10 < logs.mean() < np.log(1.3) and covered >= 0.8
 
 
 def test_a_killed_estimate_resumes_through_its_restarts_to_the_same_numbers(tmp_path):
@@ -323,7 +327,7 @@ def test_a_plateau_of_the_misfit_is_left_through_the_designs_below_it():
     as a stuck joint's damping error is over its slip parameters, so the (p_0 N)-th smallest misfit stays at 1.25
     at every level; the next threshold is the largest misfit below the plateau, and the region (P(I) = (2h)^2 =
     1.6e-3; J the box shifted by h, SC_IJ = 1/2) is reached in 2 or 3 levels. 50 seeded estimates with the
-    defaults: measured mean log(P / P(I)) 0.09 (standard error 0.03), coverage of the 95 % intervals 0.88 for P(I)
+    defaults: measured mean log(P / P(I)) 0.16 (standard error 0.03), coverage of the 95 % intervals 0.84 for P(I)
     and 0.98 for SC_IJ."""
     half = 0.02
     centres = np.array([[0.6, 0.4], [0.6 + half, 0.4]])
