@@ -251,6 +251,10 @@ class StuckModeCache:
             self._formed[key] = stuck_modes(self.space, stiffness, self.split, self.rows)
         return self._formed[key]
 
+    def __len__(self) -> int:
+        """The number of distinct batches solved so far."""
+        return len(self._formed)
+
     def serves(self, space: JointSpace, rows) -> bool:
         """Whether this cache's modes are those of ``space`` with the compliance on ``rows``."""
         return space is self.space and self.rows is not None and np.array_equal(self.rows, rows)

@@ -265,7 +265,7 @@ def test_shared_stuck_modes_are_each_models_own_and_checked(cd1_space, asb_super
         alone = qsma_designs(cd1_space, model, model_designs, amplitudes=AMPLITUDES)
         for name in ("frequency", "damping", "stuck_frequency", "mac", "converged"):
             np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
-    assert len(stuck._formed) == 1
+    assert len(stuck) == 1
     with pytest.raises(ValueError, match="another structure"):
         qsma_designs(joint_space(asb_superelement("CD1")), "jenkins", jenkins, amplitudes=AMPLITUDES, stuck=stuck)
     with pytest.raises(ValueError, match="other rows"):
