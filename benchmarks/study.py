@@ -46,11 +46,11 @@ PAPER_DESIGNS = 5e6  # per beam and model (paper section 4.3)
 PAPER_MODELS = models_for(3, in_paper=True)  # the paper's four friction models
 CORES = 2  # of the machine the projection is for
 MEASURED_FULL_SCALE = row(
-    "study", "paper scale, measured 2026-11-26", 915, 1426,
-    note="15 min 15 s, NOT measured by this run: the explore step of `surrogacy study --scheduler local`, 5,000,000 "
+    "study", "paper scale, measured 2026-11-26", 917, 1414,
+    note="15 min 17 s, NOT measured by this run: the explore step of `surrogacy study --scheduler local`, 5,000,000 "
          "designs per model, 4 models together, 3 beams, chunks of 5,000 written by two workers, this 2-core machine; "
          "wall time, peak resident memory of the whole process tree (the whole command with the measurements, analysis "
-         "and report: 17 min 47 s)")
+         "and report: 17 min 21 s)")
 
 
 def beams():
