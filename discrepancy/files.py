@@ -11,7 +11,9 @@ from matplotlib.ticker import NullFormatter
 
 import numpy as np
 
-from discrepancy.loop import Verdict, residual_features
+from discrepancy.fitted_model import evaluate
+from discrepancy.loop import EVIDENCE, Verdict, residual_features
+from discrepancy.nominal import nominal_statement
 from pipeline.files import atomic_path, write_json
 from study.figures import plt, save
 from study.structures import DAMPING_FLOOR, FREQUENCY_FLOOR, Measurement
@@ -44,11 +46,12 @@ def findings_markdown(findings: list, checked: list) -> list[str]:
 
 
 def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: Measurement,
-                     checked: list = ()) -> str:
-    """The noise the fit assumed where the measurement states none, the signal checks' findings, then the loop's
+                     checked: list = (), nominal: list = ()) -> str:
+    """The nominal's lines (``discrepancy.nominal.nominal_statement``), the noise the fit assumed where the
+    measurement states none, the signal checks' findings, then the loop's
     steps as a Markdown table with the evidence and the errors before and after, after the features of the
     reference model's residual (``discrepancy.loop.residual_features``)."""
-    lines = [f"Discrepancy loop on {source}.", "", *assumed_noise(measurement),
+    lines = [f"Discrepancy loop on {source}.", "", *nominal, *assumed_noise(measurement),
              *findings_markdown(verdict.findings, list(checked)),
              "Residual of the reference model, in units of the measurement's uncertainty:", "",
              "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
@@ -72,12 +75,14 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     if last.rejected:
         lines += ["", "Not accepted whatever their BIC: " + "; ".join(f"{effect}: {reason}" for effect, reason
                                                                       in sorted(last.rejected.items()))]
-    if verdict.not_determined:
-        lines += ["", "At its bound: not determined (not counted as found): " + "; ".join(
-            f"{effect} ({reason})" for effect, reason in verdict.not_determined.items())]
-    found = ", ".join(verdict.effects) or "none"
+    if verdict.alternatives:
+        lines += ["", "Within the selection's noise: " + "; ".join(
+            f"{effects or 'the reference'} (BIC {value:.4g})" for effects, value in verdict.alternatives.items())
+                  + f" fit as well with as many parameters (BIC within {EVIDENCE:g}); the data do not tell them "
+                    "from the answer below."]
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
-    lines += ["", f"Effects found: {found}. " + (
+    lines += ["", f"Joint law: {', '.join(verdict.joint_law) or 'macroslip (Jenkins)'}. Effects added outside the "
+                  f"joint: {', '.join(verdict.added) or 'none'}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
         "stands for (chi^2/dof of the backbone's fit in the table above)." if outside else
         "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
@@ -85,17 +90,56 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     return "\n".join(lines) + "\n"
 
 
-def plot_verdict(verdict: Verdict, measurement, destination: Path) -> None:
-    """Measured frequency and damping (with their uncertainties) against the reference model and the final one."""
+EXTRAPOLATION = 3.0  # the figure draws a one-mode final model up to this factor above the fitted range
+
+
+def extrapolation_markdown(final_model: dict | None) -> str:
+    """Where the one-mode final model holds (its fitted range) and what it predicts beyond, with its 95 % band:
+    at 1.5, 2 and ``EXTRAPOLATION`` times the largest fitted amplitude (empty without a one-mode model)."""
+    if final_model is None:
+        return ""
+    low, high = final_model["fitted_range"]
+    amplitude = high * np.array([1.0, 1.5, 2.0, EXTRAPOLATION])
+    curve = evaluate(final_model, amplitude)
+    lines = ["", f"The final model is fitted over amplitudes {low:.4g} to {high:.4g} (the measurement's unit). "
+                 "Beyond that it is EXTRAPOLATION, carried by the model's form, not by points; the 95 % band "
+                 "is that of its parameters' uncertainty alone (`surrogacy discrepancy-model` evaluates it "
+                 "anywhere):", "",
+             "| amplitude | | frequency (Hz) | 95 % band | damping ratio | 95 % band |", "|---|---|---|---|---|---|"]
+    lines += [f"| {q:.4g} | {'extrapolation' if out else 'fitted range'} | {f:.5g} | {fl:.5g} to {fh:.5g} | "
+              f"{z:.4g} | {zl:.4g} to {zh:.4g} |"
+              for q, out, f, fl, fh, z, zl, zh in zip(amplitude, curve["extrapolated"], curve["frequency_hz"],
+                                                      *curve["frequency_band"], curve["damping"],
+                                                      *curve["damping_band"])]
+    return "\n".join(lines) + "\n"
+
+
+def plot_verdict(verdict: Verdict, measurement, destination: Path, final_model: dict | None = None) -> None:
+    """Measured frequency and damping (with their uncertainties) against the reference model and the final one;
+    a one-mode final model (``final_model``, ``discrepancy.fitted_model``) is drawn with its 95 % band from the
+    lowest fitted amplitude to ``EXTRAPOLATION`` times the largest, the fitted range marked and the rest
+    labelled extrapolation."""
     figure, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for axis, measured, sigma, attribute, label in (
-            (axes[0], measurement.frequency_hz, measurement.sigma_frequency, "frequency_hz", "natural frequency (Hz)"),
-            (axes[1], measurement.damping, measurement.sigma_damping, "damping", "damping ratio (-)")):
+    label = "with " + (", ".join(verdict.effects) or "nothing added")
+    if final_model is not None:
+        low, high = final_model["fitted_range"]
+        extended = np.geomspace(low, EXTRAPOLATION * high, 200)
+        curve = evaluate(final_model, extended)
+    for axis, measured, sigma, attribute, name, key in (
+            (axes[0], measurement.frequency_hz, measurement.sigma_frequency, "frequency_hz", "natural frequency (Hz)",
+             "frequency"),
+            (axes[1], measurement.damping, measurement.sigma_damping, "damping", "damping ratio (-)", "damping")):
         axis.errorbar(measurement.amplitude, measured, sigma, fmt="ko", ms=3, label="measurement")
         axis.semilogx(measurement.amplitude, getattr(verdict.steps[0].fit, attribute), "C0--", label="reference model")
-        axis.semilogx(measurement.amplitude, getattr(verdict.steps[-1].fit, attribute), "C3-",
-                      label="with " + (", ".join(verdict.effects) or "nothing added"))
-        axis.set(xlabel="modal amplitude", ylabel=label)
+        if final_model is None:
+            axis.semilogx(measurement.amplitude, getattr(verdict.steps[-1].fit, attribute), "C3-", label=label)
+        else:
+            axis.semilogx(extended, curve[attribute], "C3-", label=label)
+            axis.fill_between(extended, *curve[f"{key}_band"], color="C3", alpha=0.25, lw=0,
+                              label="95 % band (parameters' uncertainty)")
+            axis.axvspan(high, extended[-1], color="0.9", zorder=0, label="extrapolation (beyond the fitted range)")
+            axis.axvline(high, color="0.5", lw=0.8)
+        axis.set(xlabel="modal amplitude", ylabel=name)
         axis.xaxis.set_minor_formatter(NullFormatter())  # decade labels only: the minor ones overlap
     axes[0].legend(fontsize=7)
     figure.tight_layout()
@@ -107,14 +151,16 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     features = residual_features(measurement, verdict.steps[0].fit)
     with atomic_path(out / "discrepancy.md") as temporary:
         temporary.write_text(verdict_markdown(verdict, source, features, measurement,
-                                              record.get("signal_checks", [])))
-    plot_verdict(verdict, measurement, out / "discrepancy.png")
+                                              record.get("signal_checks", []), nominal_statement(record))
+                             + extrapolation_markdown(record.get("final_model")))
+    plot_verdict(verdict, measurement, out / "discrepancy.png", record.get("final_model"))
     write_json(out / "discrepancy.json", {
         **record, "effects": verdict.effects, "unexplained": verdict.unexplained, "findings": verdict.findings,
-        "not_determined": verdict.not_determined,
+        "joint_law": verdict.joint_law, "added": verdict.added, "alternatives": verdict.alternatives,
         "reference_residual_features": features,
         "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
                                                          for k, v in step.fit.parameters.items()},
                    "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
                    "candidates": step.candidates, "not_accepted": step.rejected,
-                   "undetermined_parameters": step.fit.undetermined} for step in verdict.steps]})
+                   "undetermined_parameters": step.fit.undetermined, "held_parameters": step.fit.held}
+                  for step in verdict.steps]})

@@ -66,36 +66,57 @@ UNDETERMINED = 3.0  # standard deviation of a fitted variable (log or logit) abo
 SINGULAR_FLOOR = 1e-12  # singular values floored at this fraction of the Jacobian's largest entry
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
-# Effect -> parameters: (name, kind, start). kind: "log" (positive), "unit" (0, 1), "chi" (-1, 0), "shift"
-# (-MAX_SHIFT, MAX_SHIFT).
+LIMIT_TEST = 2.706  # likelihood ratio above which a parameter is away from its law's limit (5 %, 50:50 chi^2_0/chi^2_1)
+
+
+class Effect(NamedTuple):
+    """An effect of the library: its parameters ((name, kind, start): kind "log" (positive), "unit" (0, 1), "chi"
+    (-1, 0), "shift" (-MAX_SHIFT, MAX_SHIFT); a start None takes the fit's default) and whether it belongs to the
+    joint's friction law (``in_joint``: the law the joint is characterised by) or lies outside the joint."""
+
+    parameters: tuple
+    in_joint: bool
+
+
 EFFECTS = {
-    "microslip": (("chi", "chi", -0.5), ("beta", "log", 0.1)),
-    "stiction": (("theta", "unit", 0.7),),
-    "linear_damping": (("zeta_0", "log", None),),
-    "amplitude_damping": (("air_damping", "log", 1e-4),),
-    "stiffness_change": (("frequency_shift", "shift", 0.0),),
-    "cubic_stiffening": (("cubic", "log", 1e-4),),
+    "microslip": Effect((("chi", "chi", -0.5), ("beta", "log", 0.1)), True),
+    "stiction": Effect((("theta", "unit", 0.7),), True),
+    "linear_damping": Effect((("zeta_0", "log", None),), False),
+    "amplitude_damping": Effect((("air_damping", "log", 1e-4),), False),
+    "stiffness_change": Effect((("frequency_shift", "shift", 0.0),), False),
+    "cubic_stiffening": Effect((("cubic", "log", 1e-4),), False),
 }
+"""Effect -> its parameters and where it acts (module docstring)."""
+OUTSIDE_JOINT = tuple(name for name, effect in EFFECTS.items() if not effect.in_joint)
 BASE = (("kappa", "unit", 0.3), ("slip_force", "log", None))
 
 
-def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nominal_damping: float):
+def in_joint(effect: str) -> bool:
+    """Whether an effect belongs to the joint's friction law: the library's own flag, and every effect a friction
+    model brings that the library does not hold (the superelement route's stuck core)."""
+    return effect not in EFFECTS or EFFECTS[effect].in_joint
+
+
+def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nominal_damping: float,
+                   amplitude_scale: float):
     """Frequency (Hz) and damping (n,) of the one-mode model with the effects its ``parameters`` hold (module
-    docstring); missing effect parameters mean the effect is absent."""
+    docstring) at amplitudes (n,); ``amplitude_scale`` is q_max, the amplitude the effects outside the joint are
+    scaled by (the largest fitted amplitude); missing effect parameters mean the effect is absent."""
     q = np.asarray(amplitude, dtype=float)
     stuck_frequency = nominal_frequency_hz * (1.0 + parameters.get("frequency_shift", 0.0))
     frequency, damping = modal_joint_backbone(q, stuck_frequency, parameters["kappa"], parameters["slip_force"],
                                               parameters.get("chi"), parameters.get("beta", 0.0),
                                               parameters.get("theta", 1.0))
     return outside_joint(frequency, damping + parameters.get("zeta_0", nominal_damping), q, parameters,
-                         stuck_frequency)
+                         stuck_frequency, amplitude_scale)
 
 
-def outside_joint(frequency, damping, amplitude, parameters: dict, linear_frequency_hz: float):
+def outside_joint(frequency, damping, amplitude, parameters: dict, linear_frequency_hz: float,
+                  amplitude_scale: float):
     """The amplitude-dependent effects outside the joint on a backbone (frequency (n,) Hz, damping (n,) at the
-    amplitudes (n,)): cubic stiffening omega^2 + gamma omega_0^2 (q / q_max)^2 and damping c q / q_max (module
-    docstring); absent parameters leave the backbone as it is."""
-    scaled = np.asarray(amplitude, dtype=float) / amplitude[-1]
+    amplitudes (n,)): cubic stiffening omega^2 + gamma omega_0^2 (q / q_max)^2 and damping c q / q_max, q_max the
+    ``amplitude_scale`` (module docstring); absent parameters leave the backbone as it is."""
+    scaled = np.asarray(amplitude, dtype=float) / amplitude_scale
     if "cubic" in parameters:
         frequency = np.sqrt(frequency ** 2 + parameters["cubic"] * linear_frequency_hz ** 2 * scaled ** 2)
     return frequency, damping + parameters.get("air_damping", 0.0) * scaled
@@ -125,8 +146,9 @@ def _to_vector(parameters: dict, specification) -> np.ndarray:
 
 
 class Fit(NamedTuple):
-    """A fitted model: its effects, parameters, chi^2, BIC and model curves at the measured amplitudes, and its
-    effect parameters that the points leave at a bound or undetermined (``determinacy``: name -> reason)."""
+    """A fitted model: its effects, parameters, chi^2, BIC and model curves at the measured amplitudes, the number
+    of parameters fitted, its effect parameters that the points leave at a bound or undetermined
+    (``determinacy``: name -> reason) and those held at their law's limit (``held``: name -> the evidence)."""
 
     effects: tuple
     parameters: dict
@@ -136,6 +158,13 @@ class Fit(NamedTuple):
     damping: np.ndarray
     n_parameters: int
     undetermined: dict = {}
+    held: dict = {}
+    covariance: np.ndarray | None = None
+
+
+PHYSICAL_LIMITS = {"chi": (0, "Iwan's law at chi -> 0 (dissipation about linear in amplitude)")}
+"""kind -> (end of its logistic map, 0 or 1, that is a limit of the element's law rather than a box edge; what the
+limit means). A parameter there is a constrained optimum, decided by ``LIMIT_TEST``, not an undetermined one."""
 
 
 def determinacy(jacobian, vector, specification, indices) -> dict:
@@ -144,6 +173,8 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
     ``specification``), from the residual's ``jacobian`` (m, p) (module docstring)."""
     jacobian = np.asarray(jacobian, dtype=float)
     indices = list(indices)
+    if not indices:
+        return {}
     _, singular, rows = np.linalg.svd(jacobian[:, indices], full_matrices=False)
     floor = max(SINGULAR_FLOOR * float(np.max(np.abs(jacobian))), np.finfo(float).tiny)
     spread = np.sqrt(np.sum((rows / np.maximum(singular, floor)[:, None]) ** 2, axis=0))
@@ -159,6 +190,13 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
     return reasons
 
 
+def at_physical_limit(vector, specification, indices) -> list[int]:
+    """The indices among ``indices`` whose fitted variable sits within ``AT_BOUND`` of its law's limit
+    (``PHYSICAL_LIMITS``)."""
+    return [index for index in indices if specification[index][1] in PHYSICAL_LIMITS
+            and abs(expit(vector[index]) - PHYSICAL_LIMITS[specification[index][1]][0]) < AT_BOUND]
+
+
 def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
     """Residuals (2n,) of a model's frequency (Hz) and damping (n,) against the measurement, each in units of the
     measurement's uncertainty; UNDEFINED_MISFIT where the model is undefined (e.g. a start past a law's range)."""
@@ -167,34 +205,88 @@ def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarr
     return np.where(np.isfinite(misfit), misfit, UNDEFINED_MISFIT)
 
 
+def best_least_squares(residual, starts, held: dict):
+    """The lowest-chi^2 trust-region least-squares optimum of ``residual`` (vector (p,) -> (m,)) over the variables
+    not in ``held`` (index -> value kept fixed), from each start (p,): (chi^2, vector (p,), Jacobian (m, p) with
+    zero columns for the held variables)."""
+    template = np.asarray(starts[0], dtype=float).copy()
+    free = np.array([index for index in range(template.size) if index not in held], dtype=int)
+    template[list(held)] = list(held.values())
+
+    def full(variables):
+        vector = template.copy()
+        vector[free] = variables
+        return vector
+
+    best = None
+    for start in starts:
+        with np.errstate(all="ignore"):
+            result = least_squares(lambda v: residual(full(v)), np.asarray(start, dtype=float)[free], method="trf",
+                                   x_scale="jac", max_nfev=400)
+        chi_squared = float(np.sum(result.fun ** 2))
+        if np.isfinite(chi_squared) and (best is None or chi_squared < best[0]):
+            jacobian = np.zeros((result.jac.shape[0], template.size))
+            jacobian[:, free] = result.jac
+            best = (chi_squared, full(result.x), jacobian)
+    return best
+
+
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
         starts: list[dict]) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
-    entries take the library's start values); the best fit."""
-    specification = list(BASE) + [p for effect in effects for p in EFFECTS[effect]]
+    entries take the library's start values); the best fit. An effect parameter whose optimum sits at its law's
+    limit (``PHYSICAL_LIMITS``) is refitted held there and stays held where the likelihood ratio of freeing it,
+    chi^2_held - chi^2_free, is below ``LIMIT_TEST`` (the 5 % point of the 50:50 mixture of chi^2_0 and chi^2_1
+    that a parameter on the boundary of its range follows): a constrained optimum with one parameter fewer."""
+    specification = model_variables(effects)
     defaults = {"zeta_0": nominal_damping, "slip_force": None}
     n = 2 * len(measurement.amplitude)
 
     def residual(vector):
         return weighted_misfit(measurement, *model_backbone(_to_parameters(vector, specification),
                                                             measurement.amplitude, nominal_frequency_hz,
-                                                            nominal_damping))
+                                                            nominal_damping, measurement.amplitude[-1]))
 
-    best = None
-    for start in starts:
-        values = {name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification}
-        with np.errstate(all="ignore"):
-            result = least_squares(residual, _to_vector(values, specification), method="trf", x_scale="jac",
-                                   max_nfev=400)
-        chi_squared = float(np.sum(result.fun ** 2))
-        if np.isfinite(chi_squared) and (best is None or chi_squared < best[0]):
-            best = (chi_squared, result.x, result.jac)
-    chi_squared, vector, jacobian = best
+    vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
+                          specification) for start in starts]
+    effect_indices = range(len(BASE), len(specification))
+    chi_squared, vector, jacobian = best_least_squares(residual, vectors, {})
+    held = {}
+    limits = at_physical_limit(vector, specification, effect_indices)
+    if limits:
+        values = {index: float(logit(1e-12) if PHYSICAL_LIMITS[specification[index][1]][0] == 0 else logit(1 - 1e-12))
+                  for index in limits}
+        constrained = best_least_squares(residual, [vector], values)
+        ratio = constrained[0] - chi_squared
+        if ratio < LIMIT_TEST:
+            chi_squared, vector, jacobian = constrained
+            held = {specification[index][0]: f"held at its law's limit, {PHYSICAL_LIMITS[specification[index][1]][1]}"
+                                              f": freeing it lowers chi^2 by {max(ratio, 0.0):.3g} < {LIMIT_TEST}"
+                    for index in limits}
     parameters = _to_parameters(vector, specification)
-    frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping)
-    undetermined = determinacy(jacobian, vector, specification, range(len(BASE), len(specification)))
-    return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, len(specification), n), frequency, damping,
-               len(specification), undetermined)
+    frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping,
+                                        measurement.amplitude[-1])
+    held_names = set(held)
+    undetermined = determinacy(jacobian, vector, specification,
+                               [i for i in effect_indices if specification[i][0] not in held_names])
+    k = len(specification) - len(held)
+    return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
+               held, parameter_covariance(jacobian, chi_squared, n - k))
+
+
+def model_variables(effects) -> list:
+    """The fitted variables of the one-mode model with ``effects``: (name, kind, start) of the joint, then of each
+    effect in order."""
+    return list(BASE) + [p for effect in effects for p in EFFECTS[effect].parameters]
+
+
+def parameter_covariance(jacobian, chi_squared: float, dof: int) -> np.ndarray:
+    """Covariance (p, p) of a weighted least-squares optimum's variables: the pseudo-inverse of J^T J (J (m, p) the
+    Jacobian of the residuals in units of the measurement's uncertainty; a held variable's zero column gives it
+    zero variance), scaled by chi^2 per degree of freedom where that exceeds 1 (the residual beyond the stated
+    noise widens it; it never narrows it)."""
+    jacobian = np.asarray(jacobian, dtype=float)
+    return np.linalg.pinv(jacobian.T @ jacobian, hermitian=True) * max(1.0, chi_squared / max(dof, 1))
 
 
 def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:
@@ -250,15 +342,25 @@ class Step(NamedTuple):
 class Verdict:
     """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
     checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
-    unexplained (a residual above the noise, or a finding outside the library), and the effects of the final
-    model whose parameters the points leave at a bound or undetermined (effect -> reason; not counted as
-    found)."""
+    unexplained (a residual above the noise, or a finding outside the library), the final fit, and the other models the selection cannot tell from it (``alternatives``: effects ->
+    BIC, within ``EVIDENCE`` of it with as many parameters)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     unexplained: bool = False
-    not_determined: dict = field(default_factory=dict)
     findings: list = field(default_factory=list)
+    final: Fit | None = None
+    alternatives: dict = field(default_factory=dict)
+
+    @property
+    def joint_law(self) -> list:
+        """The effects found that belong to the joint's friction law (``in_joint``)."""
+        return [effect for effect in self.effects if in_joint(effect)]
+
+    @property
+    def added(self) -> list:
+        """The effects found outside the joint: what the structure's model lacks besides the joint's law."""
+        return [effect for effect in self.effects if not in_joint(effect)]
 
 
 def with_findings(verdict: Verdict, findings: list) -> Verdict:
@@ -294,29 +396,43 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
 def select_effects(measurement: Measurement, fitted, library) -> Verdict:
     """The loop's decisions, for any model family: ``fitted(effects, previous)`` gives the best Fit of the
     reference model with ``effects`` added (None where the family cannot hold that combination), starting from
-    ``previous``. Forward selection by BIC from the reference model, then ``stepwise_refinement``."""
+    ``previous``. Forward selection by BIC from the reference model, then ``stepwise_refinement``; the answer is
+    ``final_model`` over every model the two evaluated."""
     n = 2 * len(measurement.amplitude)
+    evaluated = {}  # effects (frozenset) -> the best Fit found of them, or None
+
+    def trial(effects, previous=None):
+        """The model with ``effects``, fitted once, and again from ``previous`` where that fits the data better
+        than the model's own optimum so far (a start it did not have); the better of the two is kept."""
+        key = frozenset(effects)
+        known = evaluated.get(key)
+        if key not in evaluated or (known is not None and previous is not None
+                                    and previous.chi_squared < known.chi_squared):
+            found = fitted(tuple(effects), previous)
+            evaluated[key] = found if known is None or (found is not None and found.chi_squared < known.chi_squared) \
+                else known
+        return evaluated[key]
 
     def step(effect, model, candidates, rejected=None):
         return Step(effect, model, errors(measurement, model), model.chi_squared / max(n - model.n_parameters, 1),
                     candidates, rejected or {})
 
-    current = fitted(())
+    current = trial(())
     verdict = Verdict(steps=[step(None, current, {})])
     reference = verdict.steps[0].errors
 
-    def accepted(trial):
-        return trial is not None and not admissible(measurement, trial, reference, trial.effects)
+    def accepted(model):
+        return model is not None and not admissible(measurement, model, reference, model.effects)
 
     while verdict.steps[-1].reduced_chi_squared > AT_NOISE:
-        trials = {effect: fitted((*current.effects, effect), current) for effect in library
+        trials = {effect: trial((*current.effects, effect), current) for effect in library
                   if effect not in current.effects}
-        trials = {effect: trial for effect, trial in trials.items() if trial is not None}
+        trials = {effect: model for effect, model in trials.items() if model is not None}
         if not trials:
             break
-        candidates = {effect: trial.bic for effect, trial in trials.items()}
-        rejected = {effect: "; ".join(reasons) for effect, trial in trials.items()
-                    if (reasons := admissible(measurement, trial, reference, (effect,)))}
+        candidates = {effect: model.bic for effect, model in trials.items()}
+        rejected = {effect: "; ".join(reasons) for effect, model in trials.items()
+                    if (reasons := admissible(measurement, model, reference, (effect,)))}
         eligible = [effect for effect in trials if effect not in rejected]
         best = min(eligible, key=lambda e: trials[e].bic) if eligible else None
         if best is None or trials[best].bic > current.bic - EVIDENCE:
@@ -324,22 +440,37 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
             break
         current = trials[best]
         verdict.steps.append(step(best, current, candidates, rejected))
-    refined = stepwise_refinement(current, library, fitted, accepted)
-    if refined.effects != current.effects:
-        verdict.steps.append(step("refined: " + ", ".join(refined.effects), refined,
+    stepwise_refinement(current, library, trial, accepted)
+    final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)])
+    if set(final.effects) != set(current.effects):
+        verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
                                   {"before refinement": current.bic}))
-    verdict.not_determined = {effect: "; ".join(reasons) for effect in refined.effects
-                              if (reasons := flagged(refined, (effect,)))}
-    verdict.effects = [effect for effect in refined.effects if effect not in verdict.not_determined]
+    verdict.final = final
+    verdict.effects = list(final.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict
+
+
+def final_model(accepted: list) -> tuple:
+    """The answer among the ``accepted`` fits (every model the loop evaluated that meets ``admissible``): of those
+    whose BIC is within ``EVIDENCE`` of the lowest (models the data do not tell apart from the best), the one with
+    the fewest parameters, then the lowest BIC. Returns (that Fit, {effects: BIC} of the others with as many
+    parameters within ``EVIDENCE`` of it: answers the selection cannot tell from it). The loop therefore never
+    ends on a model worse by its own criterion than one it evaluated and could accept."""
+    lowest = min(model.bic for model in accepted)
+    near = [model for model in accepted if model.bic <= lowest + EVIDENCE]
+    final = min(near, key=lambda model: (model.n_parameters, model.bic))
+    alternatives = {", ".join(sorted(model.effects)): model.bic for model in near
+                    if model.n_parameters == final.n_parameters and set(model.effects) != set(final.effects)
+                    and model.bic <= final.bic + EVIDENCE}
+    return final, alternatives
 
 
 def flagged(trial: Fit, effects) -> list[str]:
     """The reasons ``trial`` gives for parameters of ``effects`` at a bound or undetermined (an effect that lives
     in a friction model's design, as the superelement route's stuck core, has no parameter of the library)."""
-    return [f"{name} {trial.undetermined[name]}" for effect in effects for name, _, _ in EFFECTS.get(effect, ())
-            if name in trial.undetermined]
+    return [f"{name} {trial.undetermined[name]}" for effect in effects if effect in EFFECTS
+            for name, _, _ in EFFECTS[effect].parameters if name in trial.undetermined]
 
 
 def admissible(measurement: Measurement, trial: Fit, reference: dict, effects) -> list[str]:
@@ -356,22 +487,25 @@ def admissible(measurement: Measurement, trial: Fit, reference: dict, effects) -
 
 
 def stepwise_refinement(current: Fit, library, fitted, accepted) -> Fit:
-    """Swap an effect of the model for one outside it, or drop one, while that lowers the BIC (dropping: while
-    the BIC rises by less than EVIDENCE, i.e. the effect did not earn its parameters in the final model, or
-    whatever the BIC where the effect's parameters sit at a bound or are undetermined); only to fits that
-    ``accepted`` takes (``admissible`` for all their effects)."""
-    improved = True
+    """Explore around the forward selection's model: swap an effect for one outside it, or drop one, while that
+    gives an accepted fit (``accepted``: ``admissible`` for all its effects) with a lower BIC (dropping: a BIC
+    that rises by less than EVIDENCE, the effect not earning its parameters). Greedy forward steps can take a
+    look-alike first when two effects are in the data; every fit tried here is among those ``final_model``
+    chooses from."""
+    improved, visited = True, {frozenset(current.effects)}
     while improved and current.effects:
         improved = False
         for effect in current.effects:
             others = tuple(e for e in current.effects if e != effect)
             dropped = fitted(others, current)
-            if accepted(dropped) and (dropped.bic < current.bic + EVIDENCE or flagged(current, (effect,))):
+            if accepted(dropped) and dropped.bic < current.bic + EVIDENCE and frozenset(others) not in visited:
                 current, improved = dropped, True
+                visited.add(frozenset(others))
                 break
             swaps = [fitted((*others, candidate), current) for candidate in library if candidate not in current.effects]
             better = [trial for trial in swaps if accepted(trial) and trial.bic < current.bic - 1e-9]
             if better:
                 current, improved = min(better, key=lambda trial: trial.bic), True
+                visited.add(frozenset(current.effects))
                 break
     return current

@@ -47,8 +47,8 @@ from nonlinear.friction_models import FRICTION_MODELS
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from study.datasets import DEFAULT_DAMPING_CASE
-from discrepancy.loop import (EFFECTS, UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic, determinacy,
-                              outside_joint, select_effects, weighted_misfit)
+from discrepancy.loop import (EFFECTS, OUTSIDE_JOINT, UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic,
+                              determinacy, outside_joint, select_effects, weighted_misfit)
 from study.errors import structure_damping
 from study.structures import Measurement
 from study.workflow import front_designs, read_study
@@ -56,7 +56,6 @@ from study.workflow import front_designs, read_study
 FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_MODELS.items()
                     if model.discrepancy_effects is not None}
 """Friction model -> the friction effects it adds to the macroslip reference (``nonlinear.friction_models``)."""
-OUTSIDE_JOINT = ("linear_damping", "stiffness_change", "amplitude_damping", "cubic_stiffening")
 REFERENCE_MODEL = next(name for name, effects in FRICTION_EFFECTS.items() if not effects)  # macroslip only
 SHORTLIST = 2  # candidates per ranking a friction model's first fit starts from (``shortlist``)
 MAX_EVALUATIONS = 60  # least-squares iterations of one fit from one start
@@ -117,7 +116,7 @@ def augmented(frequency_hz, joint_damping, parameters: dict, amplitude, structur
     else:
         zeta0 = structure_damping(joint_damping[None, :], [structure.borrowed_damping], structure.damping_rule)[0, 0]
     damping = joint_damping + zeta0
-    return outside_joint(frequency, damping, amplitude, parameters, float(frequency[0]))
+    return outside_joint(frequency, damping, amplitude, parameters, float(frequency[0]), amplitude[-1])
 
 
 def shortlist(measurement: Measurement, candidates: Candidates, k: int) -> np.ndarray:
@@ -175,7 +174,7 @@ def refit(structure: StructureModel, model: str, n_groups: int, effects: tuple, 
     """The best weighted least-squares fit of ``model`` with the effects outside the joint among ``effects`` from
     each of ``starts`` ((label, design (d,) in physical units, effect parameters dict); missing parameters take
     the library's starts, then ``effects_on_design``'s fit on the start's backbone) (module docstring)."""
-    specification = [p for effect in effects if effect in OUTSIDE_JOINT for p in EFFECTS[effect]]
+    specification = [p for effect in effects if effect in OUTSIDE_JOINT for p in EFFECTS[effect].parameters]
     limits = parameter_limits(model, n_groups)
     d = len(limits[0])
     lower = np.concatenate([np.zeros(d), np.full(len(specification), -np.inf)])

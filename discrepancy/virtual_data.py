@@ -11,7 +11,7 @@ oscillator with amplitude-dependent frequency and damping, da/dt = -zeta(a) omeg
 sampled as the mode's displacement a cos(phi) (one sensor of unit mode shape, so its amplitude in m is the modal
 amplitude in m kg^0.5), with white sensor noise ``noise_db`` below the initial amplitude. Content outside any
 backbone, for the signal checks (``experiment.signal_checks``): several hits with a pre-trigger, a second close
-mode, a drift of the frequency over the hits (:func:`undeclared_ringdown`). A user's ring-down
+mode, a drift of the frequency over the hits or within each hit (:func:`undeclared_ringdown`). A user's ring-down
 processed by FreeVib (``experiment.ringdown_backbone``) gives the backbone back, so the loop sees the effects
 through the whole measurement path.
 """
@@ -46,7 +46,8 @@ def true_backbone(effects=(), outside_library=None, amplitudes=AMPLITUDES):
     parameters = dict(REFERENCE_JOINT)
     for effect in effects:
         parameters.update(EFFECT_INSTANCES[effect])
-    frequency, damping = model_backbone(parameters, amplitudes, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
+    frequency, damping = model_backbone(parameters, amplitudes, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING,
+                                        amplitudes[-1])
     if outside_library is not None:
         frequency = frequency + outside_library(amplitudes)
     return frequency, damping
@@ -74,12 +75,13 @@ def write_undeclared_backbone(destination: Path, effects=(), seed: int = 0, **op
 def undeclared_ringdown(effects=(), seed: int = 0, noise_db: float = 60.0, sample_rate_hz: float = 4096.0,
                         duration_s: float = 4.0, pretrigger_s: float = 0.0, hits: int = 1,
                         second_mode: tuple[float, float] | None = None, shapes=((1.0,), (1.0,)),
-                        drift: float = 0.0) -> list[RingDown]:
+                        drift: float = 0.0, drift_within_hit: float = 0.0, start_fractions=None
+                        ) -> list[RingDown]:
     """Hammer hits on the reference joint's backbone with ``effects``, each a free decay from the largest
-    amplitude of ``AMPLITUDES`` after ``pretrigger_s`` of rest (module docstring): displacement sensors with
-    seeded noise. After a pre-trigger the decay starts from rest as an impulse leaves it (zero displacement);
-    without one the record starts at the decay's largest displacement (the impact itself not recorded). The hits
-    follow one another without gap, hit k's time running from k ``duration_s``.
+    amplitude of ``AMPLITUDES`` (or a fraction of it: ``start_fractions``) after ``pretrigger_s`` of rest (module
+    docstring): displacement sensors with seeded noise. After a pre-trigger the decay starts from rest as an
+    impulse leaves it (zero displacement); without one the record starts at the decay's largest displacement (the
+    impact itself not recorded). The hits follow one another without gap, hit k's time running from k ``duration_s``.
 
     Content outside the backbone, for the signal checks (``experiment.signal_checks``):
     second_mode: (frequency ratio, amplitude ratio) of a linear mode beside the target, with the target's
@@ -89,11 +91,18 @@ def undeclared_ringdown(effects=(), seed: int = 0, noise_db: float = 60.0, sampl
     second mode out of).
     drift: relative change of the target's frequency over all the hits, linear in time (a temperature drift):
     omega(a, t) = omega(a) (1 + drift t / (hits duration_s)).
+    drift_within_hit: relative change of the target's frequency over each hit's decay, linear in the time s since
+    that hit's impact and back at its start in the next hit (a joint that loosens while it rings and settles
+    between hits): omega(a, s) = omega(a) (1 + drift_within_hit s / (duration_s - pretrigger_s)).
+    start_fractions: (hits,) each hit's initial amplitude as a fraction of the largest of ``AMPLITUDES`` (hits of
+    different strength; default: all 1). The same amplitude is then reached at different times since the impact,
+    which is what tells a drift within each hit from the backbone.
     """
     grid = np.geomspace(AMPLITUDES[0] / 20, AMPLITUDES[-1], 400)  # the effects scale with AMPLITUDES[-1]
     frequency, damping = true_backbone(effects, amplitudes=grid)
     omega, log_grid = 2 * np.pi * frequency, np.log(grid)
-    total_s = hits * duration_s
+    total_s, decay_s = hits * duration_s, duration_s - pretrigger_s
+    starts = AMPLITUDES[-1] * (np.ones(hits) if start_fractions is None else np.asarray(start_fractions, float))
     rng = np.random.default_rng(seed)
     records = []
     for number in range(hits):
@@ -102,12 +111,13 @@ def undeclared_ringdown(effects=(), seed: int = 0, noise_db: float = 60.0, sampl
         moving = time >= start + pretrigger_s
 
         def slow_flow(t, state):  # state: log amplitude, phase
-            omega_now = np.interp(state[0], log_grid, omega) * (1.0 + drift * t / total_s)
+            omega_now = (np.interp(state[0], log_grid, omega) * (1.0 + drift * t / total_s)
+                         * (1.0 + drift_within_hit * (t - start - pretrigger_s) / decay_s))
             return [-np.interp(state[0], log_grid, damping) * omega_now, omega_now]
 
         # tight: the phase after ~700 periods must be right to far below the sensor noise's 1e-3 of the amplitude
-        flow = solve_ivp(slow_flow, (time[moving][0], time[-1]), [np.log(AMPLITUDES[-1]), 0.0], t_eval=time[moving],
-                         rtol=1e-10, atol=1e-12, method="DOP853")
+        flow = solve_ivp(slow_flow, (time[moving][0], time[-1]), [np.log(starts[number]), 0.0],
+                         t_eval=time[moving], rtol=1e-10, atol=1e-12, method="DOP853")
         modal = np.zeros((2, time.size))
         onset = -np.pi / 2 if pretrigger_s > 0 else 0.0  # from rest, an impulse; else the top of the decay
         modal[0, moving] = np.exp(flow.y[0]) * np.cos(flow.y[1] + onset)

@@ -158,7 +158,7 @@ class MeasuredBackbone:
     source: the ring-downs' sources. mode_frequency_hz: the guess the processing was set up with, Hz.
     amplitude_unit: unit of the grid (displacement of the sensor that moves most when the shape is
     estimated). shape: the mode shape at the sensors used, channel -> value. hilbert, cycles: the two
-    estimators on one grid.
+    estimators on one grid. band_hz: the band-pass edges the signals were filtered with, Hz (None: not recorded).
     """
 
     source: str
@@ -168,6 +168,7 @@ class MeasuredBackbone:
     records: list[ModeRecord] = field(repr=False)
     hilbert: Backbone = field(repr=False)
     cycles: Backbone = field(repr=False)
+    band_hz: tuple[float, float] | None = None
 
 
 def mode_signals(record: RingDown, band_hz: tuple[float, float], mode_shapes: np.ndarray | None, mode_index: int,
@@ -331,7 +332,7 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                             dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
                             average_backbones([record.hilbert for record in records], grid,
                                               twin_standard_errors(records, grid)),
-                            average_backbones([record.cycles for record in records], grid))
+                            average_backbones([record.cycles for record in records], grid), tuple(band_hz))
 
 
 def low_amplitude_reference(values: np.ndarray) -> float:
@@ -350,6 +351,9 @@ class ModeBackbone:
     backbone was estimated (e.g. the band and windows of :func:`ringdown_backbone`; empty where not recorded).
     findings: what the checks of the ring-down's signals saw beside the backbone, ``{"checked": [names],
     "found": [findings]}`` (:func:`experiment.signal_checks.ringdown_findings`; empty where not checked).
+    dropped: the estimates left out of ``backbone`` because no free decay of the mode can give them, one
+    ``{"amplitude", "natural_frequency_hz", "damping_ratio", "records", "reason"}`` each
+    (:func:`physical_backbone`; empty where none was).
     """
 
     structure: str
@@ -360,16 +364,55 @@ class ModeBackbone:
     backbone: Backbone = field(repr=False)
     settings: dict = field(default_factory=dict, repr=False)
     findings: dict = field(default_factory=dict, repr=False)
+    dropped: list = field(default_factory=list, repr=False)
 
     def __post_init__(self):
         if self.provenance not in PROVENANCES:
             raise ValueError(f"provenance '{self.provenance}' is not one of {PROVENANCES}")
 
 
+def unphysical_points(backbone: Backbone, band_hz: tuple[float, float] | None = None) -> dict[int, str]:
+    """The points of a backbone that no free decay of the mode can give, index -> reason: no record reaching the
+    amplitude (NaN frequency or damping), a negative damping ratio (the estimate grows there: noise or a
+    neighbour's beating, not a decay), a natural frequency outside the band-pass ``band_hz`` (Hz; the filter passes
+    no such decay), or not positive where no band is known."""
+    low, high = band_hz if band_hz is not None else (0.0, np.inf)
+    reasons = {}
+    for index, (frequency, damping) in enumerate(zip(backbone.natural_frequency_hz, backbone.damping_ratio)):
+        if not (np.isfinite(frequency) and np.isfinite(damping)):
+            reasons[index] = "no record reaches this amplitude (no estimate)"
+        elif damping < 0.0:
+            reasons[index] = f"damping ratio {damping:.3g} < 0: the estimate grows there, not a free decay"
+        elif not low < frequency < high:
+            reasons[index] = (f"natural frequency {frequency:.6g} Hz outside the band-pass {low:g}-{high:g} Hz: "
+                              "the filtered signal holds no such decay" if band_hz is not None else
+                              f"natural frequency {frequency:.6g} Hz is not positive")
+    return reasons
+
+
+def physical_backbone(backbone: Backbone, band_hz: tuple[float, float] | None = None) -> tuple[Backbone, list]:
+    """The backbone without its :func:`unphysical_points`, and the points left out, each as ``{"amplitude",
+    "natural_frequency_hz", "damping_ratio", "records", "reason"}`` (NaN values as None: strict JSON)."""
+    reasons = unphysical_points(backbone, band_hz)
+    kept = np.array([index not in reasons for index in range(backbone.amplitude.size)], dtype=bool)
+    dropped = [{"amplitude": float(backbone.amplitude[index]),
+                **{name: (float(value) if np.isfinite(value) else None) for name, value in (
+                    ("natural_frequency_hz", backbone.natural_frequency_hz[index]),
+                    ("damping_ratio", backbone.damping_ratio[index]))},
+                "records": int(backbone.n_records[index]), "reason": reason} for index, reason in reasons.items()]
+    return Backbone(*(np.asarray(values)[kept] for values in astuple(backbone))), dropped
+
+
 def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None,
                   findings: dict | None = None) -> ModeBackbone:
     """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study, with the
-    ``settings`` it was estimated with and the ``findings`` of the signal checks beside it."""
-    return ModeBackbone(structure, float(low_amplitude_reference(measured.hilbert.natural_frequency_hz)),
-                        measured.amplitude_unit, provenance, measured.source, measured.hilbert, dict(settings or {}),
-                        dict(findings or {}))
+    ``settings`` it was estimated with and the ``findings`` of the signal checks beside it. The points no free
+    decay of the mode can give (:func:`unphysical_points` within the result's band-pass) are left out of it and
+    listed in ``dropped`` with their reason. Raises ValueError naming the source where no point is left."""
+    backbone, dropped = physical_backbone(measured.hilbert, measured.band_hz)
+    if backbone.amplitude.size == 0:
+        raise ValueError(f"{measured.source}: no point of the backbone is one a free decay gives (the first: "
+                         f"{dropped[0]['reason']}); no backbone to write")
+    return ModeBackbone(structure, float(low_amplitude_reference(backbone.natural_frequency_hz)),
+                        measured.amplitude_unit, provenance, measured.source, backbone, dict(settings or {}),
+                        dict(findings or {}), dropped)

@@ -221,7 +221,8 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
               "file, or the Jenkins joint refitted on the structure's superelement from the study's designs "
               "(`study-<structure>`; every model the loop tries there is refitted). An effect is accepted only "
               "with its parameters determined and neither L-infinity error worse than the reference's beyond "
-              "the measurement's uncertainty; effects left at a bound are listed as not determined. Errors are "
+              "the measurement's uncertainty; of the models tried, the answer is the one with the fewest "
+              "parameters among those within a BIC of 10 of the best, and the others as good are listed. Errors are "
               "of the reference (before) and of the final model (after). Signal findings: what the checks "
               "of the ring-down's signals saw beside the backbone (a finding outside the effect library makes the "
               "verdict unexplained; \"not checked\" for a backbone without its ring-down).", "",
@@ -233,9 +234,10 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
         before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
         changes = [f"{before[key]:.3g} -> {after[key]:.3g}"
                    for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
-        found = ", ".join(verdict["effects"]) or "none"
-        if verdict["not_determined"]:
-            found += " (at a bound, not determined: " + ", ".join(verdict["not_determined"]) + ")"
+        found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
+                 f"{', '.join(verdict['added']) or 'none'}")
+        if verdict["alternatives"]:
+            found += " (as good within the noise: " + "; ".join(verdict["alternatives"]) + ")"
         findings = verdict.get("findings", [])
         seen = "; ".join(f"{entry['name']}: {entry['summary']}" for entry in findings) or (
             "none" if verdict.get("signal_checks") else "not checked")

@@ -190,17 +190,18 @@ SHORT = np.geomspace(5e-6, 3e-4, 8)  # eight points across the reference joint's
 def test_short_backbone_names_no_more_than_it_holds(tmp_path, truth, seed):
     """Eight points with two effects: the loop names the two or fewer, never one that is not there, and no
     effect it names has a parameter on a bound or one the points leave free (the effect's parameters read back
-    against the library's bounds, independently of the loop's own flags)."""
+    against the library's bounds, independently of the loop's own flags), except one held at its law's limit
+    (chi -> 0), which counts as no parameter."""
     from discrepancy.loop import MAX_SHIFT
 
     verdict = loop_on_file(tmp_path, truth, seed=seed, amplitudes=SHORT)
     assert set(verdict.effects) <= set(truth)
     final = verdict.steps[-1].fit
     for effect in verdict.effects:
-        for name in (name for name, _, _ in EFFECTS[effect]):
+        for name in (name for name, _, _ in EFFECTS[effect].parameters):
             value = final.parameters[name]
             bounded = {"frequency_shift": (-MAX_SHIFT, MAX_SHIFT), "theta": (0.0, 1.0), "chi": (-0.995, -0.005)}
-            if name in bounded:
+            if name in bounded and name not in final.held:
                 low, high = bounded[name]
                 assert low + 2e-3 * (high - low) < value < high - 2e-3 * (high - low), (effect, name, value)
             assert name not in final.undetermined
@@ -259,18 +260,22 @@ def test_content_outside_the_backbone_makes_the_verdict_unexplained(tmp_path, co
     assert ("UNEXPLAINED: the signals show" in report) == bool(found)
 
 
-def test_a_backbone_refused_for_a_second_mode_names_it(tmp_path, capsys):
-    """Three hits with a second mode at 20 %: its leakage through the estimated shape puts the backbone's last level
-    below zero damping; the loop refuses the backbone and its error names the second mode the signals show."""
+def test_a_point_with_negative_damping_is_left_out_not_the_backbone(tmp_path, capsys):
+    """Three hits with a second mode at 20 %: its beating puts the damping of the backbone's lowest point below
+    zero; freevib leaves that point out with its cause (printed and in the file's dropped line), keeps the second
+    mode's finding, and the loop's levels read the backbone without refusing it."""
     from pipeline.cli import main as surrogacy
+    from discrepancy.commands import backbone_levels
     from discrepancy.virtual_data import write_undeclared_ringdown
 
     path = tmp_path / "ring.csv"
     write_undeclared_ringdown(path, (), hits=3, pretrigger_s=0.05, second_mode=(1.03, 0.2),
                               shapes=((1.0, 1.0), (1.0, -1.0)))
     assert surrogacy(["freevib", str(path), "--mode-hz", "169", "--out", str(tmp_path / "freevib")]) == 0
-    assert surrogacy(["discrepancy", str(tmp_path / "freevib" / "ring_mode_169Hz_backbone.csv"),
-                      "--out", str(tmp_path / "out")]) == 2
-    error = capsys.readouterr().err
-    assert "field damping_ratio" in error and "signal checks found what no backbone effect stands for: second_mode" \
-        in error
+    assert "left out of the backbone: the point at amplitude" in capsys.readouterr().out
+    backbone = read_backbone(tmp_path / "freevib" / "ring_mode_169Hz_backbone.csv")
+    assert backbone.dropped and all(entry["damping_ratio"] < 0 and "< 0" in entry["reason"]
+                                    for entry in backbone.dropped)
+    assert [entry["name"] for entry in backbone.findings["found"]] == ["second_mode"]
+    measurement = backbone_levels(backbone, 20, tmp_path / "ring_mode_169Hz_backbone.csv")
+    assert np.all(measurement.damping > 0) and measurement.amplitude[0] > max(e["amplitude"] for e in backbone.dropped)

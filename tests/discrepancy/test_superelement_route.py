@@ -203,7 +203,7 @@ def test_command_on_a_study_structure(small_asb_study, tmp_path, capsys):
     assert "reference: jenkins, refitted from" in text
     assert len([line for line in text.splitlines() if line.startswith("| ") and line[2].isdigit()]) == \
         len(record["steps"])
-    assert "effects" in capsys.readouterr().out
+    assert "joint law" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("arguments, message", [

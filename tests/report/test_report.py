@@ -126,9 +126,9 @@ def test_discrepancy_section_shows_the_signal_findings_beside_the_errors(tmp_pat
         folder.mkdir(parents=True)
         (folder / "discrepancy.json").write_text(json.dumps({
             "provenance": "virtual", "effects": [], "unexplained": bool(findings), "findings": findings,
-            "signal_checks": checked, "not_determined": {}, "steps": [{"errors": errors, "parameters": {}}]}))
+            "signal_checks": checked, "joint_law": [], "added": [], "alternatives": {}, "steps": [{"errors": errors, "parameters": {}}]}))
     rows = {line.split("|")[1].strip(): line for line in discrepancy_section(tmp_path / "results", tmp_path)
             if line.startswith("| [")}
     ring, asb = (rows[f"[{name}](results/discrepancy/{name}/discrepancy.md)"] for name in ("ring", "asb"))
     assert "| second_mode: a second mode at 174.6 Hz | unexplained (second_mode) | 0.5 -> 0.5 |" in ring
-    assert "| none | not checked | explained to the noise |" in asb
+    assert "| joint law: macroslip; added: none | not checked | explained to the noise |" in asb

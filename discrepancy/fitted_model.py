@@ -1,0 +1,78 @@
+"""The discrepancy loop's final one-mode model as a record a user can evaluate at any amplitude, with a band from
+its parameters' uncertainty, and the range it was fitted over.
+
+Record (``model_record``, written as ``final_model`` in discrepancy.json): the effects, the parameters, the
+fitted variables (``discrepancy.loop.TRANSFORMS`` of them: log of a positive parameter, logit of a bounded one)
+with their covariance (``discrepancy.loop.parameter_covariance``), the nominal low-amplitude frequency f_0 (Hz)
+and linear damping zeta_0 the model was fitted with, the amplitude scale q_max that the effects outside the joint
+are written in (``discrepancy.loop.outside_joint``: c q / q_max, gamma (q / q_max)^2), and the amplitude range
+of the points fitted, in the measurement's amplitude unit.
+
+Band (``evaluate``): the variables are drawn from the normal distribution of their optimum and covariance
+(``DRAWS`` draws, seeded), each draw's backbone evaluated, and the pointwise 2.5 and 97.5 percentiles of
+frequency and damping are a 95 % band. Amplitudes outside the fitted range are extrapolation: the model's form
+carries them, not the points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from discrepancy.loop import TRANSFORMS, Fit, _to_parameters, _to_vector, model_backbone, model_variables
+from study.structures import Measurement
+
+DRAWS = 400  # draws of the variables for the band
+BAND = (2.5, 97.5)  # percentiles of the band
+
+
+def model_record(final: Fit, measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float) -> dict:
+    """The JSON-ready record of a final one-mode fit (module docstring)."""
+    variables = model_variables(final.effects)
+    return {"effects": list(final.effects),
+            "parameters": {name: float(final.parameters[name]) for name, _, _ in variables},
+            "variables": [[name, kind] for name, kind, _ in variables],
+            "vector": _to_vector(final.parameters, variables).tolist(),
+            "covariance": np.asarray(final.covariance, dtype=float).tolist(),
+            "held": dict(final.held), "nominal_frequency_hz": float(nominal_frequency_hz),
+            "nominal_damping": float(nominal_damping), "amplitude_scale": float(measurement.amplitude[-1]),
+            "fitted_range": [float(measurement.amplitude[0]), float(measurement.amplitude[-1])]}
+
+
+def check_record(record: dict, source: str) -> None:
+    """Raise ValueError naming ``source`` and the field where a record is not what ``model_record`` writes."""
+    for name in ("effects", "parameters", "variables", "vector", "covariance", "nominal_frequency_hz",
+                 "nominal_damping", "amplitude_scale", "fitted_range"):
+        if name not in record:
+            raise ValueError(f"{source}: field final_model.{name} is missing; expected the record surrogacy "
+                             "discrepancy writes for a one-mode model")
+    p = len(record["variables"])
+    if np.shape(record["vector"]) != (p,) or np.shape(record["covariance"]) != (p, p):
+        raise ValueError(f"{source}: field final_model.vector/covariance: expected {p} values and {p}x{p}")
+    kinds = {kind for _, kind in record["variables"]}
+    if not kinds <= set(TRANSFORMS) or not np.all(np.isfinite(record["vector"])):
+        raise ValueError(f"{source}: field final_model.variables: expected finite values of kinds {sorted(TRANSFORMS)}")
+    if not (record["amplitude_scale"] > 0 and record["nominal_frequency_hz"] > 0):
+        raise ValueError(f"{source}: field final_model.amplitude_scale / nominal_frequency_hz: expected positive")
+
+
+def evaluate(record: dict, amplitude, seed: int = 0) -> dict:
+    """The record's backbone at ``amplitude`` (n,) (its unit): frequency_hz, damping (n,), their 95 % bands
+    frequency_band, damping_band (2, n) from ``DRAWS`` draws of the variables (module docstring; ``seed``), and
+    extrapolated (n,) bool: outside the fitted range."""
+    amplitude = np.asarray(amplitude, dtype=float)
+    variables = [(name, kind, None) for name, kind in record["variables"]]
+    scale = (record["nominal_frequency_hz"], record["nominal_damping"], record["amplitude_scale"])
+
+    def backbone(vector):
+        with np.errstate(all="ignore"):
+            return model_backbone(_to_parameters(vector, variables), amplitude, *scale)
+
+    frequency, damping = backbone(np.asarray(record["vector"], dtype=float))
+    draws = np.random.default_rng(seed).multivariate_normal(record["vector"], record["covariance"], DRAWS,
+                                                             method="eigh")
+    curves = np.array([np.concatenate(backbone(draw)) for draw in draws])
+    curves = curves[np.all(np.isfinite(curves), axis=1)]
+    band = np.percentile(curves, BAND, axis=0)
+    low, high = record["fitted_range"]
+    return {"frequency_hz": frequency, "damping": damping, "frequency_band": band[:, :amplitude.size],
+            "damping_band": band[:, amplitude.size:], "extrapolated": (amplitude < low) | (amplitude > high)}
