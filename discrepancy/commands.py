@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from discrepancy.files import write_verdict
-from discrepancy.fitted_model import DRAWS, check_record, evaluate, model_record
+from discrepancy.fitted_model import check_record, evaluate, model_record
 from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.nominal import NominalError, checked_nominal, low_amplitude_nominal
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
@@ -158,7 +158,7 @@ def run_model(arguments: argparse.Namespace) -> None:
                          f"surrogacy discrepancy ({type(error).__name__}: {error})") from None
     check_record(record, str(source))
     amplitude = np.geomspace(low, high, arguments.points)
-    curve = evaluate(record, amplitude, seed=arguments.seed)
+    curve = evaluate(record, amplitude)
     table = np.column_stack([amplitude, curve["frequency_hz"], *curve["frequency_band"], curve["damping"],
                              *curve["damping_band"], curve["extrapolated"]])
     destination = Path(arguments.out)
@@ -166,7 +166,7 @@ def run_model(arguments: argparse.Namespace) -> None:
         np.savetxt(temporary, table, delimiter=",", fmt="%.10g", comments="",
                    header=f"# model of {source} (effects: {', '.join(record['effects']) or 'none'}), fitted over "
                           f"amplitudes {record['fitted_range'][0]:.6g} to {record['fitted_range'][1]:.6g}; bands: "
-                          f"95 % of the parameters' uncertainty ({DRAWS} draws, seed {arguments.seed})\n"
+                          "95 % of the parameters' uncertainty, linearised\n"
                           "amplitude,frequency [Hz],frequency low [Hz],frequency high [Hz],damping ratio [-],"
                           "damping low [-],damping high [-],extrapolation")
     print(f"wrote {destination}: {int(curve['extrapolated'].sum())} of {amplitude.size} amplitudes outside the "
@@ -182,7 +182,6 @@ def register(subparsers) -> None:
     model.add_argument("--amplitudes", type=float, nargs=2, required=True, metavar=("LOW", "HIGH"),
                        help="amplitude range, in the measurement's unit (log-spaced)")
     model.add_argument("--points", type=int, default=50, help="amplitudes in the range")
-    model.add_argument("--seed", type=int, default=0, help="seed of the band's draws")
     model.add_argument("--out", default="results/discrepancy/model.csv", help="CSV to write")
     model.set_defaults(run=run_model)
     command = subparsers.add_parser(

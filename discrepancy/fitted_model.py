@@ -8,9 +8,9 @@ and linear damping zeta_0 the model was fitted with, the amplitude scale q_max t
 are written in (``discrepancy.loop.outside_joint``: c q / q_max, gamma (q / q_max)^2), and the amplitude range
 of the points fitted, in the measurement's amplitude unit.
 
-Band (``evaluate``): the variables are drawn from the normal distribution of their optimum and covariance
-(``DRAWS`` draws, seeded), each draw's backbone evaluated, and the pointwise 2.5 and 97.5 percentiles of
-frequency and damping are a 95 % band. Amplitudes outside the fitted range are extrapolation: the model's form
+Band (``evaluate``): linearised propagation of the variables' covariance C, y +- 1.96 sqrt(g^T C g) at each
+amplitude, g the gradient of the frequency or damping there with respect to the variables (central differences):
+a pointwise 95 % band of the parameters' uncertainty. Amplitudes outside the fitted range are extrapolation: the model's form
 carries them, not the points.
 """
 
@@ -21,8 +21,8 @@ import numpy as np
 from discrepancy.loop import TRANSFORMS, Fit, _to_parameters, _to_vector, model_backbone, model_variables
 from study.structures import Measurement
 
-DRAWS = 400  # draws of the variables for the band
-BAND = (2.5, 97.5)  # percentiles of the band
+Z_95 = 1.959963984540054  # two-sided 95 % point of the standard normal
+STEP = 1e-6  # central-difference step of the gradient, relative to each variable (at least 1e-6 absolute)
 
 
 def model_record(final: Fit, measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float) -> dict:
@@ -55,24 +55,27 @@ def check_record(record: dict, source: str) -> None:
         raise ValueError(f"{source}: field final_model.amplitude_scale / nominal_frequency_hz: expected positive")
 
 
-def evaluate(record: dict, amplitude, seed: int = 0) -> dict:
+def evaluate(record: dict, amplitude) -> dict:
     """The record's backbone at ``amplitude`` (n,) (its unit): frequency_hz, damping (n,), their 95 % bands
-    frequency_band, damping_band (2, n) from ``DRAWS`` draws of the variables (module docstring; ``seed``), and
-    extrapolated (n,) bool: outside the fitted range."""
+    frequency_band, damping_band (2, n) (module docstring), and extrapolated (n,) bool: outside the fitted
+    range."""
     amplitude = np.asarray(amplitude, dtype=float)
     variables = [(name, kind, None) for name, kind in record["variables"]]
     scale = (record["nominal_frequency_hz"], record["nominal_damping"], record["amplitude_scale"])
+    vector = np.asarray(record["vector"], dtype=float)
 
-    def backbone(vector):
+    def backbone(point):
         with np.errstate(all="ignore"):
-            return model_backbone(_to_parameters(vector, variables), amplitude, *scale)
+            return np.concatenate(model_backbone(_to_parameters(point, variables), amplitude, *scale))
 
-    frequency, damping = backbone(np.asarray(record["vector"], dtype=float))
-    draws = np.random.default_rng(seed).multivariate_normal(record["vector"], record["covariance"], DRAWS,
-                                                             method="eigh")
-    curves = np.array([np.concatenate(backbone(draw)) for draw in draws])
-    curves = curves[np.all(np.isfinite(curves), axis=1)]
-    band = np.percentile(curves, BAND, axis=0)
+    curve = backbone(vector)
+    steps = STEP * np.maximum(1.0, np.abs(vector))
+    gradient = np.column_stack([(backbone(vector + step * unit) - backbone(vector - step * unit)) / (2 * step)
+                                for step, unit in zip(steps, np.eye(vector.size))])
+    spread = Z_95 * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gradient, np.asarray(record["covariance"]),
+                                                 gradient), 0.0))
+    band = np.array([curve - spread, curve + spread])
     low, high = record["fitted_range"]
-    return {"frequency_hz": frequency, "damping": damping, "frequency_band": band[:, :amplitude.size],
-            "damping_band": band[:, amplitude.size:], "extrapolated": (amplitude < low) | (amplitude > high)}
+    n = amplitude.size
+    return {"frequency_hz": curve[:n], "damping": curve[n:], "frequency_band": band[:, :n],
+            "damping_band": band[:, n:], "extrapolated": (amplitude < low) | (amplitude > high)}

@@ -5,7 +5,9 @@ find which missing effect explains the residual, add it, refit, and report the e
 Model. The one-mode joint model of ``nonlinear.modal_joint`` (a linear mode plus a Jenkins element, the
 macroslip reference) with the structure's nominal low-amplitude frequency f_0 and linear damping zeta_0 fixed
 (from the structure's model and its borrowed damping, as the paper did), and the joint's stiffness share kappa and
-slip force F_S fitted. Each effect of the library adds a documented term and its parameters (``EFFECTS``):
+slip force F_S fitted. Each effect of the library adds a documented term and its parameters (``EFFECTS``); the
+first two belong to the joint's friction law (the law a joint is characterised by: the verdict names them as the
+joint law), the others lie outside the joint (what the structure's model lacks besides the joint):
 
     microslip          Iwan instead of Jenkins (chi, beta): damping from the first amplitude, no kink
     stiction           static slip force above the dynamic one (theta < 1): a drop in frequency at slip
@@ -15,22 +17,33 @@ slip force F_S fitted. Each effect of the library adds a documented term and its
                        prestress on a modal model): f_0 free, an offset of the frequency at every amplitude
     cubic_stiffening   geometric stiffening: omega^2 + gamma omega_0^2 (q / q_max)^2, frequency rising with q
 
+q_max is the largest fitted amplitude (the model's amplitude scale, recorded with the final model:
+``discrepancy.fitted_model``).
+
 Fit. Weighted least squares (scipy.optimize.least_squares) of frequency and damping against the measurement,
 each residual divided by the measurement's standard uncertainty (with floors of 1e-4 f and 2 % of zeta); positive
-parameters in log, bounded ones through a logistic map; several starts.
+parameters in log, bounded ones through a logistic map; several starts. The variables' covariance is that of the
+weighted least-squares optimum (``parameter_covariance``).
 
-Determined. A fit's effect parameters must be determined by the points: at the optimum, with J the Jacobian of the
-residuals in units of the measurement's uncertainty (what the points determine at their stated noise, whatever
-the model still misses), the covariance of the effect parameters with the others held is (J_e^T J_e)^-1 (J_e their
-columns of J; singular values floored at ``SINGULAR_FLOOR`` of J's scale, so a direction the points do not see
-gets a huge variance instead of being dropped). The joint's own parameters are held because their trade against an
-effect is not local: a Jenkins joint on a superelement mimics a 0.4 % frequency shift to first order (its
-Jacobian spans the shift's column to 2e-8) but not over the whole backbone, where only the shift fits. A parameter is "at its bound" where its bounded
-map sits within ``AT_BOUND`` of an end (a frequency shift of +-10 %, theta at 0 or 1), and "not determined"
-where the standard deviation of its fitted variable exceeds ``UNDETERMINED`` (3 in the log of a positive
-parameter: a factor 20 either way; 3 in the logit of a bounded one): more parameters than the points carry.
-Whether the effect is there at all is the BIC's question (below), not the covariance's. A trial with such a parameter is
-not accepted as found, whatever its BIC; the step lists it with the reason.
+Limits of a law. chi -> 0 is a value of Iwan's law (dissipation about linear in amplitude), not a parameter the
+points leave free: where chi's optimum sits within ``AT_BOUND`` of that end (``PHYSICAL_LIMITS``), the model is
+refitted with chi held there, and kept so where freeing it lowers chi^2 by less than ``LIMIT_TEST`` (a
+likelihood-ratio test at 5 % against the 50:50 mixture of chi^2_0 and chi^2_1 that a parameter on the boundary of
+its range follows): a constrained optimum with one parameter fewer, recorded as held with its evidence.
+
+Determined. A fit's other effect parameters must be determined by the points: at the optimum, with J the Jacobian
+of the residuals in units of the measurement's uncertainty (what the points determine at their stated noise,
+whatever the model still misses), the covariance of the effect parameters with the others held is
+(J_e^T J_e)^-1 (J_e their columns of J; singular values floored at ``SINGULAR_FLOOR`` of J's scale, so a direction
+the points do not see gets a huge variance instead of being dropped). The joint's own parameters are held because
+their trade against an effect is not local: a Jenkins joint on a superelement mimics a 0.4 % frequency shift to
+first order (its Jacobian spans the shift's column to 2e-8) but not over the whole backbone, where only the shift
+fits. A parameter is "at its bound" where its bounded map sits within ``AT_BOUND`` of an end that is a box edge,
+not a law's limit (a frequency shift of +-10 %; theta at 1, where stiction vanishes, or at 0), and "not
+determined" where the standard deviation of its fitted variable exceeds ``UNDETERMINED`` (3 in the log of a
+positive parameter: a factor 20 either way; 3 in the logit of a bounded one): more parameters than the points
+carry. Whether the effect is there at all is the BIC's question (below), not the covariance's. A trial with such
+a parameter is not accepted, whatever its BIC; the step lists it with the reason.
 
 Loop. Starting from the reference model, every effect not yet in the model is added and refitted; the one with
 the lowest Bayesian information criterion BIC = chi^2 + k ln n (n residuals, k parameters) is kept if it lowers
@@ -38,11 +51,14 @@ the BIC by more than ``EVIDENCE`` (10: very strong evidence), its parameters are
 neither L-infinity error (frequency, damping) worse than the reference model's by more than the measurement's
 largest standard uncertainty (a least-squares optimum can trade the worst point for the rest). The loop stops
 when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect
-earns its parameters; a stepwise refinement then swaps or drops effects (an effect whose parameters a later
-step pushed to a bound is dropped whatever its BIC). An effect of the final model whose parameters still sit at a
-bound or are undetermined is reported as "at its bound: not determined", never as found; a residual still above
-``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect, the parameters, chi^2,
-BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not accepted with the reason.
+earns its parameters; a stepwise refinement then tries swapping and dropping effects. Every model fitted is kept
+(a model fitted again from a better start keeps the better optimum). The answer (``final_model``) is, among every
+fitted model that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of
+the lowest BIC: the loop never ends on a model worse by its own criterion than one it evaluated, and the other
+models within ``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart.
+A residual still above ``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect,
+the parameters, chi^2, BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not
+accepted with the reason.
 """
 
 from __future__ import annotations
@@ -162,9 +178,15 @@ class Fit(NamedTuple):
     covariance: np.ndarray | None = None
 
 
-PHYSICAL_LIMITS = {"chi": (0, "Iwan's law at chi -> 0 (dissipation about linear in amplitude)")}
-"""kind -> (end of its logistic map, 0 or 1, that is a limit of the element's law rather than a box edge; what the
-limit means). A parameter there is a constrained optimum, decided by ``LIMIT_TEST``, not an undetermined one."""
+PHYSICAL_LIMITS = {
+    "chi": (lambda v: expit(v) < AT_BOUND, float(logit(1e-12)),
+            "Iwan's law at chi -> 0 (dissipation about linear in amplitude)"),
+    "beta": (lambda v: v < np.log(1e-3), -300.0, "Iwan's law without its spike, beta -> 0 (the power-law density alone)"),
+}
+"""Parameter -> (whether its fitted variable sits at a limit of the element's law rather than at a box edge, the
+variable's value at the limit, what the limit means). A parameter there is a constrained optimum, decided by
+``LIMIT_TEST``, not an undetermined one. beta is tried at its limit below 1e-3 (its values in the field run from
+1e-2 to 10); the test decides."""
 
 
 def determinacy(jacobian, vector, specification, indices) -> dict:
@@ -191,10 +213,9 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
 
 
 def at_physical_limit(vector, specification, indices) -> list[int]:
-    """The indices among ``indices`` whose fitted variable sits within ``AT_BOUND`` of its law's limit
-    (``PHYSICAL_LIMITS``)."""
-    return [index for index in indices if specification[index][1] in PHYSICAL_LIMITS
-            and abs(expit(vector[index]) - PHYSICAL_LIMITS[specification[index][1]][0]) < AT_BOUND]
+    """The indices among ``indices`` whose fitted variable sits at its law's limit (``PHYSICAL_LIMITS``)."""
+    return [index for index in indices if specification[index][0] in PHYSICAL_LIMITS
+            and PHYSICAL_LIMITS[specification[index][0]][0](vector[index])]
 
 
 def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
@@ -254,13 +275,12 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     held = {}
     limits = at_physical_limit(vector, specification, effect_indices)
     if limits:
-        values = {index: float(logit(1e-12) if PHYSICAL_LIMITS[specification[index][1]][0] == 0 else logit(1 - 1e-12))
-                  for index in limits}
+        values = {index: PHYSICAL_LIMITS[specification[index][0]][1] for index in limits}
         constrained = best_least_squares(residual, [vector], values)
         ratio = constrained[0] - chi_squared
         if ratio < LIMIT_TEST:
             chi_squared, vector, jacobian = constrained
-            held = {specification[index][0]: f"held at its law's limit, {PHYSICAL_LIMITS[specification[index][1]][1]}"
+            held = {specification[index][0]: f"held at its law's limit, {PHYSICAL_LIMITS[specification[index][0]][2]}"
                                               f": freeing it lowers chi^2 by {max(ratio, 0.0):.3g} < {LIMIT_TEST}"
                     for index in limits}
     parameters = _to_parameters(vector, specification)
@@ -281,12 +301,21 @@ def model_variables(effects) -> list:
 
 
 def parameter_covariance(jacobian, chi_squared: float, dof: int) -> np.ndarray:
-    """Covariance (p, p) of a weighted least-squares optimum's variables: the pseudo-inverse of J^T J (J (m, p) the
-    Jacobian of the residuals in units of the measurement's uncertainty; a held variable's zero column gives it
-    zero variance), scaled by chi^2 per degree of freedom where that exceeds 1 (the residual beyond the stated
-    noise widens it; it never narrows it)."""
+    """Covariance (p, p) of a weighted least-squares optimum's variables, V S^-2 V^T from the singular values S and
+    right singular vectors V of J (m, p), the Jacobian of the residuals in units of the measurement's uncertainty,
+    its singular values floored at ``SINGULAR_FLOOR`` of J's largest entry (a direction the points do not see gets
+    a huge variance, as in ``determinacy``; a held variable's zero column gives it zero variance), scaled by
+    chi^2 per degree of freedom where that exceeds 1 (a residual beyond the stated noise widens it, never
+    narrows it)."""
     jacobian = np.asarray(jacobian, dtype=float)
-    return np.linalg.pinv(jacobian.T @ jacobian, hermitian=True) * max(1.0, chi_squared / max(dof, 1))
+    free = np.any(jacobian != 0.0, axis=0)
+    covariance = np.zeros((jacobian.shape[1], jacobian.shape[1]))
+    if not free.any():
+        return covariance
+    _, singular, rows = np.linalg.svd(jacobian[:, free], full_matrices=False)
+    floor = max(SINGULAR_FLOOR * float(np.max(np.abs(jacobian))), np.finfo(float).tiny)
+    covariance[np.ix_(free, free)] = (rows.T / np.maximum(singular, floor) ** 2) @ rows
+    return covariance * max(1.0, chi_squared / max(dof, 1))
 
 
 def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:
