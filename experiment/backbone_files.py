@@ -13,6 +13,8 @@ Comment lines ``# key: value`` first, in this order::
     # source: <file (and hash) or model and design it was obtained from>
     # settings: <optional: the estimation's settings as one JSON object, e.g. those of surrogacy freevib>
     # findings: <optional: the signal checks beside the backbone as one JSON object {"checked": [...], "found": [...]}>
+    # dropped: <optional: the estimates left out because no free decay gives them, one JSON list of
+    #           {"amplitude", "natural_frequency_hz", "damping_ratio", "records", "reason"}>
 
 then one header row of :data:`BACKBONE_COLUMNS` (``name [unit]``, comma separated) and one row per amplitude,
 in increasing amplitude:
@@ -83,7 +85,7 @@ def write_backbone(mode: ModeBackbone, destination: Path) -> None:
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         stream.write(f"# {BACKBONE_TITLE}\n")
         stream.writelines(f"# {key}: {values.get(key, getattr(mode, key))}\n" for key in BACKBONE_KEYS)
-        for key in ("settings", "findings"):
+        for key in ("settings", "findings", "dropped"):
             if getattr(mode, key):
                 stream.write(f"# {key}: {json.dumps(getattr(mode, key), sort_keys=True)}\n")
         writer = csv.writer(stream)
@@ -121,7 +123,25 @@ def read_backbone(path: Path) -> ModeBackbone:
         raise file_error(path, "findings", "expected {\"checked\": [names], \"found\": [{\"name\", "
                                            "\"outside_library\", \"summary\", \"evidence\"}, ...]}")
     return ModeBackbone(header["structure"], float(header["low_amplitude_frequency_hz"]), header["amplitude_unit"],
-                        header["provenance"], header["source"], Backbone(**columns), settings, findings)
+                        header["provenance"], header["source"], Backbone(**columns), settings, findings,
+                        dropped_points(path, header))
+
+
+DROPPED_KEYS = {"amplitude", "natural_frequency_hz", "damping_ratio", "records", "reason"}
+"""Keys of each entry of a backbone CSV's ``# dropped:`` line (:func:`experiment.backbone.physical_backbone`)."""
+
+
+def dropped_points(path: Path, header: dict) -> list:
+    """The entries of the optional ``# dropped: [...]`` line ([] where absent); a line that is not one JSON list
+    of objects with :data:`DROPPED_KEYS` raises a ValueError naming the file and the key."""
+    try:
+        value = json.loads(header.get("dropped", "[]"))
+    except json.JSONDecodeError as error:
+        raise file_error(path, "dropped", f"not one JSON list: {error}") from error
+    if not (isinstance(value, list) and all(isinstance(entry, dict) and DROPPED_KEYS <= set(entry)
+                                            for entry in value)):
+        raise file_error(path, "dropped", f"expected a JSON list of {{{', '.join(sorted(DROPPED_KEYS))}}} objects")
+    return value
 
 
 def json_line(path: Path, header: dict, key: str) -> dict:

@@ -78,14 +78,18 @@ def run_freevib(arguments: argparse.Namespace) -> None:
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
     findings = ringdown_findings(hits, backbone, band)
-    write_backbone(mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256},
-                                 findings), out / f"{stem}_backbone.csv")
+    labelled = mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}, findings)
+    write_backbone(labelled, out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")
     write_json(out / f"{stem}.json", {
         "source": str(source), "source_sha256": source_sha256, "settings": settings,
         "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
-        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": findings})
+        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": findings,
+        "dropped": labelled.dropped})
+    for entry in labelled.dropped:
+        print(f"left out of the backbone: the point at amplitude {entry['amplitude']:.4g} {backbone.amplitude_unit} "
+              f"({entry['records']} record(s)): {entry['reason']}")
     for entry in findings["found"]:
         print(f"finding {entry['name']}: {entry['summary']}")
     print(f"wrote {out / stem}_backbone.csv (the backbone the study and the discrepancy loop read), "

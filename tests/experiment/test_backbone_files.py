@@ -89,3 +89,33 @@ def test_backbone_csv_without_rows_and_complex_asb_vectors_are_refused(tmp_path)
     scipy.io.savemat(complex_path, {"Q": contents["Q"], "W": contents["W"] * (1 + 1e-3j), "Z": contents["Z"]})
     with pytest.raises(ValueError, match=re.escape(f"{complex_path}: field 'W': complex values")):
         read_asb_backbone(complex_path)
+
+
+def test_points_no_free_decay_gives_are_left_out_with_their_reason(tmp_path):
+    """A FreeVib backbone of a 170 Hz mode band-passed to 119-221 Hz whose lowest point has a negative damping
+    ratio (noise at the end of the decays) and whose top point lies at 230 Hz (outside the band-pass: leakage, not
+    the mode): the written backbone holds the other points only, the two are listed with their cause, the
+    low-amplitude frequency is that of the lowest point kept, and the study's levels read it without refusal."""
+    from experiment.backbone import Backbone, MeasuredBackbone, unphysical_points
+    from study.structures import measured_levels
+
+    amplitude = np.geomspace(1e-6, 1e-4, 8)
+    frequency = 170.0 * (1 - 0.05 * amplitude / amplitude[-1])  # softening by 5 % over the range
+    damping = 1.7e-3 * (1 + 3 * amplitude / amplitude[-1])
+    frequency[-1], damping[0] = 230.0, -7e-4
+    spread = np.full(8, 0.1)
+    hilbert = Backbone(amplitude, frequency, spread, spread, damping, spread * 1e-3, spread * 1e-3, np.full(8, 7))
+    measured = MeasuredBackbone("ring.csv", 170.0, "m", {"acc1": 1.0}, [], hilbert, hilbert, (119.0, 221.0))
+    assert sorted(unphysical_points(hilbert, (119.0, 221.0))) == [0, 7]
+    written = mode_backbone(measured, "beam", "virtual")
+    np.testing.assert_array_equal(written.backbone.amplitude, amplitude[1:7])
+    assert written.low_amplitude_frequency_hz == frequency[1]
+    assert [entry["amplitude"] for entry in written.dropped] == [amplitude[0], amplitude[7]]
+    assert "damping ratio -0.0007 < 0" in written.dropped[0]["reason"]
+    assert "230 Hz outside the band-pass 119-221 Hz" in written.dropped[1]["reason"]
+    write_backbone(written, tmp_path / "beam.csv")
+    read = read_backbone(tmp_path / "beam.csv")
+    assert_same_backbone(read, written)
+    assert read.dropped == written.dropped
+    levels = measured_levels(read, 6, str(tmp_path / "beam.csv"))
+    assert np.all(levels.damping > 0) and np.all((119.0 < levels.frequency_hz) & (levels.frequency_hz < 221.0))

@@ -1,0 +1,79 @@
+"""``surrogacy discrepancy``'s options and what it records of the nominal.
+
+Checked: a nominal no linear mode has (a frequency not positive and finite, a damping ratio outside [0, 1) or not
+finite), fewer levels than a measurement needs, and a nominal given with --study are each refused in one line that
+names the option and what was expected, with exit status 2 and no output folder; a backbone holding a point no free
+decay gives is refused naming the point and its cause (not a signal-check finding beside it); without the nominal
+options the loop starts from the measurement's low-amplitude estimate, which discrepancy.json and .md state with
+its standard errors and where it came from.
+"""
+
+import json
+
+import pytest
+
+from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_backbone
+from pipeline.cli import main as surrogacy
+
+
+@pytest.mark.parametrize("option, value, expected", [
+    ("--nominal-damping", "-0.01", "a finite damping ratio in [0, 1)"),
+    ("--nominal-damping", "nan", "a finite damping ratio in [0, 1)"),
+    ("--nominal-damping", "1", "a finite damping ratio in [0, 1)"),
+    ("--nominal-frequency-hz", "-100", "a positive finite natural frequency in Hz"),
+    ("--nominal-frequency-hz", "0", "a positive finite natural frequency in Hz"),
+    ("--nominal-frequency-hz", "inf", "a positive finite natural frequency in Hz"),
+    ("--levels", "0", "an integer >= 3"),
+])
+def test_an_option_out_of_range_is_refused_naming_it(tmp_path, capsys, option, value, expected):
+    backbone = tmp_path / "measured.csv"
+    write_undeclared_backbone(backbone)
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", str(backbone), option, value, "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and f"option {option} = " in error and expected in error
+    assert str(backbone) not in error and not out.exists()
+
+
+def test_a_nominal_with_a_study_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", "--study", str(tmp_path), "--structure", "ASB C1", "--nominal-damping", "1e-3",
+                      "--out", str(out)]) == 2
+    assert "option --nominal-damping applies to FILE" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_backbone_with_negative_damping_is_refused_naming_the_point(tmp_path, capsys):
+    """A backbone written before freevib left such points out: its third point's damping set to -7e-4, and a
+    second-mode finding beside it; the error names the point, its amplitude and the negative damping."""
+    backbone = tmp_path / "measured.csv"
+    write_undeclared_backbone(backbone)
+    lines = backbone.read_text().splitlines()
+    rows = [index for index, line in enumerate(lines) if line and line[0].isdigit()]
+    values = lines[rows[2]].split(",")
+    values[4] = "-0.0007"
+    lines[rows[2]] = ",".join(values)
+    finding = {"name": "second_mode", "outside_library": True, "summary": "a second mode", "evidence": {}}
+    lines.insert(rows[0] - 1, "# findings: " + json.dumps({"checked": ["second_mode"], "found": [finding]}))
+    backbone.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", str(backbone), "--out", str(out)]) == 2
+    error = capsys.readouterr().err
+    assert f"{backbone}: point 3 of {len(rows)} (amplitude {float(values[0]):.4g}" in error
+    assert "damping ratio -0.0007 < 0" in error and "second_mode" not in error and not out.exists()
+
+
+def test_without_the_nominal_options_the_estimate_is_recorded_with_its_source(tmp_path):
+    backbone = tmp_path / "measured.csv"
+    write_undeclared_backbone(backbone)
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", str(backbone), "--out", str(out)]) == 0
+    record = json.loads((out / "discrepancy.json").read_text())
+    assert record["nominal_source"].startswith("estimated from the measurement: weighted lines in amplitude")
+    # the file's reference joint: stuck at REFERENCE_FREQUENCY_HZ with REFERENCE_DAMPING, noise 2e-4 f and 3 % zeta
+    assert abs(record["nominal_frequency_hz"] - REFERENCE_FREQUENCY_HZ) < 3 * record[
+        "nominal_frequency_standard_error_hz"] < 1e-3 * REFERENCE_FREQUENCY_HZ
+    assert abs(record["nominal_damping"] - REFERENCE_DAMPING) < 3 * record[
+        "nominal_damping_standard_error"] < 0.3 * REFERENCE_DAMPING
+    report = (out / "discrepancy.md").read_text()
+    assert f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g} +- " in report
+    assert "estimated from the measurement" in report
