@@ -127,7 +127,9 @@ def run(arguments: argparse.Namespace) -> None:
         source = f"{arguments.file} ({measured.provenance})"
         record = {"source": str(arguments.file), "provenance": measured.provenance, **nominal,
                   "dropped_points": measured.dropped}
-        loop = partial(discrepancy_loop, measurement, nominal["nominal_frequency_hz"], nominal["nominal_damping"])
+        loop = partial(discrepancy_loop, measurement, nominal["nominal_frequency_hz"], nominal["nominal_damping"],
+                       nominal_uncertainty=(nominal["nominal_frequency_standard_error_hz"],
+                                            nominal["nominal_damping_standard_error"]))
         findings = measured.findings
     with stage_folder(arguments.out) as out:
         verdict = with_findings(loop(), findings.get("found", []))
@@ -138,7 +140,9 @@ def run(arguments: argparse.Namespace) -> None:
         write_verdict(out, verdict, measurement, source, record)
     seen = [entry["name"] for entry in verdict.findings]
     print(f"{source}: joint law {', '.join(verdict.joint_law) or 'macroslip'}; added outside the joint "
-          f"{', '.join(verdict.added) or 'none'}{'; findings ' + ', '.join(seen) if seen else ''}"
+          f"{', '.join(verdict.added) or 'none'}"
+          f"{'; as good within the noise: ' + ' or '.join(verdict.alternatives) if verdict.alternatives else ''}"
+          f"{'; findings ' + ', '.join(seen) if seen else ''}"
           f"{' (unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
 
 

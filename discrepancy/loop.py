@@ -253,24 +253,33 @@ def best_least_squares(residual, starts, held: dict):
 
 
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
-        starts: list[dict]) -> Fit:
+        starts: list[dict], nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
     entries take the library's start values); the best fit. An effect parameter whose optimum sits at its law's
     limit (``PHYSICAL_LIMITS``) is refitted held there and stays held where the likelihood ratio of freeing it,
     chi^2_held - chi^2_free, is below ``LIMIT_TEST`` (the 5 % point of the 50:50 mixture of chi^2_0 and chi^2_1
-    that a parameter on the boundary of its range follows): a constrained optimum with one parameter fewer."""
-    specification = model_variables(effects)
+    that a parameter on the boundary of its range follows): a constrained optimum with one parameter fewer.
+
+    A nominal estimated from the measurement itself (``nominal_uncertainty``: its standard errors, Hz and -; 0 for
+    a nominal given) is not exact: its frequency shift s and linear damping zeta_0' are fitted with a Gaussian
+    prior residual each, s f_0 / sigma_f and (zeta_0' - zeta_0) / sigma_zeta (``nominal_priors``), and count as no
+    parameter, unless an effect frees them (stiffness_change, linear_damping), which then pays its parameter and
+    loses the prior: an offset within the nominal's uncertainty earns nothing."""
+    priors = nominal_priors(effects, nominal_frequency_hz, nominal_damping, nominal_uncertainty)
+    specification = model_variables(effects) + [variable for variable, _ in priors]
     defaults = {"zeta_0": nominal_damping, "slip_force": None}
     n = 2 * len(measurement.amplitude)
 
     def residual(vector):
-        return weighted_misfit(measurement, *model_backbone(_to_parameters(vector, specification),
-                                                            measurement.amplitude, nominal_frequency_hz,
-                                                            nominal_damping, measurement.amplitude[-1]))
+        parameters = _to_parameters(vector, specification)
+        misfit = weighted_misfit(measurement, *model_backbone(parameters, measurement.amplitude,
+                                                              nominal_frequency_hz, nominal_damping,
+                                                              measurement.amplitude[-1]))
+        return np.concatenate([misfit, [prior(parameters) for _, prior in priors]])
 
     vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
                           specification) for start in starts]
-    effect_indices = range(len(BASE), len(specification))
+    effect_indices = range(len(BASE), len(specification) - len(priors))
     chi_squared, vector, jacobian = best_least_squares(residual, vectors, {})
     held = {}
     limits = at_physical_limit(vector, specification, effect_indices)
@@ -289,9 +298,25 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     held_names = set(held)
     undetermined = determinacy(jacobian, vector, specification,
                                [i for i in effect_indices if specification[i][0] not in held_names])
-    k = len(specification) - len(held)
+    k = len(specification) - len(priors) - len(held)
     return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
                held, parameter_covariance(jacobian, chi_squared, n - k))
+
+
+def nominal_priors(effects, nominal_frequency_hz: float, nominal_damping: float,
+                   nominal_uncertainty: tuple[float, float]) -> list:
+    """The nominal's variables fitted under a prior (``fit``): ((name, kind, start), prior residual of the
+    parameters) for the frequency shift and the linear damping where the nominal's standard error is positive and
+    no effect of ``effects`` frees the parameter."""
+    freed = {name for effect in effects for name, _, _ in EFFECTS[effect].parameters}
+    error_frequency, error_damping = nominal_uncertainty
+    priors = []
+    if error_frequency > 0 and "frequency_shift" not in freed:
+        priors.append((("frequency_shift", "shift", 0.0),
+                       lambda p: p["frequency_shift"] * nominal_frequency_hz / error_frequency))
+    if error_damping > 0 and "zeta_0" not in freed:
+        priors.append((("zeta_0", "log", nominal_damping), lambda p: (p["zeta_0"] - nominal_damping) / error_damping))
+    return priors
 
 
 def model_variables(effects) -> list:
@@ -409,15 +434,18 @@ def errors(measurement: Measurement, model: Fit) -> dict:
 
 
 def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float,
-                     library=tuple(EFFECTS)) -> Verdict:
+                     library=tuple(EFFECTS), nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Verdict:
     """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
     then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
-    forward steps can take a look-alike first when two effects are in the data)."""
+    forward steps can take a look-alike first when two effects are in the data). ``nominal_uncertainty``: the
+    standard errors (Hz, -) of a nominal estimated from the measurement itself (``discrepancy.nominal``; 0 for a
+    nominal given), fitted under their prior (``fit``)."""
     starts = base_starts(measurement, nominal_frequency_hz)
 
     def fitted(effects, previous=None):
         return fit(measurement, tuple(effects), nominal_frequency_hz, nominal_damping,
-                   ([dict(previous.parameters)] if previous is not None else []) + [dict(s) for s in starts])
+                   ([dict(previous.parameters)] if previous is not None else []) + [dict(s) for s in starts],
+                   nominal_uncertainty)
 
     return select_effects(measurement, fitted, library)
 
