@@ -22,7 +22,10 @@ Row of a design (Parquet columns; S = structure name, Z = linear damping case):
     ``converged[S]``           every level converged; ``reason[S]`` why not ('' when converged);
     ``stuck_frequency_hz[S]``  the design's low-amplitude frequency of the target mode (Hz).
 The file's metadata holds the study key (hash of the structures' measurements, the sample and the damping
-cases): a folder holding another study's chunks is refused, never mixed.
+cases): a folder holding another study's chunks is refused, never mixed. A chunk of this study's key is checked row
+by row against the designs its seed regenerates (``chunk_defect``: count, design indices, model, seed, parameters):
+one copied from another chunk, rewritten with fewer rows or taken from another model is refused by the analysis and
+discarded and recomputed by the exploration, named.
 """
 
 from __future__ import annotations
@@ -39,12 +42,13 @@ from typing import NamedTuple
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from nonlinear.condensation import StuckModeCache, modal_split
 from nonlinear.friction_models import MODEL_NAMES
-from nonlinear.joint import parameter_names, tangential_rows
+from nonlinear.joint import parameter_limits, parameter_names, tangential_rows, to_unit
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
 from study.designs import chunk_designs
@@ -52,6 +56,11 @@ from study.errors import DAMPING_RULES, DesignErrors, design_errors
 from study.structures import Structure
 
 IN_FLIGHT_PER_THREAD = 2
+DESIGN_TOLERANCE = 1e-9
+"""Largest difference between a chunk's stored parameters and those its seed regenerates, on Table 3's sampling
+scale as a share of each parameter's range (unit designs, ``nonlinear.joint.to_unit``): exp and log round to about
+1e-16 there on any numpy build, while a design of another chunk, seed or model differs by about the width of a stratum
+(1 / chunk_size) or more in almost every parameter."""
 WORKER_ENVIRONMENT = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 """dask's nannies start each worker with glibc's MALLOC_TRIM_THRESHOLD_=65536 (memory handed back to the system
 eagerly), which costs the exploration 8-10 % of its CPU time (a chunk's temporary arrays are mapped and unmapped
@@ -241,18 +250,73 @@ def finished_chunks(exploration: Exploration, folder: Path) -> set[tuple[str, in
                 raise StudyError(f"{path}: not a readable Parquet chunk (truncated?); run the explore step, "
                                  "which recomputes it (--steps explore analyse)")
             if stored != key:
-                raise StudyError(f"{path}: written by another study (study_key {stored[:12]}..., this study "
-                                 f"{key[:12]}...); use another results folder, or discard them with "
-                                 "--restart-stale")
+                raise _another_study(path, stored, key)
             done.add((model, chunk))
     return done
+
+
+def _another_study(path: Path, stored: str, key: str) -> StudyError:
+    return StudyError(f"{path}: written by another study (study_key {stored[:12]}..., this study {key[:12]}...); "
+                      "use another results folder, or discard them with --restart-stale")
+
+
+def chunk_defect(exploration: Exploration, model: str, chunk: int, path: Path, designs=None) -> str | None:
+    """Why the rows of the chunk file ``path`` are not chunk ``chunk`` of ``model``'s sample as the seed regenerates
+    it (``study.designs.chunk_designs``): another number of rows, other design indices, another model or seed, or
+    parameters off the regenerated ones by more than ``DESIGN_TOLERANCE`` (a chunk copied from another, rewritten
+    with fewer rows, or of another model or study); None when they are those designs. designs: the regenerated
+    parameters (chunk length, d) in physical units, formed here when not given."""
+    sample = exploration.sample
+    names = parameter_names(model, exploration.n_groups)
+    try:
+        table = pq.read_table(path, columns=["model", "design", "seed", *names])
+    except (pa.ArrowException, OSError) as error:
+        return f"not a readable chunk of the study ({_first_line(error)})"
+    first, length = chunk * sample.chunk_size, sample.chunk_length(chunk)
+    if table.num_rows != length:
+        return f"{table.num_rows} row(s), expected the {length} designs {first} to {first + length - 1}"
+    stored, expected = table["design"].to_numpy(), np.arange(first, first + length)
+    if not np.array_equal(stored, expected):
+        row = int(np.flatnonzero(stored != expected)[0])
+        return f"row {row} holds design {stored[row]}, expected designs {first} to {first + length - 1}"
+    for column, value in (("model", model), ("seed", sample.seed)):
+        other = [found for found in pc.unique(table[column]).to_pylist() if found != value]
+        if other:
+            return f"rows of {column} {other[0]!r}, expected {value!r}"
+    if designs is None:
+        designs = chunk_designs(sample.seed, (model,), chunk, length, exploration.n_groups)[model]
+    limits = parameter_limits(model, exploration.n_groups)
+    parameters = np.column_stack([table[name].to_numpy() for name in names])
+    off = ~(np.abs(to_unit(parameters, *limits) - to_unit(designs, *limits)) <= DESIGN_TOLERANCE)
+    if off.any():
+        row, column = np.argwhere(off)[0]
+        return (f"design {first + row}: {names[column]} = {parameters[row, column]:.9g}, the seed gives "
+                f"{designs[row, column]:.9g}")
+    return None
+
+
+def defective_chunks(exploration: Exploration, folder: Path):
+    """(path, why) of each chunk file of this study's sample in ``folder``, of this study's key, whose rows are not
+    the designs its seed regenerates (``chunk_defect``), chunk by chunk; each chunk's designs regenerated once for
+    every model."""
+    sample, key = exploration.sample, exploration.key()
+    for chunk in range(sample.n_chunks):
+        paths = {model: chunk_path(folder, model, chunk) for model in exploration.models}
+        paths = {model: path for model, path in paths.items() if path.exists() and stored_key(path) == key}
+        if not paths:
+            continue
+        designs = chunk_designs(sample.seed, tuple(paths), chunk, sample.chunk_length(chunk), exploration.n_groups)
+        for model, path in paths.items():
+            defect = chunk_defect(exploration, model, chunk, path, designs[model])
+            if defect is not None:
+                yield path, defect
 
 
 def check_explored(exploration: Exploration, folder: Path) -> None:
     """Refuse to analyse ``folder`` unless it holds exactly this study's exploration: its manifest with this
     study's key (the same measurements, superelements, sample and damping cases), and every chunk of every model,
-    readable and of this study, and no other. Raises StudyError naming the first file that differs and what to
-    run."""
+    readable, of this study, and no other, each holding the rows of the designs its seed regenerates
+    (``chunk_defect``). Raises StudyError naming the first file that differs and what to run."""
     folder = Path(folder)
     recorded = manifest(folder).get("study_key")
     if recorded != exploration.key():
@@ -271,6 +335,9 @@ def check_explored(exploration: Exploration, folder: Path) -> None:
         if extra:
             raise StudyError(f"{extra[0]}: not a chunk of this study (its sample has {len(expected)} chunks per "
                              "model); remove it, or rerun the explore step with --restart-stale")
+    for path, defect in defective_chunks(exploration, folder):
+        raise StudyError(f"{path}: not the designs its seed regenerates ({defect}); run the explore step, which "
+                         "discards and recomputes it (--steps explore analyse)")
 
 
 class ChunkTiming(NamedTuple):
@@ -335,14 +402,31 @@ def discard_stale_chunks(exploration: Exploration, folder: Path) -> list[Path]:
     return stale
 
 
-def discard_unreadable_chunks(folder: Path) -> list[Path]:
+def refuse_other_studies(exploration: Exploration, folder: Path) -> None:
+    """Raise StudyError naming the first readable chunk file of the sample in ``folder`` (model by model, chunk by
+    chunk) that another study wrote (another key)."""
+    key = exploration.key()
+    for model in exploration.models:
+        for chunk in range(exploration.sample.n_chunks):
+            path = chunk_path(folder, model, chunk)
+            stored = stored_key(path) if path.exists() else None
+            if stored is not None and stored != key:
+                raise _another_study(path, stored, key)
+
+
+def discard_damaged_chunks(exploration: Exploration, folder: Path) -> list[Path]:
     """Remove the chunk files in ``folder`` that cannot be read as Parquet (truncated: a disk that filled up, a
-    copy that stopped), so that the exploration recomputes them; returns them, each said on one line of stderr."""
-    unreadable = [path for path in sorted(Path(folder).glob("*/chunk-*.parquet")) if stored_key(path) is None]
-    for path in unreadable:
+    copy that stopped) and those of this study whose rows are not the designs their seed regenerates
+    (``defective_chunks``: copied from another chunk, rewritten with fewer rows, of another model), so that the
+    exploration recomputes them; returns them, each said on one line of stderr with the reason."""
+    damaged = [(path, "not a readable Parquet chunk (truncated?)")
+               for path in sorted(Path(folder).glob("*/chunk-*.parquet")) if stored_key(path) is None]
+    damaged += [(path, f"not the designs its seed regenerates ({defect})")
+                for path, defect in defective_chunks(exploration, folder)]
+    for path, reason in damaged:
         path.unlink()
-        tqdm.write(f"{path}: not a readable Parquet chunk (truncated?): removed, recomputing", file=sys.stderr)
-    return unreadable
+        tqdm.write(f"{path}: {reason}: removed, recomputing", file=sys.stderr)
+    return [path for path, _ in damaged]
 
 
 def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True,
@@ -351,13 +435,16 @@ def explore(exploration: Exploration, folder: Path, client=None, progress: bool 
     ``client`` whose workers write into ``folder``; returns the run (``Explored``: the chunk files of the whole
     study, the timings, the workers' idle share). Holds the folder's lock (a second run into it is
     refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
-    Writes ``<folder>/exploration.json`` (the study key, sample, models, structures and damping cases) first.
-    A chunk file that cannot be read (truncated) is removed and recomputed, said on stderr. A chunk another
-    study wrote is refused (StudyError), or with ``restart_stale`` discarded and recomputed."""
+    A chunk another study wrote is refused (StudyError) before any file is changed, or with ``restart_stale``
+    discarded and recomputed. A chunk file that cannot be read (truncated) or whose rows are not the designs its
+    seed regenerates is removed and recomputed, said on stderr. Writes ``<folder>/exploration.json`` (the study
+    key, sample, models, structures and damping cases) before the first chunk."""
     folder = Path(folder)
     with folder_lock(folder):
         sweep_partial_files(folder)
-        discard_unreadable_chunks(folder)
+        if not restart_stale:
+            refuse_other_studies(exploration, folder)
+        discard_damaged_chunks(exploration, folder)
         if restart_stale:
             discard_stale_chunks(exploration, folder)
         return _explore(exploration, folder, client, progress)
@@ -441,9 +528,12 @@ def read_chunk(path: Path, columns: list[str] | None = None) -> pa.Table:
     try:
         return pq.read_table(path, columns=columns)
     except (pa.ArrowException, OSError) as error:
-        first_line = (str(error).splitlines() or [type(error).__name__])[0]
-        raise StudyError(f"{path}: not a readable chunk of the study ({first_line}); run the explore step, which "
-                         "recomputes it") from None
+        raise StudyError(f"{path}: not a readable chunk of the study ({_first_line(error)}); run the explore step, "
+                         "which recomputes it") from None
+
+
+def _first_line(error: Exception) -> str:
+    return (str(error).splitlines() or [type(error).__name__])[0]
 
 
 def manifest(folder: Path) -> dict:

@@ -101,6 +101,11 @@ def file_identities(folder: Path) -> dict[str, tuple[int, int, int]]:
             for path in Path(folder).rglob("*") if path.is_file()}
 
 
+def file_contents(folder: Path) -> dict[str, bytes]:
+    """The bytes of every file under ``folder``, by path relative to it."""
+    return {str(path.relative_to(folder)): path.read_bytes() for path in Path(folder).rglob("*") if path.is_file()}
+
+
 def assert_same_chunk(path: Path, reference: Path) -> None:
     """Same schema and file metadata, and the same values bit for bit, NaN where the reference has NaN
     (pyarrow's Table.equals treats NaN as unequal to itself)."""
@@ -498,6 +503,47 @@ def test_truncated_chunk_is_recomputed_naming_it(exploration, serial_folder, tmp
     check_explored(exploration, folder)
 
 
+@pytest.mark.parametrize("damage", ["copy of another chunk", "fewer rows", "another model's chunk", "edited parameter"])
+def test_a_chunk_that_is_not_its_seeds_designs_is_refused_then_recomputed(exploration, serial_folder, tmp_path, capsys,
+                                                                        damage):
+    """A chunk of this study's key whose rows are not the designs its seed regenerates (chunk 3 of jenkins, designs
+    90-119: a copy of chunk 2, rewritten with its first 15 rows, a copy of iwan4's chunk 3, or one parameter x 1.01)
+    is refused by the analysis' check naming the file and the first difference, with no file changed; the next
+    exploration names it on stderr, discards and recomputes it, and the study is then the serial one."""
+    folder = tmp_path / "damaged"
+    shutil.copytree(serial_folder, folder)
+    path = chunk_path(folder, MODELS[0], 3)
+    name = parameter_names(MODELS[0], exploration.n_groups)[0]
+    table = pq.read_table(path)
+    if damage == "copy of another chunk":
+        shutil.copy(chunk_path(folder, MODELS[0], 2), path)
+        expected = "row 0 holds design 60, expected designs 90 to 119"
+    elif damage == "fewer rows":
+        pq.write_table(table.slice(0, 15), path)
+        expected = "15 row(s), expected the 30 designs 90 to 119"
+    elif damage == "another model's chunk":
+        shutil.copy(chunk_path(folder, MODELS[1], 3), path)
+        expected = f"rows of model {MODELS[1]!r}, expected {MODELS[0]!r}"
+    else:
+        values = table[name].to_numpy().copy()
+        values[5] *= 1.01
+        pq.write_table(table.set_column(table.schema.get_field_index(name), name, pa.array(values)), path)
+        expected = f"design 95: {name} = {values[5]:.9g}, the seed gives {values[5] / 1.01:.9g}"
+    assert pq.read_schema(path).metadata[b"study_key"] == exploration.key().encode()
+    before = file_contents(folder)
+    with pytest.raises(StudyError) as refused:
+        check_explored(exploration, folder)
+    assert str(refused.value) == (f"{path}: not the designs its seed regenerates ({expected}); run the explore step, "
+                                  "which discards and recomputes it (--steps explore analyse)")
+    assert file_contents(folder) == before
+    capsys.readouterr()
+    explore(exploration, folder, progress=False)
+    assert capsys.readouterr().err.splitlines() == [
+        f"{path}: not the designs its seed regenerates ({expected}): removed, recomputing"]
+    assert_same_study(folder, serial_folder, exploration)
+    check_explored(exploration, folder)
+
+
 @pytest.mark.parametrize("change", ["deleted chunk", "extra chunk", "other inputs"])
 def test_analysis_refuses_a_folder_that_is_not_this_studys_exploration(exploration, serial_folder, tmp_path, change):
     """``check_explored``, the analysis' check: a deleted chunk, a chunk beyond the sample, or an exploration of
@@ -551,13 +597,18 @@ def scale_frequencies(path: Path, factor: float) -> None:
 @pytest.mark.parametrize("change, named, expected", [
     ("deleted chunk", "designs/jenkins/chunk-000001.parquet", "missing (1 of the 2 chunks of jenkins)"),
     ("truncated chunk", "designs/jenkins/chunk-000001.parquet", "not a readable Parquet chunk"),
+    ("copied chunk", "designs/jenkins/chunk-000001.parquet",
+     "not the designs its seed regenerates (row 0 holds design 0, expected designs 2 to 3)"),
+    ("halved chunk", "designs/jenkins/chunk-000001.parquet",
+     "not the designs its seed regenerates (1 row(s), expected the 2 designs 2 to 3)"),
     ("edited measurement", "designs/exploration.json", "explored for other inputs"),
-], ids=["deleted chunk", "truncated chunk", "edited measurement"])
+], ids=["deleted chunk", "truncated chunk", "copied chunk", "halved chunk", "edited measurement"])
 def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, tmp_path, capsys, change, named,
                                                                  expected):
-    """``surrogacy study --steps analyse`` after a chunk was deleted or cut short, or after a measurement was
-    edited (frequencies x 1.05): exit 2, one line naming the file, what differs and what to run; no analysis
-    written. ``--steps explore analyse`` then recomputes the deleted or truncated chunk (a few seconds each)."""
+    """``surrogacy study --steps analyse`` after a chunk was deleted, cut short, overwritten by a copy of chunk 0 or
+    rewritten as valid Parquet with its first row only, or after a measurement was edited (frequencies x 1.05):
+    exit 2, one line naming the file, what differs and what to run; no file changed, no analysis written.
+    ``--steps explore`` then recomputes the chunk as it was (a few seconds each)."""
     from pipeline.cli import main as surrogacy
 
     folder = tmp_path / "study"
@@ -567,13 +618,18 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
         chunk.unlink()
     elif change == "truncated chunk":
         chunk.write_bytes(chunk.read_bytes()[:500])
+    elif change == "copied chunk":
+        shutil.copy(folder / "designs" / "jenkins" / "chunk-000000.parquet", chunk)
+    elif change == "halved chunk":
+        pq.write_table(pq.read_table(chunk).slice(0, 1), chunk)
     else:
         scale_frequencies(folder / "measurements" / "ASB_C1.csv", 1.05)
+    before = file_contents(folder)
     capsys.readouterr()
     assert surrogacy(asb_study_arguments(folder, "analyse")) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"{folder / named}: {expected}" in lines[0] and "--steps explore analyse" in lines[0]
-    assert not (folder / "analysis").exists()
+    assert file_contents(folder) == before and not (folder / "analysis").exists()
     if change != "edited measurement":
         assert surrogacy(asb_study_arguments(folder, "explore")) == 0
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
