@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import json
 from contextlib import contextmanager
+from functools import cache
 from dataclasses import asdict
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -34,7 +35,8 @@ from study.analysis import anova_observations, design_rows, representative_desig
 from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import design_errors
-from study.exploration import Explored, Exploration, StudyError, check_explored, explore, local_cluster
+from study.exploration import (Explored, Exploration, StudyError, check_explored, explore, local_cluster,
+                               refuse_other_studies)
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
@@ -88,9 +90,10 @@ def check_dataset(out: Path, dataset: str) -> None:
                              f"{dataset} study another --out)")
 
 
-def measurements(paths: Paths, parameters: dict) -> None:
+def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], None]) -> None:
     """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones),
-    unless ``measurements/measurements.json`` records them for the same input files (then nothing is redone)."""
+    unless ``measurements/measurements.json`` records them for the same input files (then nothing is redone);
+    ``before_writing`` is called once the input files are found, before the first file is written."""
     dataset = parameters["study"].dataset
     if dataset == "asb":
         sources = [paths.data / "asb-backbones" / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
@@ -105,6 +108,7 @@ def measurements(paths: Paths, parameters: dict) -> None:
     if is_current(sidecar, inputs, VERSIONS, kinds):
         print(f"measurements: {paths.measurements} is current")
         return
+    before_writing()
     if dataset == "asb":
         write_asb_measurements(paths.data, paths.measurements)
     else:
@@ -172,19 +176,28 @@ def front_designs(paths: Paths, model: str, n_groups: int, structure: str) -> Fr
     return FrontDesigns(designs, labels, errors)
 
 
-def explore_designs(paths: Paths, parameters: dict, client=None, restart_stale: bool = False) -> Explored:
-    """Evaluate every design chunk not yet written (``study.exploration.explore``)."""
-    return explore(exploration(paths, parameters), paths.designs, client, restart_stale=restart_stale)
+def explore_designs(paths: Paths, parameters: dict, before_writing: Callable[[], None], client=None,
+                    restart_stale: bool = False) -> Explored:
+    """Evaluate every design chunk not yet written (``study.exploration.explore``). Unless ``restart_stale``, a
+    designs folder holding another study's chunks is refused (StudyError) before ``before_writing`` is called and
+    any file written."""
+    explored = exploration(paths, parameters)
+    if not restart_stale:
+        refuse_other_studies(explored, paths.designs)
+    before_writing()
+    return explore(explored, paths.designs, client, restart_stale=restart_stale)
 
 
-def analyse(paths: Paths, parameters: dict) -> None:
+def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) -> None:
     """Surrogacy matrices, bounds sensitivity, fronts (sample and NSGA-II), responses, ANOVA, prestress. Refused
-    (StudyError) unless the designs folder holds the whole exploration of the current inputs
+    (StudyError), before ``before_writing`` is called and any file written, unless the designs folder holds the
+    whole exploration of the current inputs, each chunk the designs its seed regenerates
     (``study.exploration.check_explored``). Each model's chunks are read once (``study.analysis.sample_counts``):
     memory bounded by a chunk and the counts, whatever the number of designs."""
     study, acceptance = parameters["study"], parameters["acceptance"]
     explored = exploration(paths, parameters)
     check_explored(explored, paths.designs)
+    before_writing()
     names = explored.names
     case = DEFAULT_DAMPING_CASE[study.dataset]
     out = paths.analysis
@@ -310,23 +323,31 @@ def cluster_client(scheduler: str | None):
             yield client
 
 
-def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = None, restart_stale: bool = False):
-    """The chosen ``steps`` of ``STEPS``, in order, into ``paths.out`` (held by the caller), after writing
-    study.json (the resolved configuration, seed, inputs, versions). Yields (step, its result): the run
-    (``study.exploration.Explored``) for ``explore``, the report's path for ``report``, None otherwise."""
-    check_dataset(paths.out, parameters["study"].dataset)
+def write_study_record(paths: Paths, parameters: dict) -> None:
+    """``study.json``: the resolved configuration, seed, inputs and versions of the study in ``paths.out``."""
     write_json(paths.out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},
         "seed": parameters["sample"].seed, "inputs": {"rom": str(paths.rom), "data": str(paths.data),
                                                      "reference": str(paths.reference)},
         "versions": package_versions("numpy", "scipy", "numba", "pyarrow", "statsmodels", "pymoo", "dask")})
+
+
+def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = None, restart_stale: bool = False):
+    """The chosen ``steps`` of ``STEPS``, in order, into ``paths.out`` (held by the caller). study.json
+    (``write_study_record``) is written once, by the first step that writes a file, after that step checked its
+    inputs: a run refused by a check (a folder of another dataset, chunks of another study, an exploration of other
+    inputs) changes no file. Yields (step, its result): the run (``study.exploration.Explored``) for ``explore``,
+    the report's path for ``report``, None otherwise."""
+    check_dataset(paths.out, parameters["study"].dataset)
+    record = cache(lambda: write_study_record(paths, parameters))
     for step in steps:
         if step == "measurements":
-            yield step, measurements(paths, parameters)
+            yield step, measurements(paths, parameters, record)
         elif step == "explore":
             with cluster_client(scheduler) as client:
-                yield step, explore_designs(paths, parameters, client, restart_stale)
+                yield step, explore_designs(paths, parameters, record, client, restart_stale)
         elif step == "analyse":
-            yield step, analyse(paths, parameters)
+            yield step, analyse(paths, parameters, record)
         else:
+            record()
             yield step, report(paths, parameters)

@@ -653,6 +653,26 @@ def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_
     assert file_identities(folder) == before
 
 
+@pytest.mark.parametrize("setting", ["sample.seed=7", "sample.n_designs=6"])
+def test_study_refused_for_another_studys_chunks_changes_no_file(asb_cli_study, tmp_path, capsys, setting):
+    """Every step again into a study's folder with another seed or sample size: exit 2, one line naming the first
+    chunk as written by another study, and every file byte for byte as it was (study.json keeps the study's own
+    configuration, so the report's provenance stays true)."""
+    from pipeline.cli import main as surrogacy
+
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    before = file_contents(folder)
+    capsys.readouterr()
+    assert surrogacy([*asb_study_arguments(folder, "measurements", "explore", "analyse", "report"),
+                      "--set", setting]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        f"surrogacy study: error: {folder / 'designs' / 'jenkins' / 'chunk-000000.parquet'}: written by another "
+        "study (study_key ") and lines[0].endswith("use another results folder, or discard them with --restart-stale")
+    assert file_contents(folder) == before
+
+
 def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_path, capsys, monkeypatch):
     """The disk fills up while a chunk is written (pyarrow's OSError names no file): exit 2, one line naming the
     chunk and the errno, no temporary left, and the next run computes the chunk."""
