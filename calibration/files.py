@@ -27,7 +27,7 @@ from pymoo.indicators.hv import HV
 from calibration.bounds import MULTIPLE, NOISE_MULTIPLE
 from calibration.calibrate import Calibration
 from calibration.objectives import physical
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, json_float
 from study import figures
 
 
@@ -96,7 +96,8 @@ def plot_fits(path: Path, model: str, curves: list) -> None:
 
 def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
     """calibration.md: one table row per model and structure, then the acceptance bounds from the data
-    (``calibration.bounds``)."""
+    (``calibration.bounds``). records: as ``calibration_record`` makes them or read back from their JSON (an error
+    that is not a number, null there, as NaN)."""
     lines = ["# Calibration (surrogacy fit)", "",
              "Best L-infinity errors of the study's fronts (sample and NSGA-II) and of the calibrated front, their "
              "hypervolumes at a common reference point (larger is better), and the best compromise (least squares "
@@ -107,13 +108,14 @@ def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
              "undetermined | global generations |", "|---" * 14 + "|"]
     for record in records:
         study = record["study"]
-        front = np.array(record["front"]["errors"])
+        front = np.array(record["front"]["errors"], dtype=float)
         best = record["best"]
         lines.append(
             f"| {record['model']} | {record['structure']} | "
-            f"{min(s['frequency_error_hz'] for s in study.values()):.4f} | {front[:, 0].min():.4f} | "
-            f"{min(s['damping_error'] for s in study.values()):.3g} | {front[:, 1].min():.3g} | "
-            f"{record['hypervolume']['study']:.3f} | {record['hypervolume']['calibrated']:.3f} | "
+            f"{min(json_float(s['frequency_error_hz']) for s in study.values()):.4f} | {front[:, 0].min():.4f} | "
+            f"{min(json_float(s['damping_error']) for s in study.values()):.3g} | {front[:, 1].min():.3g} | "
+            f"{json_float(record['hypervolume']['study']):.3f} | "
+            f"{json_float(record['hypervolume']['calibrated']):.3f} | "
             f"{best['errors']['frequency_max_relative']:.2e} | {best['errors']['damping_max_relative']:.3f} | "
             f"{best['parameters']['zeta_0']:.3g} | {best['reduced_chi_squared']:.3g} | "
             f"{', '.join(best['undetermined']) or 'none'} | {record['global']['generations']} |")

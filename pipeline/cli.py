@@ -82,13 +82,13 @@ def peak_memory_mb() -> float:
 
 
 def log_run(log: Path, command: list[str], wall_s: float, status: int) -> None:
-    """Append one JSON line (the stage's command line, wall time, peak memory, exit status) to ``log``: one short
-    line written in append mode, so concurrent runs never interleave inside a line."""
+    """Append one line of strict JSON (the stage's command line, wall time, peak memory, exit status: finite
+    numbers) to ``log``: one short line written in append mode, so concurrent runs never interleave inside a line."""
     record = {"command": ["surrogacy", *command], "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
               "wall_s": round(wall_s, 2), "peak_memory_mb": round(peak_memory_mb(), 1), "status": status}
     log.parent.mkdir(parents=True, exist_ok=True)
     with open(log, "a") as stream:
-        stream.write(json.dumps(record) + "\n")
+        stream.write(json.dumps(record, allow_nan=False) + "\n")
 
 
 def run(arguments) -> int:

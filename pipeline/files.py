@@ -13,6 +13,7 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import math
 import os
 import secrets
 from pathlib import Path
@@ -82,10 +83,36 @@ def naming(error: OSError, path: Path) -> OSError:
     return named
 
 
+def strict_json(value):
+    """``value`` as strict JSON can hold it (RFC 8259 has no NaN or Infinity), recursively through dicts, lists and
+    tuples: every non-finite float (NaN, +-inf; Python's or numpy's) as None, numpy scalars and arrays as Python
+    numbers and lists."""
+    if isinstance(value, dict):
+        return {key: strict_json(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(item) for item in value]
+    if isinstance(value, (np.ndarray, np.generic)):
+        return strict_json(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(value, **options) -> str:
+    """``value`` as strict JSON text (``strict_json``: a number that is not finite written as null); ``options``
+    go to json.dumps."""
+    return json.dumps(strict_json(value), allow_nan=False, **options)
+
+
+def json_float(value) -> float:
+    """A number read back from a JSON file of this project: null (a NaN or infinity, ``strict_json``) as NaN."""
+    return math.nan if value is None else float(value)
+
+
 def write_json(destination: Path, value) -> None:
-    """Write ``value`` as indented JSON, atomically."""
+    """Write ``value`` as indented strict JSON (``json_text``: NaN and infinities as null), atomically."""
     with atomic_path(destination) as temporary:
-        temporary.write_text(json.dumps(value, indent=2, sort_keys=True) + "\n")
+        temporary.write_text(json_text(value, indent=2, sort_keys=True) + "\n")
 
 
 @contextlib.contextmanager

@@ -25,7 +25,7 @@ import pandas as pd
 
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
-from pipeline.files import atomic_path, check_output_file, check_output_folder
+from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float
 from study.figures import plt, save
 
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
@@ -232,7 +232,7 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
     for path in verdicts:
         verdict = json.loads(path.read_text())
         before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
-        changes = [f"{before[key]:.3g} -> {after[key]:.3g}"
+        changes = [f"{json_float(before[key]):.3g} -> {json_float(after[key]):.3g}"
                    for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
         found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
                  f"{', '.join(verdict['added']) or 'none'}")

@@ -255,6 +255,13 @@ def _save_level(folder: Path | None, key: str, record: dict, states, misfits, fa
                     "families": families.tolist(), "generator": rng.bit_generator.state})
 
 
+def _misfits(values) -> np.ndarray:
+    """Misfits read back from a level file: null (how strict JSON writes an infinity, ``pipeline.files.write_json``)
+    as inf, the misfit of a design that did not converge (``study.errors.scaled_misfit``; a misfit is never NaN)."""
+    values = np.array(values, dtype=float)
+    return np.where(np.isnan(values), np.inf, values)
+
+
 def _last_level(folder: Path | None, key: str) -> dict | None:
     """The last saved level of this run in ``folder`` (None where none); levels of another run are refused."""
     if folder is None:
@@ -388,10 +395,11 @@ def subset_levels(misfit: Misfit, dimension: int, surrogate: int, n_per_level: i
                   "evaluations": n_per_level, "chains": [n_per_level, 1]}
         _save_level(folder, key, record, states, misfits, families, rng)
     else:
-        states, misfits, families = (np.array(saved[name]) for name in ("states", "misfits", "families"))
+        states, families, misfits = np.array(saved["states"]), np.array(saved["families"]), _misfits(saved["misfits"])
         rng.bit_generator.state = saved["generator"]
         record = {name: saved[name] for name in ("level", "thresholds", "level_probabilities", "gammas", "scale",
                                                  "evaluations", "chains")}
+        record["thresholds"] = _misfits(record["thresholds"]).tolist()
     while True:
         current = record["thresholds"][-1] if record["thresholds"] else np.inf
         threshold, fraction, chosen = _choose_seeds(misfits, n_seeds, current, rng)

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from geometry.parameters import BEAMS, MeshParameters
 from pipeline.cache import StageInputError, is_current, sidecar_record, upstream_file
 from pipeline.config import ConfigError, resolve
-from pipeline.files import write_json
+from pipeline.files import json_float, write_json
 
 INPUTS = {"beam": "BRB", "size": 0.005}
 VERSIONS = {"format": 1, "numpy": "2.0"}
@@ -24,6 +25,23 @@ def result(tmp_path):
     sidecar = tmp_path / "BRB.json"
     write_json(sidecar, sidecar_record(INPUTS, VERSIONS, files, first_bending_hz=169.5))
     return sidecar, files
+
+
+def test_json_files_are_strict_with_every_number_that_is_not_finite_as_null(tmp_path):
+    """write_json writes NaN and infinities (Python's and numpy's, in dicts, lists, tuples and arrays) as null and
+    numpy scalars as numbers: Python's json reads the file back with a parse_constant that refuses NaN and
+    Infinity, and json_float reads the null back as NaN."""
+    def refuse(constant):
+        raise ValueError(f"not strict JSON: {constant}")
+
+    path = tmp_path / "record.json"
+    write_json(path, {"nan": float("nan"), "infinity": np.float32("inf"), "finite": np.float32(0.5),
+                      "count": np.int64(3), "flag": np.bool_(True), "text": "NaN",
+                      "nested": [np.nan, {"below": -np.inf}, (1.5, np.inf)], "array": np.array([[1.0, np.nan]])})
+    record = json.loads(path.read_text(), parse_constant=refuse)
+    assert record == {"nan": None, "infinity": None, "finite": 0.5, "count": 3, "flag": True, "text": "NaN",
+                      "nested": [None, {"below": None}, [1.5, None]], "array": [[1.0, None]]}
+    assert np.isnan(json_float(record["nan"])) and json_float(record["finite"]) == 0.5
 
 
 def test_a_sidecar_matching_inputs_versions_and_files_is_current(result):

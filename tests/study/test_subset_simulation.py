@@ -4,6 +4,7 @@ its correlation factors are exact on chains whose correlation is known; a killed
 and on the ASB's measured backbones it agrees with brute-force Latin hypercube counts through the same
 evaluation as the exploration."""
 
+import json
 import shutil
 
 import numpy as np
@@ -101,6 +102,34 @@ def test_killed_run_resumes_from_its_last_level_to_the_same_numbers(tmp_path):
         np.testing.assert_array_equal(getattr(resumed, field), value, err_msg=field)
     with pytest.raises(ValueError, match="another subset simulation"):
         subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=6), state_folder=tmp_path / "whole")
+
+
+def strict_json(text: str):
+    """``text`` parsed as strict JSON: a NaN, Infinity or -Infinity constant raises."""
+    def refuse(constant):
+        raise ValueError(f"not strict JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_a_killed_run_with_designs_not_converged_resumes_from_strict_json_to_the_same_numbers(tmp_path):
+    """Designs that do not converge have misfit inf (``scaled_misfit``); here the 40 % of the prior with u_0 > 0.6,
+    clear of the boxes. Every level file is strict JSON (each inf written as null), and a run killed in its third run
+    after level 1 reads them back to the same numbers as the uninterrupted run."""
+    box, _ = boxes(1e-4)
+
+    def misfit(unit, structures):
+        return np.where(unit[:, [0]] > 0.6, np.inf, box(unit, structures))
+
+    whole = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
+    levels = [sorted((tmp_path / "whole" / f"run-{run}").glob("level-*.json")) for run in range(4)]
+    records = [strict_json(path.read_text()) for run in levels for path in run]
+    assert None in records[0]["misfits"] and len(levels[2]) > 2
+    for path in levels[2][2:] + levels[3]:
+        path.unlink()
+    resumed = subset_simulation(misfit, DIMENSION, 3, 0, Settings(seed=5), state_folder=tmp_path / "whole")
+    for field, value in whole._asdict().items():
+        np.testing.assert_array_equal(getattr(resumed, field), value, err_msg=field)
 
 
 def test_scaled_misfit_accepts_exactly_the_accepted_designs():
