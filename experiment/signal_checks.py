@@ -5,17 +5,40 @@ and are checked on the signals instead (docs/design.md section 6):
 
 second_mode
     A second mode in the band of the target, beating with it (a modal filter may project it out of the backbone).
-    In each band-passed channel of each hit, the fitted mode is removed: the analytic signal z = A e^(i psi) over
-    the decay (from the envelope maximum to the noise floor) is written ln z = ln A + i psi, whose slow part (a
-    zero-phase low-pass at ``TREND_BANDWIDTH`` times the mode frequency) is the target mode z_1. The residual
-    e = z - z_1 holds the rest: white sensor noise and any other mode. Its periodogram |E(f)|^2, outside the
-    target's own frequencies (its instantaneous frequency range widened by twice the low-pass cut-off), is divided
-    by its running median (the local noise floor; for noise the ratio to the mean is exponentially distributed).
-    A peak above ln(M / alpha) times the mean floor, M the independent frequencies searched and alpha the record's
-    share of ``FALSE_ALARM``, is a second mode; a damped sinusoid c exp((-sigma + i 2 pi f)(t - t_0)) fitted to
-    e by least squares gives its frequency f and its amplitude |c| relative to |z_1| at the envelope maximum
-    t_0 (the impact). Not resolved: a second mode within the target's own frequency range (closer than twice the
-    low-pass cut-off to it); nor one that the band-pass takes out.
+    Each hit's band-passed channels y (C, n) are taken over the target's decay, from the envelope maximum of its
+    modal coordinate (the impact, t_0) to its noise floor; flat channels (one value throughout) are left out.
+    Several channels: the target is the strongest component, of shape s (the first left singular vector of y),
+    and the residual is y projected on an orthonormal basis B of the complement of s, e = B^T y (C - 1
+    components): the target is removed whatever its amplitude-dependent frequency and damping, and a mode of
+    another shape stays in e coherently over the channels, while sensor noise is independent per channel; z_1 is
+    the analytic signal of the target's modal coordinate q = s^T y / s^T s. Each
+    channel's noise variance sigma_c^2 (pooled over the hits, below) makes the components independent and of
+    equal noise, e <- R^-1 e with R R^T = B^T diag(sigma^2) B. One channel: e = z - z_1, z the analytic signal and
+    z_1 its slow part (ln z low-passed at ``TREND_BANDWIDTH`` times the mode frequency). Each component j of hit k
+    (analytic signal e_kj(t)) gives the windowed power P_kj(f) = |sum_t w_k(t) e_kj(t) exp(-i 2 pi f t)|^2 /
+    (sum_t w_k^2 |H(f)|^4), the window w_k = |z_1| the target's envelope (matched to a mode that decays with the
+    target) and |H|^4 the band-pass's power response (:func:`band_power`), so that for white sensor noise, coloured
+    by the band-pass, P_kj(f) = sigma^2 X with X exponential of mean 1, independent over components and hits.
+    The statistic is T(f) = sum_kj P_kj(f) / F: under that null T ~ Gamma(K, 1), K the number of components
+    (hits times C - 1; the hits for one channel). F: several channels, sigma^2 as the median of every P_kj(f)
+    over the searched frequencies over ln 2 (a line covers too few frequencies to move it); one channel, whose
+    residual also holds the slow part's misfit (broad, smooth in frequency), the running median of sum_kj P_kj
+    over ``FLOOR_BANDWIDTH`` times the mode frequency on each side of the target's own range, over the median of
+    Gamma(K). Searched: where the band-pass passes ``HALF_POWER`` of the power or more, outside the target's own
+    range (the instantaneous frequency of z_1 between the ``OWN_ENERGY`` and 1 - ``OWN_ENERGY`` quantiles of its
+    energy, widened by twice the slow part's cut-off). T(f) is a smooth chi-square process in f: the largest T
+    over a searched width B exceeds t with probability at most P(T > t) per searched interval plus Rice's expected
+    upcrossings, B sqrt(lambda t / pi) g_K(t), g_K the Gamma(K) density and lambda = (2 pi)^2 Var_{w^2}(t) the
+    window's second spectral moment (s^2); the threshold (:func:`floor_threshold`) sets that to ``FALSE_ALARM``,
+    averaged over the error of F (ln F normal with the sample median's spread). The largest T above it is a
+    second mode, at ``FALSE_ALARM`` per file; the stated rate holds for sensor noise white and independent per
+    channel before the band-pass, its variances estimated from the data.
+    Its frequency f, decay and size come from a least-squares fit over the hits (:func:`damped_mode`) of c_k
+    (|z_1(t)| / |z_1(t_0)|)^p exp((-sigma + i 2 pi f)(t - t_0)) to each hit's residual along the mode's direction;
+    its share is its displacement amplitude at the impact over the target's (the median over the hits). Not
+    resolved: a mode inside the target's own range or where the band-pass takes it out; one of the target's own
+    shape at the sensors (several channels: it is the target) or a mode the single channel's slow part follows;
+    non-white or correlated sensor noise changes the null (the false-alarm rate is then not the stated one).
 drift
     Non-stationarity: hits that reach the same amplitude at different times give different frequency or damping
     (a temperature drift, a loosening joint). Each record's FreeVib estimates are averaged in the backbone's
@@ -39,16 +62,19 @@ and ``evidence`` (numbers). :func:`ringdown_findings` runs every check that appl
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.ndimage
 import scipy.signal
 import scipy.stats
+import scipy.optimize
 from scipy.optimize import least_squares
 
 from experiment.backbone import MeasuredBackbone, binned_means, binned_standard_error
 from experiment.hilbert import analytic_signal, slow_part
-from experiment.modal_filter import band_pass, dominant_shape, modal_coordinates
-from experiment.ringdown import RingDown
+from experiment.modal_filter import band_pass, dominant_shape
+from experiment.ringdown import DISPLACEMENT_ORDER, RingDown
 
 FALSE_ALARM = 1e-3
 """Probability that a check names a finding in a file that holds only what the backbone holds and noise."""
@@ -59,11 +85,14 @@ FINDINGS = {
     "clipping": (True, "a channel is clipped: the largest amplitudes are wrong"),
     "no_pretrigger": (False, "the record starts after the impact: the largest amplitudes are missing"),
     "truncated_record": (False, "the record ends before the decay does: the smallest amplitudes are missing"),
+    "flat_channel": (False, "a channel holds one value throughout (dead or disconnected): left out of the checks"),
 }
 """Finding -> (outside any backbone library: the loop's verdict is "unexplained" with it; what it means)."""
 
 TREND_BANDWIDTH = 0.01  # low-pass cut-off of the fitted mode's ln A and psi, fraction of the mode frequency
-FLOOR_BANDWIDTH = 0.05  # width of the running median that is the local noise floor, fraction of the mode frequency
+FLOOR_BANDWIDTH = 0.1  # width of the running median that is one channel's floor, fraction of the mode frequency
+HALF_POWER = 0.5  # a second mode is searched where the band-pass passes this share of the power or more
+OWN_ENERGY = 1e-3  # share of the target's energy left out of its own frequency range at each end
 BLOCK_PERIODS = 10  # envelope blocks (median) for the noise floor and the end of the decay, periods
 CLIPPED_SAMPLES = 3
 PRETRIGGER_SAMPLES = 4
@@ -95,101 +124,305 @@ def decay_span(envelope: np.ndarray, block: int, noise_floor_factor: float = 3.0
     return start, start + (int(above[-1]) + 1) * block if above.size else envelope.size
 
 
-def damped_sinusoid(time: np.ndarray, residual: np.ndarray, frequency_hz: float, bounds_hz):
-    """Least-squares fit of c exp((-sigma + i 2 pi f) t) to a complex (n,) residual, t from its first sample:
-    (f Hz, sigma 1/s, c). c is solved linearly for each (f, sigma)."""
-    elapsed = time - time[0]
+class TargetRemoved(NamedTuple):
+    """One hit with the target mode removed (:func:`target_removed`), over its decay (:func:`decay_span`).
 
-    def fitted(parameters):
-        basis = np.exp((-parameters[1] + 2j * np.pi * parameters[0]) * elapsed)
-        return basis, np.vdot(basis, residual) / np.vdot(basis, basis).real
+    channels: the C channels used (flat ones left out, :func:`flat_channels`); time: (m,) s; residual: (J, m)
+    analytic signals of what is left: J = C - 1 components along ``basis``, orthogonal to the target's shape, or
+    for one channel (J = 1) the channel less the target's slow part; target: (m,) analytic signal z_1 of the
+    target's modal coordinate (for one channel its slow part), signal unit per unit of ``shape``; shape: (C,) the
+    target's shape at the channels, 1 at its largest entry; basis: (C, J) the channels' amplitudes (signal unit)
+    of a unit amplitude of each component; channel_residual: (C, m) each band-passed channel less the target's
+    share in it; order: time derivatives between displacement and the signal
+    (``experiment.ringdown.DISPLACEMENT_ORDER``)."""
+
+    hit: str
+    channels: tuple[str, ...]
+    time: np.ndarray
+    residual: np.ndarray
+    target: np.ndarray
+    shape: np.ndarray
+    basis: np.ndarray
+    channel_residual: np.ndarray
+    order: int
+
+
+def flat_channels(hit: RingDown) -> tuple[str, ...]:
+    """Names of a hit's channels that hold one value throughout (a dead, disconnected or stuck sensor): no signal
+    and no noise to check."""
+    return tuple(name for name, raw in zip(hit.channels, hit.signals) if np.ptp(raw) == 0)
+
+
+def band_power(frequency_hz: np.ndarray, sample_rate: float, band_hz) -> np.ndarray:
+    """Power response (n,) at frequencies (n,) Hz of ``experiment.modal_filter.band_pass`` with its default order
+    (Butterworth run forward and backward: |H(f)|^4), the colour it gives white sensor noise."""
+    sections = scipy.signal.butter(4, band_hz, btype="bandpass", fs=sample_rate, output="sos")
+    return np.abs(scipy.signal.sosfreqz(sections, worN=np.abs(frequency_hz), fs=sample_rate)[1]) ** 4
+
+
+def target_removed(hit: RingDown, mode_frequency_hz: float, band_hz) -> TargetRemoved | None:
+    """One hit's residual with the target removed (:class:`TargetRemoved`; None when every channel is flat).
+
+    The band-passed channels y (C, n) hold the target in the shape s of their strongest component
+    (``experiment.modal_filter.dominant_shape``), coordinate q = s^T y / s^T s. The residual is their projection
+    on an orthonormal basis B (C, C - 1) of the complement of s, B^T y: the target is gone whatever its
+    amplitude-dependent frequency and damping, a mode of another shape stays whatever its size. One channel: the
+    target is the slow part of ln z (:func:`experiment.hilbert.slow_part`), which follows the stronger of two
+    beating modes, and the residual is z - z_1. Over the decay of q, from its envelope maximum (the impact) to its
+    noise floor."""
+    flat = flat_channels(hit)
+    live = [index for index, name in enumerate(hit.channels) if name not in flat]
+    if not live:
+        return None
+    filtered = band_pass(hit.signals[live], hit.sample_rate, *band_hz)
+    period = hit.sample_rate / mode_frequency_hz
+    shape = dominant_shape(filtered) if len(live) > 1 else np.ones(1)
+    modal = shape @ filtered / (shape @ shape)
+    start, stop = decay_span(np.abs(scipy.signal.hilbert(modal)), int(BLOCK_PERIODS * period))
+    target = analytic_signal(modal[start:stop], period)
+    if len(live) == 1:
+        target = slow_part(target, hit.sample_rate, TREND_BANDWIDTH * mode_frequency_hz)
+        basis = np.ones((1, 1))
+        residual = analytic_signal(filtered[0, start:stop], period)[None] - target
+    else:
+        basis = np.linalg.svd(shape[:, None])[0][:, 1:]
+        residual = np.array([analytic_signal(row, period) for row in basis.T @ filtered[:, start:stop]])
+    return TargetRemoved(hit.hit, tuple(hit.channels[index] for index in live), hit.time[start:stop], residual,
+                         target, shape, basis, filtered[:, start:stop] - np.outer(shape, modal[start:stop]),
+                         DISPLACEMENT_ORDER[hit.quantity])
+
+
+def windowed_power(series: np.ndarray, window: np.ndarray, n_fft: int) -> np.ndarray:
+    """|sum_t w_t x_t exp(-i 2 pi f t)|^2 / sum_t w_t^2 (J, n_fft) of series x (J, m) on the FFT grid of n_fft
+    points, window w (m,): for white noise of variance s^2 its mean is s^2 at every frequency, and at frequencies
+    away from 0 it is s^2 times an exponential variable of mean 1."""
+    return np.abs(np.fft.fft(series * window, n_fft, axis=-1)) ** 2 / np.sum(window ** 2)
+
+
+def search_grid(removed: list[TargetRemoved], mode_frequency_hz: float, band_hz, sample_rate: float):
+    """The frequencies searched for a second mode: (frequency (n_fft,) Hz, the FFT grid four times finer than one
+    over the longest decay; searched (n_fft,) bool; colour (n_fft,), :func:`band_power`; own (2,) Hz).
+
+    Searched: inside the band where the band-pass passes ``HALF_POWER`` of the power or more, outside the
+    target's own range ``own``: the instantaneous frequency of z_1 between the ``OWN_ENERGY`` and 1 -
+    ``OWN_ENERGY`` quantiles of its energy |z_1|^2 over all hits, widened by twice the slow part's cut-off."""
+    n_fft = 4 * 2 ** int(np.ceil(np.log2(max(entry.time.size for entry in removed))))
+    frequency = np.fft.fftfreq(n_fft, 1 / sample_rate)
+    colour = band_power(frequency, sample_rate, band_hz)
+    instantaneous = np.concatenate([np.gradient(np.unwrap(np.angle(entry.target)), 1 / sample_rate) / (2 * np.pi)
+                                    for entry in removed])
+    energy = np.concatenate([np.abs(entry.target) ** 2 for entry in removed])
+    order = np.argsort(instantaneous)
+    quantile = np.cumsum(energy[order]) / np.sum(energy)
+    cutoff = TREND_BANDWIDTH * mode_frequency_hz
+    own = (instantaneous[order][np.searchsorted(quantile, OWN_ENERGY)] - 2 * cutoff,
+           instantaneous[order][min(np.searchsorted(quantile, 1 - OWN_ENERGY), order.size - 1)] + 2 * cutoff)
+    searched = ((frequency > band_hz[0]) & (frequency < band_hz[1]) & (colour >= HALF_POWER)
+                & ((frequency < own[0]) | (frequency > own[1])))
+    return frequency, searched, colour, own
+
+
+def channel_noise(removed: list[TargetRemoved], frequency: np.ndarray, searched: np.ndarray, colour: np.ndarray
+                  ) -> dict[str, float]:
+    """Noise variance (signal unit^2 per unit of :func:`windowed_power`) of each channel name, pooled over the
+    hits: the median over the searched frequencies of its residual's :func:`windowed_power`, divided by the
+    band-pass colour, by ln 2 (the median of an exponential variable over its mean) and by 1 - s_c^2 / s^T s
+    (the share of a channel's own noise that the target's removal leaves, where the channels' noises are alike).
+    A second mode's line covers too few frequencies to move the median."""
+    pooled = {}
+    for entry in removed:
+        kept = 1 - entry.shape ** 2 / (entry.shape @ entry.shape)
+        power = windowed_power(entry.channel_residual, np.abs(entry.target), frequency.size)
+        for name, row, share in zip(entry.channels, power, kept):
+            pooled.setdefault(name, []).append(row[searched] / colour[searched] / share)
+    return {name: float(np.median(rows) / np.log(2)) for name, rows in pooled.items()}
+
+
+def whitened(entry: TargetRemoved, noise: dict[str, float]) -> TargetRemoved:
+    """The hit's residual components made independent and of equal noise: with Sigma the channels' noise
+    variances (``noise``, :func:`channel_noise`), the components B^T y have noise covariance C = B^T Sigma B = R
+    R^T (R = V Lambda^(1/2) from its eigenvectors V and eigenvalues Lambda); the residual becomes R^-1 B^T y and
+    the basis B R, so that the basis times a component amplitude is still the channels' amplitudes."""
+    covariance = entry.basis.T @ (np.array([noise[name] for name in entry.channels])[:, None] * entry.basis)
+    values, vectors = np.linalg.eigh(covariance)
+    root = vectors * np.sqrt(values)
+    return entry._replace(residual=np.linalg.solve(root, entry.residual), basis=entry.basis @ root)
+
+
+def floor_threshold(degrees: int, searched_hz: float, segments: int, spectral_moment: float, floor_count: float,
+                    floor_degrees: int, false_alarm: float) -> tuple[float, float]:
+    """Threshold t on T / F (module docstring) at ``false_alarm`` per file, and the relative standard error of F.
+
+    T(f) ~ Gamma(``degrees``) at each frequency, a smooth process over the ``segments`` searched intervals of
+    ``searched_hz`` Hz in all: the largest T exceeds t with probability at most segments P(T > t) plus the
+    expected number of upcrossings of t (Rice's formula for a chi-square process: T = sum |X_j|^2, each X_j a
+    complex Gaussian process in f whose derivative has variance lambda = ``spectral_moment`` s^2 per unit
+    variance, so T' given T = t is normal with variance 2 lambda t and the upcrossings per Hz are
+    sqrt(lambda t / pi) g(t), g the Gamma density). F is the median of ``floor_count`` independent
+    Gamma(``floor_degrees``) values scaled to the mean: ln F is normal with standard deviation 1 / (2 sqrt(n) g(m)
+    m) (m the median), which the threshold averages over (Gauss-Hermite)."""
+    median = scipy.stats.gamma.median(floor_degrees)
+    spread = 1 / (2 * np.sqrt(floor_count) * scipy.stats.gamma.pdf(median, floor_degrees) * median)
+    nodes, weights = np.polynomial.hermite_e.hermegauss(21)
+    weights = weights / np.sum(weights)
+
+    def excess(threshold):
+        level = threshold * np.exp(spread * nodes)
+        crossings = (segments * scipy.stats.gamma.sf(level, degrees) + searched_hz
+                     * np.sqrt(spectral_moment * level / np.pi) * scipy.stats.gamma.pdf(level, degrees))
+        return np.log(np.sum(weights * crossings)) - np.log(false_alarm)
+
+    upper = scipy.stats.gamma.isf(false_alarm / (1 + searched_hz * np.sqrt(spectral_moment)), degrees)
+    while excess(upper) > 0:
+        upper *= 1.5
+    return scipy.optimize.brentq(excess, scipy.stats.gamma.mean(degrees), upper), spread
+
+
+def damped_mode(removed: list[TargetRemoved], frequency_hz: float, bounds_hz, sample_rate: float):
+    """Least-squares fit of the found mode in every hit: each hit's residual projected on its direction at
+    ``frequency_hz`` (the components' windowed Fourier coefficients there, normalised), v_k(t), fitted with
+    c_k (|z_1(t)| / |z_1(t_0)|)^p exp((-sigma + i 2 pi f)(t - t_0)), f, sigma and p shared by the hits (p = 1,
+    sigma = 0: the target's decay; p = 0: a linear mode), c_k solved linearly, every ``sample_rate`` / (4 f) th
+    sample. Returns (f Hz, sigma 1/s, p, shares (n_hits,), decay rates (n_hits,) 1/s). A share is the mode's
+    displacement amplitude at the impact over the target's: |c_k| times the direction's norm in the channels' unit
+    over the target's, |s| |z_1(t_0)|, times (f_1 / f)^order, f_1 the target's frequency over the first
+    ``BLOCK_PERIODS`` periods (a velocity or acceleration amplitude is omega^order times the displacement's). A
+    decay rate is the energy-weighted mean of -d ln|g| / dt over the hit."""
+    step = max(1, int(sample_rate / (4 * frequency_hz)))
+    series, logs, times, sizes, impact_hz = [], [], [], [], []
+    for entry in removed:
+        window = np.abs(entry.target)
+        elapsed = entry.time - entry.time[0]
+        first = np.unwrap(np.angle(entry.target[:int(BLOCK_PERIODS * sample_rate / frequency_hz)]))
+        impact_hz.append((np.median(np.gradient(first, 1 / sample_rate)) / (2 * np.pi)) ** entry.order)
+        at_peak = (entry.residual * window) @ np.exp(-2j * np.pi * frequency_hz * elapsed)
+        direction = at_peak / np.linalg.norm(at_peak)
+        series.append((direction.conj() @ entry.residual)[::step])
+        logs.append(np.log(window / window[0])[::step])
+        times.append(elapsed[::step])
+        sizes.append(np.linalg.norm(entry.basis @ direction) / (np.linalg.norm(entry.shape) * window[0]))
+
+    def bases(parameters):
+        return [np.exp(parameters[2] * log + (-parameters[1] + 2j * np.pi * parameters[0]) * elapsed)
+                for log, elapsed in zip(logs, times)]
+
+    def amplitudes(parameters):
+        return [np.vdot(basis, values) / np.vdot(basis, basis).real for values, basis in zip(series, bases(parameters))]
 
     def misfit(parameters):
-        basis, amplitude = fitted(parameters)
-        difference = residual - amplitude * basis
+        difference = np.concatenate([values - amplitude * basis for values, basis, amplitude
+                                     in zip(series, bases(parameters), amplitudes(parameters))])
         return np.concatenate([difference.real, difference.imag])
 
-    start = [frequency_hz, 1.0 / (elapsed[-1] + elapsed[1])]
-    result = least_squares(misfit, start, bounds=([bounds_hz[0], 0.0], [bounds_hz[1], np.inf]), x_scale=[0.1, 1.0])
-    return result.x[0], result.x[1], fitted(result.x)[1]
+    fit = least_squares(misfit, [frequency_hz, 0.0, 1.0], bounds=([bounds_hz[0], -np.inf, 0.0], [bounds_hz[1], np.inf,
+                        2.0]), x_scale=[0.1, 1.0, 0.1])
+    decay = [np.sum(np.abs(basis) ** 2 * -np.gradient(np.log(np.abs(basis)), elapsed)) / np.sum(np.abs(basis) ** 2)
+             for basis, elapsed in zip(bases(fit.x), times)]
+    orders = np.array([entry.order for entry in removed])
+    return (*fit.x, np.abs(amplitudes(fit.x)) * np.array(sizes) * np.array(impact_hz) / fit.x[0] ** orders,
+            np.array(decay))
 
 
-def second_mode(time: np.ndarray, residual: np.ndarray, target: np.ndarray, mode_frequency_hz: float, band_hz,
-                false_alarm: float):
-    """The second mode in the analytic residual (n,) of one channel with the target removed, as a dict of
-    evidence, or None when the residual's largest peak outside the target's frequencies is within the noise
-    (module docstring). time: (n,) s from the impact; target: (n,) the target mode's slow analytic signal z_1 in
-    that channel (its frequencies are left out of the search; the amplitude is relative to |z_1| at the impact)."""
-    step = time[1] - time[0]
-    cutoff = TREND_BANDWIDTH * mode_frequency_hz
-    n_fft = 4 * 2 ** int(np.ceil(np.log2(residual.size)))
-    frequency = np.fft.fftfreq(n_fft, step)
-    power = np.abs(np.fft.fft(residual, n_fft)) ** 2
-    floor = scipy.ndimage.median_filter(power, size=int(FLOOR_BANDWIDTH * mode_frequency_hz * n_fft * step),
-                                        mode="nearest") / np.log(2)  # median of an exponential = ln 2 mean
-    instantaneous = np.gradient(np.unwrap(np.angle(target)), step) / (2 * np.pi)
-    own = np.percentile(instantaneous, [1, 99]) + np.array([-2 * cutoff, 2 * cutoff])
-    searched = ((frequency > band_hz[0]) & (frequency < band_hz[1])
-                & ((frequency < own[0]) | (frequency > own[1])))
-    independent = np.count_nonzero(searched) * residual.size / n_fft  # frequencies 1 / duration apart
-    threshold = np.log(independent / false_alarm)
-    ratio = np.where(searched, power / floor, 0.0)
-    peak = int(np.argmax(ratio))
-    if ratio[peak] <= threshold:
+def second_mode_statistic(removed: list[TargetRemoved], mode_frequency_hz: float, band_hz, sample_rate: float,
+                          pooled_floor: bool) -> dict:
+    """T(f) / F over the searched frequencies (module docstring) with what its null distribution needs:
+    ``frequency_hz`` (n,) Hz and ``statistic`` (n,), Gamma(``degrees``) under the null; ``searched_hz``, their
+    width, and ``segments``, the intervals they make; ``spectral_moment`` (s^2), lambda = (2 pi)^2 times the
+    variance of time under the weight w^2, the window's (averaged over the components); ``floor_count`` and
+    ``floor_degrees``, the independent values of F's median (the searched width over the equivalent noise bandwidth
+    f_s sum w^2 / (sum w)^2 of the sharpest window, or of the widest for a running median) and their Gamma degrees
+    (:func:`floor_threshold`). pooled_floor: F is one level over the band (the residuals are
+    white noise after the band-pass colour: several channels); else a running median of T over
+    ``FLOOR_BANDWIDTH`` times the mode frequency on each side of the target's own range (one channel, whose
+    residual holds the slow part's misfit beside noise)."""
+    frequency, searched, colour, own = search_grid(removed, mode_frequency_hz, band_hz, sample_rate)
+    windows = [np.abs(entry.target) for entry in removed]
+    power = np.concatenate([windowed_power(entry.residual, window, frequency.size)[:, searched] / colour[searched]
+                            for entry, window in zip(removed, windows)])
+    degrees, total = power.shape[0], np.sum(power, axis=0)
+    bin_hz = sample_rate / frequency.size
+    resolution_hz = [sample_rate * np.sum(window ** 2) / np.sum(window) ** 2 for window in windows]  # ENBW, Hz
+    independent = np.count_nonzero(searched) * bin_hz / min(resolution_hz)
+    moments = [(2 * np.pi) ** 2 * (np.average(entry.time ** 2, weights=window ** 2)
+                                   - np.average(entry.time, weights=window ** 2) ** 2)
+               for entry, window in zip(removed, windows)]
+    spectral_moment = np.average(moments, weights=[entry.residual.shape[0] for entry in removed])
+    if pooled_floor:
+        floor = np.full(total.size, np.median(power) / np.log(2))
+        floor_count, floor_degrees = power.shape[0] * independent, 1
+    else:
+        width = int(FLOOR_BANDWIDTH * mode_frequency_hz / bin_hz)
+        below = frequency[searched] < own[0]
+        floor = np.empty(total.size)
+        for side in (below, ~below):
+            if np.any(side):
+                floor[side] = scipy.ndimage.median_filter(total[side], size=width, mode="nearest")
+        floor = floor / scipy.stats.gamma.median(degrees)
+        floor_count, floor_degrees = FLOOR_BANDWIDTH * mode_frequency_hz / max(resolution_hz), degrees
+    return {"frequency_hz": frequency[searched], "statistic": total / floor, "degrees": degrees,
+            "searched_hz": np.count_nonzero(searched) * bin_hz,
+            "segments": 1 + int(np.any(np.diff(frequency[searched] < own[0]))),
+            "spectral_moment": spectral_moment, "floor_count": floor_count, "floor_degrees": floor_degrees}
+
+
+def second_mode(removed: list[TargetRemoved], mode_frequency_hz: float, band_hz, sample_rate: float,
+                false_alarm: float, pooled_floor: bool) -> dict | None:
+    """The second mode in the hits' residuals (module docstring) as a dict of evidence, or None when the largest
+    T / F over the searched frequencies (:func:`second_mode_statistic`) is below its threshold at ``false_alarm``
+    per file (:func:`floor_threshold`); the mode's frequency, decay and share from :func:`damped_mode`, the
+    target's frequency the median over the decay of the instantaneous frequency of z_1's slow part (at low
+    amplitude most of the time: the ratio is to about the linear frequency)."""
+    tested = second_mode_statistic(removed, mode_frequency_hz, band_hz, sample_rate, pooled_floor)
+    statistic, searched_hz = tested["statistic"], tested["frequency_hz"]
+    threshold, spread = floor_threshold(tested["degrees"], tested["searched_hz"], tested["segments"],
+                                        tested["spectral_moment"], tested["floor_count"], tested["floor_degrees"],
+                                        false_alarm)
+    peak = int(np.argmax(statistic))
+    if statistic[peak] <= threshold:
         return None
-    found_hz, decay_rate, amplitude = damped_sinusoid(time, residual, frequency[peak], band_hz)
-    return {"frequency_hz": found_hz, "relative_amplitude": abs(amplitude) / abs(target[0]),
-            "damping_ratio": decay_rate / (2 * np.pi * found_hz),
-            "target_frequency_hz": float(np.median(instantaneous)), "peak_over_floor": ratio[peak],
-            "threshold": threshold}
-
-
-def target_removed(hit: RingDown, mode_frequency_hz: float, band_hz):
-    """Per channel of one hit: (label, time (m,) s, analytic residual (m,), target's analytic signal (m,)) over
-    the decay, from the envelope maximum of the target to its noise floor (:func:`decay_span`).
-
-    Several channels: the target is the strongest component of the band-passed channels (its shape s from
-    ``experiment.modal_filter.dominant_shape``, its coordinate q = s^+ y), removed channel by channel, y_c - s_c q:
-    a mode of another shape stays in the residual whatever its size. One channel: the target is the slow part of
-    ln z (:func:`experiment.hilbert.slow_part`), which follows the stronger of two beating modes."""
-    filtered = band_pass(hit.signals, hit.sample_rate, *band_hz)
-    period = hit.sample_rate / mode_frequency_hz
+    found_hz, decay_rate, exponent, shares, decay = damped_mode(removed, searched_hz[peak],
+                                                                (searched_hz[0], searched_hz[-1]), sample_rate)
     cutoff = TREND_BANDWIDTH * mode_frequency_hz
-    if filtered.shape[0] == 1:
-        start, stop = decay_span(np.abs(scipy.signal.hilbert(filtered[0])), int(BLOCK_PERIODS * period))
-        z = analytic_signal(filtered[0, start:stop], period)
-        target = slow_part(z, hit.sample_rate, cutoff)
-        return [(f"{hit.hit}: {hit.channels[0]}", hit.time[start:stop], z - target, target)]
-    shape = dominant_shape(filtered)
-    modal = modal_coordinates(filtered, shape)[0]
-    start, stop = decay_span(np.abs(scipy.signal.hilbert(modal)), int(BLOCK_PERIODS * period))
-    target = slow_part(analytic_signal(modal[start:stop], period), hit.sample_rate, cutoff)
-    return [(f"{hit.hit}: {name}", hit.time[start:stop],
-             analytic_signal(signal[start:stop] - value * modal[start:stop], period), value * target)
-            for name, signal, value in zip(hit.channels, filtered, shape)]
+    target_hz = np.median(np.concatenate([np.gradient(np.unwrap(np.angle(slow_part(entry.target, sample_rate, cutoff))),
+                                                      1 / sample_rate) for entry in removed])) / (2 * np.pi)
+    return {"frequency_hz": found_hz, "target_frequency_hz": target_hz,
+            "relative_amplitude": float(np.median(shares)), "amplitude_spread": float(np.std(shares)),
+            "damping_ratio": float(np.median(decay)) / (2 * np.pi * found_hz), "envelope_exponent": exponent,
+            "extra_decay_rate_per_s": decay_rate, "statistic": statistic[peak], "threshold": threshold,
+            "degrees_of_freedom": tested["degrees"], "searched_hz": tested["searched_hz"],
+            "spectral_moment_s2": tested["spectral_moment"], "floor_spread": spread, "floor": "one level over the band" if pooled_floor else "running median"}
+
+
+def hit_residuals(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> tuple[list[TargetRemoved], bool]:
+    """Every hit's residual with the target removed (:func:`target_removed`; hits whose channels are all flat
+    left out) and whether every hit has several channels, whose residual components are then made independent
+    and of equal noise (:func:`whitened`, with each channel's noise from :func:`channel_noise`)."""
+    removed = [entry for entry in (target_removed(hit, mode_frequency_hz, band_hz) for hit in hits) if entry]
+    several = bool(removed) and min(len(entry.channels) for entry in removed) > 1
+    if several:
+        noise = channel_noise(removed, *search_grid(removed, mode_frequency_hz, band_hz, hits[0].sample_rate)[:3])
+        removed = [whitened(entry, noise) for entry in removed]
+    return removed, several
 
 
 def second_mode_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> list[dict]:
-    """:func:`second_mode` on every channel of every hit (:func:`target_removed`), ``FALSE_ALARM`` shared among
-    them; one finding with the median frequency and relative amplitude over the channels where it is seen (empty
-    if none)."""
-    channels = [entry for hit in hits for entry in target_removed(hit, mode_frequency_hz, band_hz)]
-    seen = {label: second_mode(time, residual, target, mode_frequency_hz, band_hz, FALSE_ALARM / len(channels))
-            for label, time, residual, target in channels}
-    seen = {label: evidence for label, evidence in seen.items() if evidence is not None}
-    if not seen:
+    """:func:`second_mode` on the hits' residuals (:func:`hit_residuals`) at ``FALSE_ALARM`` per file; one finding
+    with the second mode's frequency and amplitude share (empty if none). Flat channels are left out and named in
+    the evidence."""
+    removed, several = hit_residuals(hits, mode_frequency_hz, band_hz)
+    if not removed:
         return []
-    frequency = float(np.median([e["frequency_hz"] for e in seen.values()]))
-    amplitude = float(np.median([e["relative_amplitude"] for e in seen.values()]))
-    target = float(np.median([e["target_frequency_hz"] for e in seen.values()]))
+    evidence = second_mode(removed, mode_frequency_hz, band_hz, hits[0].sample_rate, FALSE_ALARM, several)
+    if evidence is None:
+        return []
+    frequency, target, share = evidence["frequency_hz"], evidence["target_frequency_hz"], evidence["relative_amplitude"]
+    left_out = sorted({f"{hit.hit}: {name}" for hit in hits for name in flat_channels(hit)})
+    checked = sum(len(entry.channels) for entry in removed)
     return [finding("second_mode", f"a second mode at {frequency:.4g} Hz ({100 * (frequency / target - 1):+.2f} % of "
-                    f"the target's {target:.4g} Hz) with {100 * amplitude:.3g} % of its amplitude at the impact, "
-                    f"in {len(seen)} of {len(channels)} channels",
-                    {"frequency_hz": frequency, "frequency_ratio": frequency / target, "relative_amplitude": amplitude,
-                     "damping_ratio": float(np.median([e["damping_ratio"] for e in seen.values()])),
-                     "channels_seen": sorted(seen), "channels_checked": len(channels),
-                     "peak_over_floor": max(e["peak_over_floor"] for e in seen.values()),
-                     "threshold": min(e["threshold"] for e in seen.values())})]
+                    f"the target's {target:.4g} Hz) with {100 * share:.3g} % of its amplitude at the impact, seen "
+                    f"together in {checked} channel(s) of {len(removed)} hit(s)",
+                    {**evidence, "frequency_ratio": frequency / target, "channels_checked": checked,
+                     "hits_checked": len(removed), "channels_left_out": left_out})]
 
 
 def hit_of(label: str) -> str:
@@ -269,15 +502,21 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
     """Clipping, no pre-trigger and a truncated record (module docstring), one finding each with the channels
     where they are seen and a level per channel: the clipped value (signal unit), the first samples' mean
     |x - median| relative to the peak, the envelope where the record ends relative to its peak (dB); empty if
-    none."""
-    seen = {name: [] for name in ("clipping", "no_pretrigger", "truncated_record")}
-    n_channels = sum(len(hit.channels) for hit in hits)
+    none. A flat channel (:func:`flat_channels`) is none of these: it is named in a ``flat_channel`` finding (a
+    caveat, its level the value it holds) and left out of the other checks."""
+    seen = {name: [] for name in ("clipping", "no_pretrigger", "truncated_record", "flat_channel")}
+    n_channels = sum(len(hit.channels) - len(flat_channels(hit)) for hit in hits)
     levels = {name: [] for name in seen}
     for hit in hits:
         block = int(BLOCK_PERIODS * hit.sample_rate / mode_frequency_hz)
         filtered = band_pass(hit.signals, hit.sample_rate, *band_hz)
+        flat = flat_channels(hit)
         for name, raw, signal in zip(hit.channels, hit.signals, filtered):
             label = f"{hit.hit}: {name}"
+            if name in flat:
+                seen["flat_channel"].append(label)
+                levels["flat_channel"].append(raw[0])
+                continue
             peak = np.max(np.abs(raw))
             at_extreme = np.isclose(np.abs(raw), peak, rtol=1e-9, atol=0.0)
             runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], at_extreme.astype(int), [0]]))))[::2]
@@ -301,6 +540,8 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
         "truncated_record": lambda: f"{len(seen['truncated_record'])} channel(s) still decaying where the record "
                                     f"ends, their envelope there {-max(levels['truncated_record']):.3g} dB below its "
                                     "peak or less",
+        "flat_channel": lambda: f"{len(seen['flat_channel'])} channel(s) hold one value throughout, left out of the "
+                                "checks",
     }
     return [finding(name, summaries[name](), {"channels": channels, "levels": [float(v) for v in levels[name]]})
             for name, channels in seen.items() if channels]
@@ -309,7 +550,7 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
 def ringdown_findings(hits: list[RingDown], measured: MeasuredBackbone, band_hz) -> dict:
     """Every check that applies to the hits and their backbone (module docstring): ``{"checked": [...],
     "found": [...]}``; drift is checked with three hits or more."""
-    checked = ["second_mode", "clipping", "no_pretrigger", "truncated_record"]
+    checked = ["second_mode", "clipping", "no_pretrigger", "truncated_record", "flat_channel"]
     found = (second_mode_findings(hits, measured.mode_frequency_hz, band_hz)
              + record_findings(hits, measured.mode_frequency_hz, band_hz))
     if len(hits) >= 3:
