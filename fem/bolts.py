@@ -32,7 +32,12 @@ BOLT_PRELOAD = 11580.0  # N per bolt at 20 N m (paper section 4.1), the beams' a
 @dataclass(frozen=True)
 class Bolt:
     """One bolt: shank area m^2, length in tension m, Young's modulus Pa, Poisson's ratio, preload N, and the
-    mass kg of bolt, nut and washers (kept half at each footprint)."""
+    mass kg of bolt, nut and washers (kept half at each footprint).
+
+    Validated like ``fem.elasticity.Material``: area, length and preload finite and positive, E in [1e6, 1e13] Pa,
+    nu in [0, 0.5), mass finite and >= 0; a value outside is refused naming the field, before it reaches the
+    contact solve (a NaN or negative preload or area ended there in CHOLMOD's "not positive definite").
+    """
 
     area: float = 49.5e-6
     length: float = 0.0254
@@ -40,6 +45,18 @@ class Bolt:
     poissons_ratio: float = 0.29
     preload: float = BOLT_PRELOAD
     mass: float = 0.02864
+
+    def __post_init__(self):
+        for field, unit in (("area", "m^2"), ("length", "m"), ("preload", "N")):
+            value = getattr(self, field)
+            if not 0.0 < value < np.inf:
+                raise ValueError(f"field '{field}' = {value!r}: expected a finite value > 0 {unit}")
+        if not 1e6 <= self.youngs_modulus <= 1e13:
+            raise ValueError(f"field 'youngs_modulus' = {self.youngs_modulus!r}: expected 1e+06 to 1e+13 Pa")
+        if not 0.0 <= self.poissons_ratio < 0.5:
+            raise ValueError(f"field 'poissons_ratio' = {self.poissons_ratio!r}: expected 0 <= nu < 0.5")
+        if not 0.0 <= self.mass < np.inf:
+            raise ValueError(f"field 'mass' = {self.mass!r}: expected a finite value >= 0 kg")
 
     @property
     def axial_stiffness(self) -> float:

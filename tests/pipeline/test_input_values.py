@@ -44,6 +44,23 @@ def test_material_outside_structural_solids_is_refused(tmp_path, capsys, option,
     assert not out.exists()
 
 
+@pytest.mark.parametrize("setting, message", [
+    ("bolt.preload=nan", "field 'preload' = nan: expected a finite value > 0 N"),
+    ("bolt.preload=-1", "field 'preload' = -1.0: expected a finite value > 0 N"),
+    ("bolt.area=-1", "field 'area' = -1.0: expected a finite value > 0 m^2"),
+    ("bolt.poissons_ratio=0.5", "field 'poissons_ratio' = 0.5: expected 0 <= nu < 0.5"),
+    ("bolt.mass=inf", "field 'mass' = inf: expected a finite value >= 0 kg")])
+def test_bolt_outside_its_physical_range_is_refused(tmp_path, capsys, setting, message):
+    """A NaN or negative preload or a negative shank area reached the contact solve and ended in a CHOLMOD
+    traceback (not positive definite): refused at the door, exit 2, one line naming the source, the [bolt] table,
+    the field and what was expected, before the geometry stage's files are read; nothing written."""
+    out = tmp_path / "fe"
+    assert surrogacy(["fe", "--beam", "BRB", "--beams", str(tmp_path / "no_beams"), "--out", str(out),
+                      "--set", setting]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [f"surrogacy fe: error: command line: [bolt] {message}"]
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("arguments, message", [(["--tolerance", "-1"], "option --tolerance = -1.0"),
                                                 (["--factors", "0"], "option --factors = [0.0]"),
                                                 (["--factors", "1", "0.01"], "option --factors = 0.01: parameter "
