@@ -10,7 +10,8 @@ Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.explo
     design_chunk                chunk c of a replicated Latin hypercube over paper Table 3, from the seed
     design_errors, accepted     L-infinity errors of paper Eqs. 26-27 per design and structure, acceptance
     explore, read_exploration   every chunk on every structure to Parquet; resumable; serial or dask
-    check_explored              the analysis' check: the whole exploration of the current inputs
+    check_explored              the analysis' check: the whole exploration of the current inputs, each chunk's
+                                rows the designs its seed regenerates (chunk_defect)
 Answers (:mod:`study.surrogacy`, :mod:`study.subset_simulation`, :mod:`study.pareto`, :mod:`study.anova`,
 :mod:`study.prestress`)
     surrogacy_matrix            SC_IJ (Eq. 29) with binomial intervals; replicate spread; bounds sweep
