@@ -40,13 +40,27 @@ second_mode
     shape at the sensors (several channels: it is the target) or a mode the single channel's slow part follows;
     non-white or correlated sensor noise changes the null (the false-alarm rate is then not the stated one).
 drift
-    Non-stationarity: hits that reach the same amplitude at different times give different frequency or damping
-    (a temperature drift, a loosening joint). Each record's FreeVib estimates are averaged in the backbone's
-    amplitude bins (the first and last bin of each record left out: partly covered, and where the end effects
-    sit), and the bin means y_rb regressed on the time t_rb at which record r was in bin b, with one level per
-    bin: y_rb = y_b + rate t_rb. The clock is the hits' own time stamps where they differ (s), else the order of
-    the hits (per hit). The rate is a finding when |rate| / its standard error exceeds Student's t at
-    ``FALSE_ALARM`` (two-sided, shared by frequency and damping). Needs three hits or more.
+    Non-stationarity: hits that reach the same amplitude at different times give different frequency or damping (a
+    temperature drift across the hits, a joint that loosens while it rings within each hit). Each record's FreeVib
+    estimates, less the backbone interpolated in ln a at their amplitudes (the backbone's own change across a bin,
+    which would otherwise make the bin means depend on which samples fall in it), are averaged in the backbone's
+    amplitude bins (the first and last bin of each record left out: partly covered, and where the end effects sit),
+    and the bin means y_rb regressed on clocks c_rb, the mean clock of record r in bin b, with one level per bin:
+    y_rb = y_b + sum_c rate_c c_rb; relative rates are per the backbone's mean. Within one hit amplitude and time
+    are tied, so only hits that reach an amplitude at different times inform a rate, and the levels leave only those
+    differences. Two clocks: the time since each hit's impact (s, from the record's first estimate: the same offset
+    from the impact in every hit), which differs between hits of different strength (a drift within each hit; tested
+    where it differs by a period or more at a fixed amplitude), and the hits' own time stamps where they differ (s),
+    else the order of the hits (per hit) (a drift across hits). The bin means of a derivative are not independent:
+    each is the change of the integrated quantity (the phase, ln A) across the bin over its duration, whose error at
+    an edge amplitude a has variance proportional to 1 / a^2 (white sensor noise), so neighbouring bins of a record
+    are anticorrelated and a record's errors do not average down with its samples; the fit is generalised least
+    squares with that covariance, its scale the whitened chi^2 per degree of freedom. A rate is a finding when
+    |rate| / its standard error exceeds Student's t at ``FALSE_ALARM`` (two-sided, shared by frequency and damping
+    and by the clocks, each fitted alone). Where both clocks alone explain a drift they are fitted together, and the
+    rates that stand are the findings; where neither stands (the hits' strengths follow their times: the data cannot
+    tell the two clocks apart), the finding is the drift within each hit, naming the other clock and its rate. Needs
+    three hits or more.
 clipping, no_pretrigger, truncated_record
     The record itself: a channel that holds its extreme value for ``CLIPPED_SAMPLES`` consecutive samples or
     more (a saturated amplifier or converter); a channel whose first samples are already moving (mean |x - median|
@@ -65,13 +79,14 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg
 import scipy.ndimage
 import scipy.signal
 import scipy.stats
 import scipy.optimize
 from scipy.optimize import least_squares
 
-from experiment.backbone import MeasuredBackbone, binned_means, binned_standard_error
+from experiment.backbone import MeasuredBackbone, amplitude_bins, binned_means
 from experiment.hilbert import analytic_signal, slow_part
 from experiment.modal_filter import band_pass, dominant_shape
 from experiment.ringdown import DISPLACEMENT_ORDER, RingDown
@@ -430,58 +445,133 @@ def hit_of(label: str) -> str:
     return label.rsplit(": ", 1)[0]
 
 
-def drift_findings(hits: list[RingDown], measured: MeasuredBackbone) -> list[dict]:
-    """Non-stationarity across hits (module docstring): frequency and damping regressed on time at fixed
-    amplitude, each bin mean weighted by the inverse square of its standard error; a finding per quantity whose
-    rate exceeds its noise (empty if none)."""
+def bin_durations(amplitude: np.ndarray, time: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Time (n_grid,) s that a record's estimates at ``amplitude`` (n,) sampled at ``time`` (n,) s spend in each
+    grid bin: their count times the sampling step."""
+    index = np.digitize(amplitude, amplitude_bins(grid)) - 1
+    inside = (index >= 0) & (index < grid.size)
+    return np.bincount(index[inside], minlength=grid.size) * (time[1] - time[0])
+
+
+def derivative_covariance(bins: np.ndarray, durations: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Covariance (m, m), up to one scale, of one record's bin means of a time derivative (FreeVib's frequency,
+    d psi / dt, and damping, from d ln A / dt) in the grid bins ``bins`` (m,) that it covers for ``durations``
+    (m,) s. The mean of a derivative over a bin is the change of its integral Psi between the bin's edges over the
+    bin's duration, (Psi(edge b) - Psi(edge b + 1)) / duration_b; white sensor noise puts an error of variance
+    proportional to 1 / a^2 into Psi where the record crosses the edge amplitude a (``edges``, (n_grid + 1,)).
+    Bins that share an edge are anticorrelated: a record's bin means are not independent, and the scatter of its
+    samples within a bin (:func:`~experiment.backbone.binned_standard_error`) does not measure their error."""
+    difference = np.zeros((bins.size, edges.size))
+    difference[np.arange(bins.size), bins] = 1 / durations
+    difference[np.arange(bins.size), bins + 1] = -1 / durations
+    return (difference / edges) @ (difference / edges).T
+
+
+def level_regression(values: np.ndarray, clocks: list[np.ndarray], durations: np.ndarray, used: np.ndarray,
+                     edges: np.ndarray):
+    """Generalised least squares of bin means on clocks with one level per amplitude bin, y_rb = y_b + sum_c
+    rate_c clock_c,rb, each record's errors correlated as :func:`derivative_covariance` says.
+
+    values: (n_records, n_grid) bin means; clocks: p arrays (n_records, n_grid), each record's clock in each bin
+    (s, or hits); durations: (n_records, n_grid) s in each bin; used: (n_records, n_grid) bool, the bins
+    compared (two records or more in each); edges: (n_grid + 1,) bin edges (amplitude). The covariance's unknown
+    scale is the whitened residuals' chi^2 per degree of freedom. Returns rates (p,) (unit of values per clock
+    unit), their standard errors (p,) and the degrees of freedom (records' bins less levels less p)."""
+    levels = np.flatnonzero(used.any(axis=0))
+    design, whitened = [], []
+    for record in range(values.shape[0]):
+        bins = np.flatnonzero(used[record])
+        if bins.size == 0:
+            continue
+        columns = np.zeros((bins.size, levels.size + len(clocks)))
+        columns[np.arange(bins.size), np.searchsorted(levels, bins)] = 1.0
+        for number, clock in enumerate(clocks):
+            columns[:, levels.size + number] = clock[record, bins]
+        factor = np.linalg.cholesky(derivative_covariance(bins, durations[record, bins], edges))
+        design.append(scipy.linalg.solve_triangular(factor, columns, lower=True))
+        whitened.append(scipy.linalg.solve_triangular(factor, values[record, bins], lower=True))
+    design, whitened = np.vstack(design), np.concatenate(whitened)
+    dof = design.shape[0] - design.shape[1]
+    solution, *_ = np.linalg.lstsq(design, whitened, rcond=None)
+    residual = whitened - design @ solution
+    covariance = residual @ residual / max(dof, 1) * np.linalg.pinv(design.T @ design)
+    return solution[levels.size:], np.sqrt(np.diag(covariance)[levels.size:]), dof
+
+
+def drift_findings(hits: list[RingDown], measured: MeasuredBackbone, false_alarm: float = FALSE_ALARM
+                   ) -> list[dict]:
+    """Non-stationarity (module docstring): frequency and damping at fixed amplitude regressed on the time since
+    each hit's impact (a drift within each hit) and on the hits' clock (a drift across hits), one level per
+    amplitude bin (:func:`level_regression`); a finding per quantity and clock whose rate exceeds its noise at
+    ``false_alarm`` (shared by every test made; empty if none)."""
     grid = measured.hilbert.amplitude
     starts = {hit.hit: hit.time[0] for hit in hits}
     stamped = len(set(starts.values())) == len(starts)
     order = {hit.hit: number for number, hit in enumerate(hits)}
-    unit, span = ("s", max(hit.time[-1] for hit in hits) - min(starts.values())) if stamped else ("hit", len(hits) - 1)
+    since, across, durations = [], [], []
+    for record in measured.records:
+        estimate = record.hilbert
+        clock = binned_means(estimate.amplitude, estimate.time - estimate.time[0], grid)
+        filled = np.flatnonzero(np.isfinite(clock))
+        clock[filled[[0, -1]] if filled.size else []] = np.nan  # partly covered bins, where end effects sit
+        since.append(clock)
+        across.append(binned_means(estimate.amplitude, estimate.time, grid) if stamped
+                      else np.full(grid.size, float(order[hit_of(record.label)])))
+        durations.append(bin_durations(estimate.amplitude, estimate.time, grid))
+    used = np.isfinite(np.array(since))
+    used[:, np.count_nonzero(used, axis=0) < 2] = False  # a level needs two records to compare
+    if np.count_nonzero(used) == 0:
+        return []
+    since, across, durations = (np.nan_to_num(np.array(values)) for values in (since, across, durations))
+    centred = since - np.sum(since * used, axis=0) / np.maximum(np.sum(used, axis=0), 1)
+    clocks = {"across": across}
+    if np.sqrt(np.mean(centred[used] ** 2)) > 1 / measured.mode_frequency_hz:
+        clocks["within"] = since  # the hits reach an amplitude at times since their impact a period or more apart
+    said = {"within": ("time since each hit's impact", "s", max(hit.time[-1] - hit.time[0] for hit in hits),
+                       "of a hit"),
+            "across": ("time stamps of the hits", "s", max(hit.time[-1] for hit in hits) - min(starts.values()),
+                       "of the hits") if stamped else ("order of the hits", "hit", len(hits) - 1, "of the hits")}
     found = []
     for name in ("natural_frequency_hz", "damping_ratio"):
-        clocks, means, weights = [], [], []
-        for record in measured.records:
-            estimate = record.hilbert
-            clock = binned_means(estimate.amplitude, estimate.time, grid)
-            if not stamped:
-                clock = np.where(np.isfinite(clock), order[hit_of(record.label)], np.nan)
-            filled = np.flatnonzero(np.isfinite(clock))
-            clock[filled[[0, -1]] if filled.size else []] = np.nan  # partly covered bins, where end effects sit
-            values = getattr(estimate, name)
-            error = binned_standard_error(estimate.amplitude, values,
-                                          np.full(values.size, 1 / estimate.correlated_samples), grid)
-            clocks.append(clock)
-            means.append(binned_means(estimate.amplitude, values, grid))
-            usable = np.isfinite(clock) & (error > 0)
-            weights.append(np.where(usable, 1 / np.where(usable, error, 1.0) ** 2, 0.0))
-        clock, mean, weight = np.array(clocks), np.nan_to_num(np.array(means)), np.array(weights)
-        weight[:, np.count_nonzero(weight, axis=0) < 2] = 0.0  # a level needs two records to compare
-        total = np.sum(weight, axis=0)
-        if np.count_nonzero(total) == 0:
-            continue
-        clock = np.nan_to_num(clock)
-        per_level = np.where(total > 0, 1 / np.where(total > 0, total, 1), 0)
-        x = clock - np.sum(weight * clock, axis=0) * per_level
-        y = mean - np.sum(weight * mean, axis=0) * per_level
-        dof = np.count_nonzero(weight) - np.count_nonzero(total) - 1
-        if dof < 2 or not np.any(weight * x * x):
-            continue
-        rate = np.sum(weight * x * y) / np.sum(weight * x * x)
-        scatter = np.sum(weight * (y - rate * x) ** 2) / dof  # chi^2 per degree of freedom scales the weights
-        error = np.sqrt(scatter / np.sum(weight * x * x))
-        critical = scipy.stats.t.isf(FALSE_ALARM / 4, dof)
-        if abs(rate) > critical * error:
-            level = float(np.sum(weight * mean) / np.sum(weight))
-            label = "frequency" if name == "natural_frequency_hz" else "damping"
-            found.append(finding("drift", f"the {label} {'rises' if rate > 0 else 'falls'} by "
-                                 f"{rate / level:+.3g} of itself per {unit} at fixed amplitude "
-                                 f"({rate * span / level:+.3g} over the {span:.4g} {unit} of the hits)",
-                                 {"quantity": name, f"rate_per_{unit}": rate, f"relative_rate_per_{unit}": rate / level,
-                                  "relative_change_over_span": rate * span / level, f"span_{unit}": span,
-                                  "standard_error": error, "t": rate / error, "critical_t": critical,
-                                  "clock": "time stamps of the hits" if stamped else "order of the hits"}))
+        backbone = getattr(measured.hilbert, name)
+        known = np.isfinite(backbone)
+        values = np.nan_to_num(np.array([binned_means(  # the backbone's own change across a bin taken out first
+            record.hilbert.amplitude, getattr(record.hilbert, name) - np.interp(
+                np.log(record.hilbert.amplitude), np.log(grid[known]), backbone[known]), grid)
+            for record in measured.records]))
+
+        def fitted(names):
+            """{clock: (rate, standard error, critical t)} of the clocks ``names`` fitted together."""
+            rates, errors, dof = level_regression(values, [clocks[clock] for clock in names], durations, used,
+                                                  amplitude_bins(grid))
+            critical = scipy.stats.t.isf(false_alarm / (4 * len(clocks)), dof) if dof >= 2 else np.inf
+            return {clock: (rate, error, critical) for clock, rate, error in zip(names, rates, errors)}
+
+        def beyond(fits):
+            return {clock: fit for clock, fit in fits.items() if abs(fit[0]) > fit[2] * fit[1] > 0}
+
+        alone = {clock: fitted([clock])[clock] for clock in clocks}
+        significant, confounded = beyond(alone), False
+        if len(significant) == 2:  # each clock alone explains the drift: fitted together, where the hits' strengths
+            together = beyond(fitted(list(clocks)))  # and times tell them apart, neither stands for the other
+            confounded = not together
+            significant = {"within": significant["within"]} if confounded else together
+        level = float(np.mean(backbone[used.any(axis=0)]))
+        label = "frequency" if name == "natural_frequency_hz" else "damping"
+        for clock, (rate, error, critical) in significant.items():
+            clock_name, unit, span, of = said[clock]
+            evidence = {"quantity": name, f"rate_per_{unit}": rate, f"relative_rate_per_{unit}": rate / level,
+                        "relative_change_over_span": rate * span / level, f"span_{unit}": span,
+                        "standard_error": error, "t": rate / error, "critical_t": critical, "clock": clock_name}
+            summary = (f"the {label} {'rises' if rate > 0 else 'falls'} by {rate / level:+.3g} of itself per {unit} "
+                       f"of the {clock_name} at fixed amplitude ({rate * span / level:+.3g} over the {span:.4g} {unit} "
+                       f"{of})")
+            if confounded:  # the hits' strengths follow their order: the data cannot tell the two clocks apart
+                other = alone["across"][0] * said["across"][2] / level
+                evidence |= {"confounded_with": said["across"][0], "confounded_relative_change_over_span": other}
+                summary += (f", or by {other:+.3g} over the {said['across'][0]}: the hits' strengths follow their "
+                            "times, and the data cannot tell the two apart")
+            found.append(finding("drift", summary, evidence))
     return found
 
 
