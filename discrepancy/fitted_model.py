@@ -10,8 +10,8 @@ of the points fitted, in the measurement's amplitude unit.
 
 Band (``evaluate``): linearised propagation of the variables' covariance C, y +- 1.96 sqrt(g^T C g) at each
 amplitude, g the gradient of the frequency or damping there with respect to the variables (central differences):
-a pointwise 95 % band of the parameters' uncertainty. Amplitudes outside the fitted range are extrapolation: the model's form
-carries them, not the points.
+a pointwise 95 % band of the parameters' uncertainty. Amplitudes outside the fitted range are extrapolation: the
+model's form carries them, not the points.
 """
 
 from __future__ import annotations
@@ -48,10 +48,14 @@ def check_record(record: dict, source: str) -> None:
             raise ValueError(f"{source}: field final_model.{name} is missing; expected the record surrogacy "
                              "discrepancy writes for a one-mode model")
     p = len(record["variables"])
-    if np.shape(record["vector"]) != (p,) or np.shape(record["covariance"]) != (p, p):
-        raise ValueError(f"{source}: field final_model.vector/covariance: expected {p} values and {p}x{p}")
+    try:
+        vector, covariance = (np.array(record[name], dtype=float) for name in ("vector", "covariance"))
+    except (TypeError, ValueError):
+        raise ValueError(f"{source}: field final_model.vector/covariance: expected numbers (null is not one)") from None
+    if vector.shape != (p,) or covariance.shape != (p, p) or not np.all(np.isfinite(covariance)):
+        raise ValueError(f"{source}: field final_model.vector/covariance: expected {p} values and {p}x{p} finite")
     kinds = {kind for _, kind in record["variables"]}
-    if not kinds <= set(TRANSFORMS) or not np.all(np.isfinite(record["vector"])):
+    if not kinds <= set(TRANSFORMS) or not np.all(np.isfinite(vector)):
         raise ValueError(f"{source}: field final_model.variables: expected finite values of kinds {sorted(TRANSFORMS)}")
     if not (record["amplitude_scale"] > 0 and record["nominal_frequency_hz"] > 0):
         raise ValueError(f"{source}: field final_model.amplitude_scale / nominal_frequency_hz: expected positive")
@@ -74,8 +78,8 @@ def evaluate(record: dict, amplitude) -> dict:
     steps = STEP * np.maximum(1.0, np.abs(vector))
     gradient = np.column_stack([(backbone(vector + step * unit) - backbone(vector - step * unit)) / (2 * step)
                                 for step, unit in zip(steps, np.eye(vector.size))])
-    spread = Z_95 * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gradient, np.asarray(record["covariance"]),
-                                                 gradient), 0.0))
+    covariance = np.asarray(record["covariance"], dtype=float)
+    spread = Z_95 * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gradient, covariance, gradient), 0.0))
     band = np.array([curve - spread, curve + spread])
     low, high = record["fitted_range"]
     n = amplitude.size

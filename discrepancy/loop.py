@@ -181,7 +181,8 @@ class Fit(NamedTuple):
 PHYSICAL_LIMITS = {
     "chi": (lambda v: expit(v) < AT_BOUND, float(logit(1e-12)),
             "Iwan's law at chi -> 0 (dissipation about linear in amplitude)"),
-    "beta": (lambda v: v < np.log(1e-3), -300.0, "Iwan's law without its spike, beta -> 0 (the power-law density alone)"),
+    "beta": (lambda v: v < np.log(1e-3), -300.0,
+             "Iwan's law without its spike, beta -> 0 (the power-law density alone)"),
 }
 """Parameter -> (whether its fitted variable sits at a limit of the element's law rather than at a box edge, the
 variable's value at the limit, what the limit means). A parameter there is a constrained optimum, decided by
@@ -396,8 +397,9 @@ class Step(NamedTuple):
 class Verdict:
     """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
     checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
-    unexplained (a residual above the noise, or a finding outside the library), the final fit, and the other models the selection cannot tell from it (``alternatives``: effects ->
-    BIC, within ``EVIDENCE`` of it with as many parameters)."""
+    unexplained (a residual above the noise, or a finding outside the library), the final fit, and the other
+    models the selection cannot tell from it (``alternatives``: effects -> BIC, within ``EVIDENCE`` of it with as
+    many parameters)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)

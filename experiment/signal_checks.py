@@ -405,7 +405,8 @@ def second_mode(removed: list[TargetRemoved], mode_frequency_hz: float, band_hz,
             "damping_ratio": float(np.median(decay)) / (2 * np.pi * found_hz), "envelope_exponent": exponent,
             "extra_decay_rate_per_s": decay_rate, "statistic": statistic[peak], "threshold": threshold,
             "degrees_of_freedom": tested["degrees"], "searched_hz": tested["searched_hz"],
-            "spectral_moment_s2": tested["spectral_moment"], "floor_spread": spread, "floor": "one level over the band" if pooled_floor else "running median"}
+            "spectral_moment_s2": tested["spectral_moment"], "floor_spread": spread,
+            "floor": "one level over the band" if pooled_floor else "running median"}
 
 
 def hit_residuals(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> tuple[list[TargetRemoved], bool]:
