@@ -137,7 +137,10 @@ class StudyFolder(NamedTuple):
 
 def read_study(folder: Path) -> StudyFolder:
     """A study's folder (``surrogacy study`` output: study.json, measurements/): its configuration resolved and its
-    structures rebuilt from the measurement files. Raises ValueError naming study.json where it is missing."""
+    structures rebuilt from the measurement files, checked as the analyse step checks it (``check_explored``: the
+    exploration of these inputs, every chunk with the rows its seed regenerates) before any reader uses it: a
+    measurement edited after the study, or a chunk copied, cut or removed, is refused, never read. Raises
+    ValueError naming study.json where it is missing, StudyError naming the first file that differs."""
     folder = Path(folder)
     record_path = folder / "study.json"
     if not record_path.exists():
@@ -146,7 +149,9 @@ def read_study(folder: Path) -> StudyFolder:
     parameters = resolve(defaults(), record["configuration"], source=str(record_path))
     inputs = record["inputs"]
     paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]), Path(inputs["reference"]))
-    return StudyFolder(paths, parameters, exploration(paths, parameters))
+    explored = exploration(paths, parameters)
+    check_explored(explored, paths.designs)
+    return StudyFolder(paths, parameters, explored)
 
 
 class FrontDesigns(NamedTuple):

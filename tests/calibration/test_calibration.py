@@ -326,3 +326,34 @@ def test_a_model_that_contains_iwan4_fits_at_least_as_well(tmp_path):
     stamps = {path: path.stat().st_mtime_ns for path in out.glob("*/*.json")}
     assert surrogacy(arguments) == 0
     assert {path: path.stat().st_mtime_ns for path in out.glob("*/*.json")} == stamps
+
+
+@pytest.mark.parametrize("command", [
+    ["fit", "--structures", "ASB C1", "--max-generations", "2"],
+    ["confidence", "--model", "jenkins", "--frequency-bound", "0.5", "--damping-bound", "5e-4"],
+    ["discrepancy", "--structure", "ASB C1"],
+], ids=["fit", "confidence", "discrepancy"])
+def test_study_consumers_refuse_a_study_whose_measurement_changed(small_study, tmp_path, capsys, command):
+    """A measurement edited after the study (ASB C1's frequencies x 1.05): fit, confidence and discrepancy
+    --study refuse the folder as the analyse step does (exit 2, one line naming the exploration as made for other
+    inputs), before they read a chunk or write a file."""
+    import shutil
+
+    folder = tmp_path / "study"
+    shutil.copytree(small_study, folder)
+    measurement = folder / "measurements" / "ASB_C1.csv"
+    lines = measurement.read_text().splitlines()
+    for index, line in enumerate(lines):
+        if line[:1].isdigit():
+            cells = line.split(",")
+            cells[1] = repr(float(cells[1]) * 1.05)
+            lines[index] = ",".join(cells)
+    measurement.write_text("\n".join(lines) + "\n")
+    before = {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()}
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert surrogacy([command[0], "--study", str(folder), *command[1:], "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"{folder / 'designs' / 'exploration.json'}: explored for other inputs" in error[0]
+    assert {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()} == before
+    assert not out.exists()
