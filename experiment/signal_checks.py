@@ -64,8 +64,9 @@ drift
 clipping, no_pretrigger, truncated_record
     The record itself: a channel that holds its extreme value for ``CLIPPED_SAMPLES`` consecutive samples or
     more (a saturated amplifier or converter); a channel whose first samples are already moving (mean |x - median|
-    over ``PRETRIGGER_SAMPLES`` samples above ``PRETRIGGER_LEVEL`` of its peak: the record starts after the
-    impact); a band-passed channel whose envelope still falls at the record's end, beyond the scatter of a noise
+    over ``PRETRIGGER_SAMPLES`` samples above ``PRETRIGGER_LEVEL`` of its peak and above ``PRETRIGGER_NOISE``
+    times the noise at the record's end, :func:`record_end_noise`, so that a weak channel's noise is not taken
+    for motion: the record starts after the impact); a band-passed channel whose envelope still falls at the record's end, beyond the scatter of a noise
     floor (:func:`still_decaying`: the record ends before the decay does).
 
 Each finding is a JSON-ready dict: ``name``, ``outside_library`` (``FINDINGS``: whether no effect of a backbone
@@ -112,6 +113,7 @@ BLOCK_PERIODS = 10  # envelope blocks (median) for the noise floor and the end o
 CLIPPED_SAMPLES = 3
 PRETRIGGER_SAMPLES = 4
 PRETRIGGER_LEVEL = 0.1
+PRETRIGGER_NOISE = 4.0  # first samples' mean |x - median| over the record end's noise scale: no pre-trigger above
 STILL_DECAYING = 0.1  # fall of ln(envelope) over the record's last eighth that still counts as a decay
 FINAL_BLOCKS = 8
 
@@ -589,6 +591,13 @@ def still_decaying(medians: np.ndarray, false_alarm: float) -> bool:
     return drop > STILL_DECAYING and -fit.slope > scipy.stats.t.isf(false_alarm, final.size - 2) * fit.stderr
 
 
+def record_end_noise(raw: np.ndarray, block: int) -> float:
+    """Standard deviation of a raw channel (n,) over its last ``block`` samples, 1.4826 times their median absolute
+    deviation: the noise where the decay has reached it, an upper bound of the noise where it has not."""
+    end = raw[-block:]
+    return float(1.4826 * np.median(np.abs(end - np.median(end))))
+
+
 def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> list[dict]:
     """Clipping, no pre-trigger and a truncated record (module docstring), one finding each with the channels
     where they are seen and a level per channel: the clipped value (signal unit), the first samples' mean
@@ -614,8 +623,9 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
             if runs.max() >= CLIPPED_SAMPLES:
                 seen["clipping"].append(label)
                 levels["clipping"].append(peak)
-            moving = np.mean(np.abs(raw[:PRETRIGGER_SAMPLES] - np.median(raw))) / np.max(np.abs(raw - np.median(raw)))
-            if moving > PRETRIGGER_LEVEL:
+            start = np.mean(np.abs(raw[:PRETRIGGER_SAMPLES] - np.median(raw)))
+            moving = start / np.max(np.abs(raw - np.median(raw)))
+            if moving > PRETRIGGER_LEVEL and start > PRETRIGGER_NOISE * record_end_noise(raw, block):
                 seen["no_pretrigger"].append(label)
                 levels["no_pretrigger"].append(moving)
             envelope = np.abs(scipy.signal.hilbert(signal))
