@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from discrepancy.loop import BASE, EFFECTS, TRANSFORMS, Fit, _to_parameters, _to_vector, model_backbone
+from discrepancy.loop import BASE, EFFECTS, Fit, _to_parameters, _to_vector, model_backbone
 from study.structures import Measurement
 
 KIND = {name: kind for name, kind, _ in (*BASE, *(p for effect in EFFECTS.values() for p in effect.parameters))}
@@ -54,11 +54,18 @@ def check_record(record: dict, source: str) -> None:
         raise ValueError(f"{source}: field final_model.vector/covariance: expected numbers (null is not one)") from None
     if vector.shape != (p,) or covariance.shape != (p, p) or not np.all(np.isfinite(covariance)):
         raise ValueError(f"{source}: field final_model.vector/covariance: expected {p} values and {p}x{p} finite")
-    kinds = {kind for _, kind in record["variables"]}
-    if not kinds <= set(TRANSFORMS) or not np.all(np.isfinite(vector)):
-        raise ValueError(f"{source}: field final_model.variables: expected finite values of kinds {sorted(TRANSFORMS)}")
-    if not (record["amplitude_scale"] > 0 and record["nominal_frequency_hz"] > 0):
-        raise ValueError(f"{source}: field final_model.amplitude_scale / nominal_frequency_hz: expected positive")
+    names = [variable[0] for variable in record["variables"]]
+    if not set(names) <= set(KIND) or not {"kappa", "slip_force"} <= set(names) or not np.all(np.isfinite(vector)):
+        raise ValueError(f"{source}: field final_model.variables: expected finite values of the one-mode model's "
+                         f"parameters ({', '.join(KIND)}), kappa and slip_force among them")
+    for name, low in (("amplitude_scale", 0.0), ("nominal_frequency_hz", 0.0), ("nominal_damping", -np.inf)):
+        if not isinstance(record[name], (int, float)) or not np.isfinite(record[name]) or not record[name] > low:
+            raise ValueError(f"{source}: field final_model.{name} = {record[name]!r}: expected a finite number"
+                             + (" > 0" if low == 0 else ""))
+    fitted = record["fitted_range"]
+    if (not isinstance(fitted, list) or len(fitted) != 2 or not all(isinstance(v, (int, float)) for v in fitted)
+            or not 0 < fitted[0] <= fitted[1] < np.inf):
+        raise ValueError(f"{source}: field final_model.fitted_range = {fitted!r}: expected [low, high], 0 < low <= high")
 
 
 def evaluate(record: dict, amplitude) -> dict:
@@ -66,7 +73,7 @@ def evaluate(record: dict, amplitude) -> dict:
     frequency_band, damping_band (2, n) (module docstring), and extrapolated (n,) bool: outside the fitted
     range."""
     amplitude = np.asarray(amplitude, dtype=float)
-    variables = [(name, kind, None) for name, kind in record["variables"]]
+    variables = [(name, KIND[name], None) for name, _ in record["variables"]]
     scale = (record["nominal_frequency_hz"], record["nominal_damping"], record["amplitude_scale"])
     vector = np.asarray(record["vector"], dtype=float)
 

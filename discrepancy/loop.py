@@ -25,11 +25,12 @@ each residual divided by the measurement's standard uncertainty (with floors of 
 parameters in log, bounded ones through a logistic map; several starts. The variables' covariance is that of the
 weighted least-squares optimum (``parameter_covariance``).
 
-Limits of a law. chi -> 0 is a value of Iwan's law (dissipation about linear in amplitude), not a parameter the
-points leave free: where chi's optimum sits within ``AT_BOUND`` of that end (``PHYSICAL_LIMITS``), the model is
-refitted with chi held there, and kept so where freeing it lowers chi^2 by less than ``LIMIT_TEST`` (a
-likelihood-ratio test at 5 % against the 50:50 mixture of chi^2_0 and chi^2_1 that a parameter on the boundary of
-its range follows): a constrained optimum with one parameter fewer, recorded as held with its evidence.
+Limits of a law. chi -> 0 (dissipation about linear in amplitude; chi = -0.005, the end of its range) and
+beta -> 0 (Iwan's density without its spike) are values of Iwan's law, not parameters the points leave free: every
+fit with microslip is refitted with each held at its limit in turn (``PHYSICAL_LIMITS``), and each stays held where
+freeing it lowers chi^2 by less than ``LIMIT_TEST`` (a likelihood-ratio test at 5 % against the 50:50 mixture of
+chi^2_0 and chi^2_1 that a parameter on the boundary of its range follows): a constrained optimum with one
+parameter fewer, recorded as held with its evidence.
 
 Determined. A fit's other effect parameters must be determined by the points: at the optimum, with J the Jacobian
 of the residuals in units of the measurement's uncertainty (what the points determine at their stated noise,
@@ -82,6 +83,7 @@ UNDETERMINED = 3.0  # standard deviation of a fitted variable (log or logit) abo
 SINGULAR_FLOOR = 1e-12  # singular values floored at this fraction of the Jacobian's largest entry
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
+ZETA_START = 1e-6  # least start of a fitted linear damping (a nominal of 0 would start its log at -inf)
 LIMIT_TEST = 2.706  # likelihood ratio above which a parameter is away from its law's limit (5 %, 50:50 chi^2_0/chi^2_1)
 
 
@@ -179,15 +181,13 @@ class Fit(NamedTuple):
 
 
 PHYSICAL_LIMITS = {
-    "chi": (lambda v: expit(v) < AT_BOUND, float(logit(1e-12)),
-            "Iwan's law at chi -> 0 (dissipation about linear in amplitude)"),
-    "beta": (lambda v: v < np.log(1e-3), -300.0,
-             "Iwan's law without its spike, beta -> 0 (the power-law density alone)"),
+    "chi": (float(logit(1e-12)), "Iwan's law at chi -> 0 (chi = -0.005, the end of its range: dissipation about "
+                                 "linear in amplitude)"),
+    "beta": (-300.0, "Iwan's law without its spike, beta -> 0 (the power-law density alone)"),
 }
-"""Parameter -> (whether its fitted variable sits at a limit of the element's law rather than at a box edge, the
-variable's value at the limit, what the limit means). A parameter there is a constrained optimum, decided by
-``LIMIT_TEST``, not an undetermined one. beta is tried at its limit below 1e-3 (its values in the field run from
-1e-2 to 10); the test decides."""
+"""Parameter -> (its fitted variable at a limit of the element's law, not a box edge; what the limit means). Every
+fit with such a parameter is refitted with it held there, one after the other, and it stays held where freeing it
+lowers chi^2 by less than ``LIMIT_TEST`` (``fit``): a constrained optimum with one parameter fewer."""
 
 
 def determinacy(jacobian, vector, specification, indices) -> dict:
@@ -211,12 +211,6 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
             reasons[name] = (f"not determined ({value:.4g}, standard deviation {spread[position]:.2g} in its "
                              f"{'log' if kind == 'log' else 'logit'})")
     return reasons
-
-
-def at_physical_limit(vector, specification, indices) -> list[int]:
-    """The indices among ``indices`` whose fitted variable sits at its law's limit (``PHYSICAL_LIMITS``)."""
-    return [index for index in indices if specification[index][0] in PHYSICAL_LIMITS
-            and PHYSICAL_LIMITS[specification[index][0]][0](vector[index])]
 
 
 def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
@@ -256,10 +250,11 @@ def best_least_squares(residual, starts, held: dict):
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
         starts: list[dict], nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
-    entries take the library's start values); the best fit. An effect parameter whose optimum sits at its law's
-    limit (``PHYSICAL_LIMITS``) is refitted held there and stays held where the likelihood ratio of freeing it,
-    chi^2_held - chi^2_free, is below ``LIMIT_TEST`` (the 5 % point of the 50:50 mixture of chi^2_0 and chi^2_1
-    that a parameter on the boundary of its range follows): a constrained optimum with one parameter fewer.
+    entries take the library's start values); the best fit. Each effect parameter with a limit of its law
+    (``PHYSICAL_LIMITS``) is then refitted held there, one after the other from the optimum, and stays held where
+    the likelihood ratio of freeing it, chi^2_held - chi^2_free, is below ``LIMIT_TEST`` (the 5 % point of the
+    50:50 mixture of chi^2_0 and chi^2_1 that a parameter on the boundary of its range follows): a constrained
+    optimum with one parameter fewer.
 
     A nominal estimated from the measurement itself (``nominal_uncertainty``: its standard errors, Hz and -; 0 for
     a nominal given) is not exact: its frequency shift s and linear damping zeta_0' are fitted with a Gaussian
@@ -268,7 +263,7 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     loses the prior: an offset within the nominal's uncertainty earns nothing."""
     priors = nominal_priors(effects, nominal_frequency_hz, nominal_damping, nominal_uncertainty)
     specification = model_variables(effects) + [variable for variable, _ in priors]
-    defaults = {"zeta_0": nominal_damping, "slip_force": None}
+    defaults = {"zeta_0": max(nominal_damping, ZETA_START), "slip_force": None}
     n = 2 * len(measurement.amplitude)
 
     def residual(vector):
@@ -282,17 +277,17 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
                           specification) for start in starts]
     effect_indices = range(len(BASE), len(specification) - len(priors))
     chi_squared, vector, jacobian = best_least_squares(residual, vectors, {})
-    held = {}
-    limits = at_physical_limit(vector, specification, effect_indices)
-    if limits:
-        values = {index: PHYSICAL_LIMITS[specification[index][0]][1] for index in limits}
-        constrained = best_least_squares(residual, [vector], values)
+    held, values = {}, {}
+    for index in (index for index in effect_indices if specification[index][0] in PHYSICAL_LIMITS):
+        name = specification[index][0]
+        trial = {**values, index: PHYSICAL_LIMITS[name][0]}
+        constrained = best_least_squares(residual, [vector], trial)
         ratio = constrained[0] - chi_squared
         if ratio < LIMIT_TEST:
             chi_squared, vector, jacobian = constrained
-            held = {specification[index][0]: f"held at its law's limit, {PHYSICAL_LIMITS[specification[index][0]][2]}"
-                                              f": freeing it lowers chi^2 by {max(ratio, 0.0):.3g} < {LIMIT_TEST}"
-                    for index in limits}
+            values = trial
+            held[name] = (f"held at its law's limit, {PHYSICAL_LIMITS[name][1]}: freeing it lowers chi^2 by "
+                          f"{max(ratio, 0.0):.3g} < {LIMIT_TEST}")
     parameters = _to_parameters(vector, specification)
     frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping,
                                         measurement.amplitude[-1])
@@ -316,7 +311,8 @@ def nominal_priors(effects, nominal_frequency_hz: float, nominal_damping: float,
         priors.append((("frequency_shift", "shift", 0.0),
                        lambda p: p["frequency_shift"] * nominal_frequency_hz / error_frequency))
     if error_damping > 0 and "zeta_0" not in freed:
-        priors.append((("zeta_0", "log", nominal_damping), lambda p: (p["zeta_0"] - nominal_damping) / error_damping))
+        priors.append((("zeta_0", "log", max(nominal_damping, ZETA_START)),
+                       lambda p: (p["zeta_0"] - nominal_damping) / error_damping))
     return priors
 
 
@@ -501,7 +497,7 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
         verdict.steps.append(step(best, current, candidates, rejected))
     stepwise_refinement(current, library, trial, accepted)
     final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)])
-    if set(final.effects) != set(current.effects):
+    if final is not current:
         verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
                                   {"before refinement": current.bic}))
     verdict.final = final

@@ -566,9 +566,9 @@ def drift_findings(hits: list[RingDown], measured: MeasuredBackbone, false_alarm
             evidence = {"quantity": name, f"rate_per_{unit}": rate, f"relative_rate_per_{unit}": rate / level,
                         "relative_change_over_span": rate * span / level, f"span_{unit}": span,
                         "standard_error": error, "t": rate / error, "critical_t": critical, "clock": clock_name}
-            summary = (f"the {label} {'rises' if rate > 0 else 'falls'} by {rate / level:+.3g} of itself per {unit} "
-                       f"of the {clock_name} at fixed amplitude ({rate * span / level:+.3g} over the {span:.4g} {unit} "
-                       f"{of})")
+            summary = (f"the {label} {'rises' if rate > 0 else 'falls'} by {abs(rate / level):.3g} of itself per "
+                       f"{unit} of the {clock_name} at fixed amplitude ({abs(rate * span / level):.3g} over the "
+                       f"{span:.4g} {unit} {of})")
             if confounded:  # the hits' strengths follow their order: the data cannot tell the two clocks apart
                 other = alone["across"][0] * said["across"][2] / level
                 evidence |= {"confounded_with": said["across"][0], "confounded_relative_change_over_span": other}

@@ -234,6 +234,10 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
         before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
         changes = [f"{json_float(before[key]):.3g} -> {json_float(after[key]):.3g}"
                    for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
+        if "joint_law" not in verdict:
+            lines.append(f"| [{path.parent.name}]({_relative(path.with_suffix('.md'), out)}) | written before the "
+                         "loop named the joint law apart: rerun `surrogacy discrepancy` | | | | | | | | |")
+            continue
         found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
                  f"{', '.join(verdict['added']) or 'none'}")
         if verdict["alternatives"]:

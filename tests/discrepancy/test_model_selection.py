@@ -47,24 +47,38 @@ def test_chi_at_iwans_limit_is_held_and_the_effect_outside_the_joint_found(seed)
     verdict = discrepancy_loop(measurement, F0, ZETA0)
     assert verdict.joint_law == ["microslip"] and verdict.added == ["stiffness_change"], verdict.effects
     assert verdict.final.parameters["chi"] > -0.1 and not verdict.final.undetermined
+    assert "chi" in verdict.final.held or verdict.final.parameters["chi"] < -0.0149  # held, or free off the limit
     assert verdict.final.parameters["frequency_shift"] == pytest.approx(-0.005, rel=0.1)
     assert not verdict.unexplained and verdict.steps[-1].reduced_chi_squared < 1.5
 
 
-def test_a_held_parameter_counts_as_none_in_the_bic():
-    """chi held at its limit: the fit has one parameter fewer than the free model, and its chi^2 is within
-    LIMIT_TEST of the free optimum's (that is what holding it required)."""
-    from discrepancy.loop import LIMIT_TEST
-
+def test_a_parameter_is_held_at_its_limit_only_where_the_likelihood_ratio_allows():
+    """chi = -0.002 (at Iwan's limit within the noise): held, one parameter fewer, chi at -0.005, the evidence a
+    ratio below LIMIT_TEST; chi = -0.3 (far from it): the held fit is worse by far more than LIMIT_TEST, so chi
+    stays free and the fit keeps its four parameters."""
     measurement, _ = virtual_measurement({"chi": -0.002, "beta": 0.05}, 0)
-    starts = base_starts(measurement, F0)
-    held = fit(measurement, ("microslip",), F0, ZETA0, starts)
-    assert "chi" in held.held and held.n_parameters == 3
-    assert held.parameters["chi"] == pytest.approx(-0.005, abs=1e-9)
-    free_chi = min(fit(measurement, ("microslip",), F0, ZETA0, [{**start, "chi": chi} for start in starts[:3]
-                                                                for chi in (-0.02, -0.1)]).chi_squared,
-                   held.chi_squared)
-    assert held.chi_squared - free_chi < LIMIT_TEST
+    near = fit(measurement, ("microslip",), F0, ZETA0, base_starts(measurement, F0))
+    assert "chi" in near.held and near.parameters["chi"] == pytest.approx(-0.005, abs=1e-9)
+    assert near.n_parameters == 4 - len(near.held)
+    measurement, _ = virtual_measurement({"chi": -0.3, "beta": 0.05}, 0)
+    far = fit(measurement, ("microslip",), F0, ZETA0, base_starts(measurement, F0))
+    assert "chi" not in far.held and far.n_parameters == 4 - len(far.held)
+    assert far.parameters["chi"] == pytest.approx(-0.3, abs=0.1)
+
+
+@pytest.mark.parametrize("offset, named", [(0.5, False), (10.0, True)])
+def test_an_offset_within_an_estimated_nominals_uncertainty_earns_nothing(offset, named):
+    """A nominal estimated with a standard error of 0.02 Hz, the measurement's stuck frequency off by ``offset``
+    of them: at 0.5 standard errors no stiffness change is named (the prior holds it); at 10 it is named with
+    its size within 10 %."""
+    error = 0.02
+    shift = -offset * error / F0
+    measurement, _ = virtual_measurement({"chi": -0.3, "beta": 0.1, "frequency_shift": shift}, 2)
+    verdict = discrepancy_loop(measurement, F0, ZETA0, nominal_uncertainty=(error, 1e-5))
+    assert ("stiffness_change" in verdict.added) == named, verdict.effects
+    if named:
+        assert verdict.final.parameters["frequency_shift"] == pytest.approx(shift, rel=0.1)
+    assert not verdict.unexplained
 
 
 def fake(effects, n_parameters, bic):
