@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import stage_folder
+from pipeline.files import check_output_file, check_output_folder, stage_folder
 from study import workflow
 from study.datasets import DEFAULT_DAMPING_CASE
 from study.analysis import chunk_errors
@@ -137,10 +137,18 @@ def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequ
 def run_confidence(arguments: argparse.Namespace) -> None:
     """Subset simulation of each surrogate; writes the CSV (with the study's own sample counted at the same
     bounds beside it where the sample exists) and prints its main columns."""
+    given = [option for option, value in (("--frequency-bound", arguments.frequency_bound),
+                                          ("--damping-bound", arguments.damping_bound)) if value is not None]
+    if arguments.bounds is not None and given:
+        raise ValueError(f"options --bounds and {given[0]}: mutually exclusive; give either --bounds FILE or both "
+                         "--frequency-bound and --damping-bound")
+    if arguments.bounds is None and len(given) < 2:
+        raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
+    out = Path(arguments.out)
+    check_output_file(out)
+    check_output_folder(out.with_name(out.name + ".levels"))
     folder = workflow.read_study(arguments.study)
     exploration = folder.exploration
-    if (arguments.bounds is None) == (arguments.frequency_bound is None or arguments.damping_bound is None):
-        raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
     case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
     if arguments.bounds is not None:
         frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names, case)
@@ -149,7 +157,6 @@ def run_confidence(arguments: argparse.Namespace) -> None:
                                             for value in (arguments.frequency_bound, arguments.damping_bound))
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
-    out = Path(arguments.out)
     scales = np.append(1.0, BOUND_SCALES)
     sweep = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, scales)
     sample = None if sweep is None else SurrogacyMatrix(*(field[0] for field in sweep))

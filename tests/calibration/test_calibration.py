@@ -357,3 +357,33 @@ def test_study_consumers_refuse_a_study_whose_measurement_changed(small_study, t
     assert len(error) == 1 and f"{folder / 'designs' / 'exploration.json'}: explored for other inputs" in error[0]
     assert {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()} == before
     assert not out.exists()
+
+
+def files_of(folder):
+    return {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()}
+
+
+def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_reading_the_study(
+        tmp_path, capsys, monkeypatch):
+    """--bounds with --frequency-bound is refused naming both options, and --out naming a folder naming it, before
+    the study is read (nothing computed, nothing written)."""
+    from study import workflow
+
+    def no_study(folder):
+        raise AssertionError("the study was read before the options were checked")
+
+    monkeypatch.setattr(workflow, "read_study", no_study)
+    (tmp_path / "bounds.csv").write_text("model,structure,frequency_bound_hz,damping_bound\n")
+    (tmp_path / "folder").mkdir()
+    command = ["confidence", "--study", str(tmp_path / "study"), "--model", "jenkins"]
+    for options, expected in (
+            (["--bounds", str(tmp_path / "bounds.csv"), "--frequency-bound", "5", "--out", str(tmp_path / "c.csv")],
+             "options --bounds and --frequency-bound: mutually exclusive"),
+            (["--frequency-bound", "5", "--damping-bound", "1e-3", "--out", str(tmp_path / "folder")],
+             f"{tmp_path / 'folder'}: a folder; expected the name of a file to write")):
+        before = files_of(tmp_path)
+        assert surrogacy([*command, *options]) == 2
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1 and expected in error[0], error
+        assert files_of(tmp_path) == before and sorted(tmp_path.iterdir()) == [tmp_path / "bounds.csv",
+                                                                               tmp_path / "folder"]
