@@ -104,7 +104,14 @@ def read_bounds(path: Path, model: str, names: list[str], case: str) -> tuple[np
                if column not in table]
     if missing:
         raise ValueError(f"{path}: field {missing[0]!r}: missing (expected the columns of surrogacy fit's bounds.csv)")
-    rows = table[table["model"] == model].set_index("structure")
+    rows = table[table["model"] == model]
+    twice = np.flatnonzero(rows["structure"].duplicated().to_numpy())
+    if twice.size:
+        structure = rows["structure"].iloc[twice[0]]
+        lines = [index + 2 for index in rows.index[rows["structure"] == structure]]  # the header is line 1
+        raise ValueError(f"{path}: line {lines[1]}, field 'structure': {structure!r} of model {model!r} given again "
+                         f"(first on line {lines[0]}); expected one row per model and structure")
+    rows = rows.set_index("structure")
     if "damping_case" in rows and not (rows["damping_case"].astype(str) == case).all():
         raise ValueError(f"{path}: field 'damping_case': bounds formed for {sorted(set(rows['damping_case']))}; "
                          f"expected {case!r}, the damping case of this estimate")

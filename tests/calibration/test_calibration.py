@@ -387,3 +387,21 @@ def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_rea
         assert len(error) == 1 and expected in error[0], error
         assert files_of(tmp_path) == before and sorted(tmp_path.iterdir()) == [tmp_path / "bounds.csv",
                                                                                tmp_path / "folder"]
+
+
+def test_confidence_refuses_a_bounds_file_with_a_structure_given_twice(small_study, tmp_path, capsys):
+    import pandas as pd
+
+    from study.workflow import read_study
+
+    names = read_study(small_study).exploration.names
+    table = pd.DataFrame({"model": "jenkins", "structure": [*names, names[1]], "frequency_bound_hz": 1.0,
+                          "damping_bound": 2e-3})
+    table.to_csv(tmp_path / "bounds.csv", index=False)
+    before = files_of(small_study)
+    assert surrogacy(["confidence", "--study", str(small_study), "--model", "jenkins", "--bounds",
+                      str(tmp_path / "bounds.csv"), "--out", str(tmp_path / "c.csv")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"{tmp_path / 'bounds.csv'}: line {len(names) + 2}, field 'structure': " \
+                                f"{names[1]!r} of model 'jenkins' given again (first on line 3)" in error[0], error
+    assert files_of(small_study) == before and sorted(tmp_path.iterdir()) == [tmp_path / "bounds.csv"]
