@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from tqdm import tqdm
 
 from calibration.bounds import bounds_table, write_bounds
@@ -66,6 +67,63 @@ def study_errors(explored: Exploration, case: str, record: dict) -> tuple[float,
     return float(errors.frequency_error_hz[0]), float(errors.damping_error[0, list(explored.damping_cases).index(case)])
 
 
+FRONTS_ERRORS = ("frequency_error_hz", "damping_error")
+
+
+def check_fronts(path: Path, model: str, n_groups: int, structures: list[str], n_designs: int) -> None:
+    """Refuse a study's ``analysis/fronts_<model>.csv`` (docs/formats.md) that ``study.workflow.front_designs``
+    could not read as the analyse step wrote it, naming the file, the line (the header is line 1), the column and
+    what was expected: a file that is not CSV text, a missing column, a ``source`` other than sample or nsga2, a
+    sample ``design`` that is not an index of the study's n_designs, an error or an NSGA-II parameter that is not a
+    finite number (a cut line leaves it empty), or no row for one of ``structures``. Missing: ValueError as there."""
+    if not path.exists():
+        raise ValueError(f"{path}: missing (run the study's analyse step first)")
+    names = parameter_names(model, n_groups)
+    try:
+        table = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (OSError, ValueError) as error:  # pandas' parser errors and a UnicodeDecodeError are ValueErrors
+        raise ValueError(f"{path}: not a readable fronts CSV ({error}); expected the study's analyse step's file") \
+            from None
+    missing = [column for column in ("structure", "source", "design", *FRONTS_ERRORS, *names)
+               if column not in table]
+    if missing:
+        raise ValueError(f"{path}: column {missing[0]!r}: missing; expected the columns structure, source, design, "
+                         f"{', '.join(FRONTS_ERRORS)}, {', '.join(names)}")
+
+    def refuse(row: int, column: str, expected: str):
+        value = table.at[row, column]  # a cell a cut line lacks: NaN
+        shown = repr(value) if isinstance(value, str) and value else "empty"
+        raise ValueError(f"{path}: line {row + 2}, column {column!r}: {shown}; expected {expected}")
+
+    def numbers(column: str, rows) -> np.ndarray:
+        values = pd.to_numeric(table.loc[rows, column], errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            refuse(int(np.asarray(rows)[bad[0]]), column, "a finite number")
+        return values
+
+    other = np.flatnonzero(~table["source"].isin(["sample", "nsga2"]))
+    if other.size:
+        refuse(int(other[0]), "source", "sample or nsga2")
+    every = table.index.to_numpy()
+    for column in FRONTS_ERRORS:
+        negative = np.flatnonzero(numbers(column, every) < 0)
+        if negative.size:
+            refuse(int(every[negative[0]]), column, "an error of at least 0")
+    sample = table.index[table["source"] == "sample"].to_numpy()
+    designs = numbers("design", sample)
+    wrong = np.flatnonzero((designs != np.round(designs)) | (designs < 0) | (designs >= n_designs))
+    if wrong.size:
+        refuse(int(sample[wrong[0]]), "design", f"an index of the study's sample, 0 to {n_designs - 1}")
+    nsga2 = table.index[table["source"] == "nsga2"].to_numpy()
+    for name in names:
+        numbers(name, nsga2)
+    absent = [name for name in structures if not (table["structure"] == name).any()]
+    if absent:
+        raise ValueError(f"{path}: column 'structure': no row for {absent[0]!r}; expected the sample's and NSGA-II's "
+                         "front of every structure the study analysed")
+
+
 def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
                     max_generations: int = MAX_GENERATIONS) -> Path:
     """Calibrate ``models`` (default: the study's; in the registry's order) on ``structures`` (default: the
@@ -85,6 +143,9 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
         raise ValueError(f"option --max-generations = {max_generations}: expected at least 1")
     case = DEFAULT_DAMPING_CASE[parameters["study"].dataset]  # the study's zeta_0, paired with its seeds
     chosen = [(model, explored.names.index(name)) for model in models for name in structures]
+    for model in models:
+        check_fronts(paths.analysis / f"fronts_{model}.csv", model, explored.n_groups, structures,
+                     explored.sample.n_designs)
     fronts = {(model, index): front_designs(paths, model, explored.n_groups, explored.names[index])
               for model, index in chosen}  # every input read before the output folder is touched
     with stage_folder(out) as out:

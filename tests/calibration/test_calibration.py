@@ -363,6 +363,45 @@ def files_of(folder):
     return {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()}
 
 
+def cut_last_field(text: str) -> bytes:
+    lines = text.splitlines()
+    return ("\n".join([*lines[:-1], lines[-1][:lines[-1].rfind(",")]]) + "\n").encode()
+
+
+def non_numeric_damping_error(text: str) -> bytes:
+    lines = text.splitlines()
+    cells = lines[-1].split(",")
+    cells[4] = "abc"  # a structure calibrated after the first: refused before any calibration
+    return ("\n".join([*lines[:-1], ",".join(cells)]) + "\n").encode()
+
+
+@pytest.mark.parametrize("damage, expected", [
+    (cut_last_field, "line {last}, column 'K_z[0]': empty; expected a finite number"),
+    (non_numeric_damping_error, "line {last}, column 'damping_error': 'abc'; expected a finite number"),
+    (lambda text: (text.splitlines()[0] + "\n").encode(),
+     "column 'structure': no row for 'ASB C1'; expected the sample's"),
+    (lambda text: b"\xff\xfe\x00\x89PNG\r\n\x1a\n" * 40, "not a readable fronts CSV"),
+], ids=["truncated", "non-numeric", "header-only", "garbled"])
+def test_fit_refuses_a_damaged_fronts_file_naming_the_file_line_and_column(small_study, tmp_path, capsys, damage,
+                                                                           expected):
+    """A fronts file cut in its last line, with a word for a number, of its header alone or of bytes that are not
+    text: refused in one line naming the file, the line and column and what was expected, before any calibration,
+    and nothing is written."""
+    import shutil
+
+    copy = tmp_path / "study"
+    shutil.copytree(small_study, copy)
+    fronts = copy / "analysis" / "fronts_jenkins.csv"
+    text = fronts.read_text()
+    fronts.write_bytes(damage(text))
+    before = files_of(copy)
+    capsys.readouterr()
+    assert surrogacy(["fit", "--study", str(copy), "--max-generations", "1", "--out", str(tmp_path / "fit")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"{fronts}: {expected.format(last=len(text.splitlines()))}" in error[0], error
+    assert files_of(copy) == before and not (tmp_path / "fit").exists()
+
+
 def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_reading_the_study(
         tmp_path, capsys, monkeypatch):
     """--bounds with --frequency-bound is refused naming both options, and --out naming a folder naming it, before
@@ -390,6 +429,8 @@ def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_rea
 
 
 def test_confidence_refuses_a_bounds_file_with_a_structure_given_twice(small_study, tmp_path, capsys):
+    """A bounds CSV with a second row for the second structure: refused naming the file, that row's line and the
+    structure, before any estimate, and nothing is written."""
     import pandas as pd
 
     from study.workflow import read_study
