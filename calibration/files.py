@@ -65,13 +65,55 @@ def calibration_record(calibration: Calibration, key: str, study_front: dict) ->
     }
 
 
-def read_calibration(path: Path, key: str) -> dict | None:
-    """The record at ``path`` if it holds ``key`` (the same inputs), else None (missing, unreadable or stale)."""
+BEST_ERRORS = ("frequency_max_relative", "damping_max_relative", "frequency_linf_hz", "damping_linf")
+
+
+def record_problem(record, model: str, structure: str, names) -> str | None:
+    """The first field of a calibration record that this stage reads and the record lacks or holds wrongly, as
+    "field 'best.parameters.zeta_0': ..." (``calibration_record``'s layout; ``names``: the fit space's parameters
+    with zeta_0), or None where the record is whole."""
+    def field(path: str, expected: type):
+        value = record
+        for part in path.split("."):
+            if not isinstance(value, dict) or part not in value:
+                raise LookupError(f"field {path!r}: missing")
+            value = value[part]
+        if not isinstance(value, expected) or isinstance(value, bool):
+            raise LookupError(f"field {path!r}: {value!r}; expected {getattr(expected, '__name__', 'a number')}")
+        return value
+
+    number, nullable = (int, float), (int, float, type(None))  # null: a number that was not finite
+    try:
+        for path, expected in (("model", str), ("structure", str), ("best.undetermined", list),
+                               ("global.generations", int), ("hypervolume.study", nullable),
+                               ("hypervolume.calibrated", nullable), ("study", dict)):
+            field(path, expected)
+        if (record["model"], record["structure"]) != (model, structure):
+            return f"fields 'model', 'structure': {record['model']!r}, {record['structure']!r}; expected {model!r}, " \
+                   f"{structure!r}"
+        for name in names:
+            if not np.isfinite(field(f"best.parameters.{name}", number)):
+                return f"field 'best.parameters.{name}': expected a finite number"
+        for name in (*(f"errors.{error}" for error in BEST_ERRORS), "reduced_chi_squared"):
+            field(f"best.{name}", nullable)
+        lengths = {len(field(f"front.{part}", list)) for part in ("unit", "errors", "source")}
+        if len(lengths) != 1 or 0 in lengths:
+            return "fields 'front.unit', 'front.errors', 'front.source': expected lists of one equal, nonzero length"
+    except LookupError as error:
+        return str(error)
+    return None
+
+
+def read_calibration(path: Path, key: str, model: str, structure: str, names) -> dict | None:
+    """The record at ``path`` if it holds ``key`` (the same inputs) and every field this stage reads
+    (``record_problem``), else None: missing, unreadable, stale or damaged, it is calibrated again."""
     try:
         record = json.loads(Path(path).read_text())
     except (OSError, ValueError):
         return None
-    return record if record.get("key") == key else None
+    if not isinstance(record, dict) or record.get("key") != key:
+        return None
+    return None if record_problem(record, model, structure, names) else record
 
 
 def write_fronts(path: Path, records: list[dict], space_of) -> None:

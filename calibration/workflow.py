@@ -157,7 +157,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                                      calibrated.get((contained, index)) if contained else None)
             key = calibration_key(paths, model, structure, seed, max_generations, fitted)
             path = out / model / f"{structure.name.replace(' ', '_')}.json"
-            record = read_calibration(path, key)
+            record = read_calibration(path, key, model, structure.name,
+                                      fit_space(model, explored.n_groups, structure.measurement).names)
             if record is None:
                 result = calibrate(structure, model, explored.n_groups,
                                    to_unit(front.designs, *parameter_limits(model, explored.n_groups)),

@@ -402,6 +402,20 @@ def test_fit_refuses_a_damaged_fronts_file_naming_the_file_line_and_column(small
     assert files_of(copy) == before and not (tmp_path / "fit").exists()
 
 
+def test_fit_calibrates_again_a_record_whose_key_matches_but_whose_best_compromise_is_missing(small_study, tmp_path):
+    """A record with its key but without "best" is not trusted on its key: the rerun calibrates that structure
+    again and writes the same record the first run wrote."""
+    out = tmp_path / "fit"
+    arguments = ["fit", "--study", str(small_study), "--structures", "ASB C1", "--max-generations", "2", "--out",
+                 str(out)]
+    assert surrogacy(arguments) == 0
+    path = out / "jenkins" / "ASB_C1.json"
+    record = json.loads(path.read_text())
+    path.write_text(json.dumps({key: value for key, value in record.items() if key != "best"}))
+    assert surrogacy(arguments) == 0
+    assert json.loads(path.read_text()) == record
+
+
 def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_reading_the_study(
         tmp_path, capsys, monkeypatch):
     """--bounds with --frequency-bound is refused naming both options, and --out naming a folder naming it, before
