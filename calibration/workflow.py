@@ -130,8 +130,14 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
     study's) of the study in ``study``, seeded with its Pareto designs and its zeta_0, and a model that contains
     another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out``
     (``calibration.files``) and return it.
-    Raises ValueError for a model or structure the study does not hold, a cap below one, or a study without its
-    analysis, before the output folder is touched."""
+    Raises ValueError for an unknown model, a model or structure the study does not hold, a cap below one, or a
+    study without its analysis or with a fronts file that cannot be read (``check_fronts``), before the output folder
+    is touched. A record whose key matches but which lacks a field this run reads is calibrated again
+    (``calibration.files.read_calibration``)."""
+    unknown = [model for model in models or () if model not in MODEL_NAMES]
+    if unknown:
+        raise ValueError(f"option --models: {unknown[0]!r}: not a friction model; expected some of "
+                         f"{list(MODEL_NAMES)}")
     paths, parameters, explored = read_study(study)
     models = sorted(models or explored.models, key=MODEL_NAMES.index)  # a contained model before its container
     structures = list(structures or explored.names)

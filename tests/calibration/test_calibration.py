@@ -363,6 +363,17 @@ def files_of(folder):
     return {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()}
 
 
+def test_fit_refuses_an_unknown_model_naming_the_option_and_the_known_ones(small_study, tmp_path, capsys):
+    from nonlinear.friction_models import MODEL_NAMES
+
+    before = files_of(small_study)
+    assert surrogacy(["fit", "--study", str(small_study), "--models", "nope", "--out", str(tmp_path / "fit")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"option --models: 'nope': not a friction model; expected some of " \
+                                f"{list(MODEL_NAMES)}" in error[0]
+    assert files_of(small_study) == before and not (tmp_path / "fit").exists()
+
+
 def cut_last_field(text: str) -> bytes:
     lines = text.splitlines()
     return ("\n".join([*lines[:-1], lines[-1][:lines[-1].rfind(",")]]) + "\n").encode()
