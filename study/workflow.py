@@ -137,9 +137,10 @@ class StudyFolder(NamedTuple):
 
 def read_study(folder: Path) -> StudyFolder:
     """A study's folder (``surrogacy study`` output: study.json, measurements/): its configuration resolved and its
-    structures rebuilt from the measurement files, checked as the analyse step checks it (``check_explored``: the
-    exploration of these inputs, every chunk with the rows its seed regenerates) before any reader uses it: a
-    measurement edited after the study, or a chunk copied, cut or removed, is refused, never read. Raises
+    structures rebuilt from the measurement files, and its exploration, where it has one, checked as the analyse
+    step checks it (``check_explored``: made for these inputs, every chunk with the rows its seed regenerates)
+    before any reader uses it: a measurement edited after the study, or a chunk copied, cut or removed, is
+    refused, never read. Raises
     ValueError naming study.json where it is missing, StudyError naming the first file that differs."""
     folder = Path(folder)
     record_path = folder / "study.json"
@@ -150,7 +151,8 @@ def read_study(folder: Path) -> StudyFolder:
     inputs = record["inputs"]
     paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]), Path(inputs["reference"]))
     explored = exploration(paths, parameters)
-    check_explored(explored, paths.designs)
+    if (paths.designs / "exploration.json").exists():  # a study of its measurements only has no sample to check
+        check_explored(explored, paths.designs)
     return StudyFolder(paths, parameters, explored)
 
 
