@@ -21,17 +21,13 @@ amplitude], so c_per_q = c x/q; omega^2 + gamma omega_0^2 (q / q_max)^2 is omega
 to first order, so k_per_q2 = gamma / 2 (x/q)^2 / q_max^2.
 """
 
-import gzip
 import json
-import shutil
 
-import numpy as np
 import pytest
 
-from locations import SHARED
+from locations import CHALLENGE, challenge_ringdown
 from pipeline.cli import main
 
-CHALLENGE = SHARED / "data" / "ringdown-challenge"
 KEY = CHALLENGE / "key.json"
 NOMINAL = ("--nominal-frequency-hz", "169.86148", "--nominal-damping", "1.666e-3")
 SIZE = 0.1
@@ -53,9 +49,7 @@ def backbones(tmp_path_factory):
     folder = tmp_path_factory.mktemp("challenge")
     made = {}
     for case in cases():
-        ringdown = folder / f"{case}.csv"
-        with gzip.open(CHALLENGE / f"{case}.csv.gz", "rb") as source, open(ringdown, "wb") as target:
-            shutil.copyfileobj(source, target)
+        ringdown = challenge_ringdown(case, folder)
         assert main(["freevib", str(ringdown), "--mode-hz", "170", "--out", str(folder / f"fv{case}")]) == 0
         made[case] = (next((folder / f"fv{case}").glob("*_backbone.csv")),
                       json.loads(next((folder / f"fv{case}").glob("*Hz.json")).read_text()))

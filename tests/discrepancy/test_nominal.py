@@ -12,14 +12,12 @@ whose lowest levels are noise-dominated (stated uncertainty up to 40 times that 
 """
 
 import numpy as np
-import pytest
 
 from discrepancy.nominal import MIN_LEVELS, low_amplitude_nominal
-from locations import SHARED
+from locations import challenge_ringdown
 from study.structures import Measurement
 
 F0, Z0 = 169.86, 1.666e-3  # zero-amplitude frequency (Hz) and linear damping
-CHALLENGE = SHARED / "data" / "ringdown-challenge"
 
 
 def iwan_measurement(seed=None, amplitude=np.geomspace(1.2e-6, 3e-4, 20), outlier=None):
@@ -71,17 +69,11 @@ def test_never_from_one_level():
 def test_challenge_ringdown_with_mass_loading_gives_the_loaded_nominal(tmp_path):
     """P2 of the challenge set: the reference joint (stuck 169.86148 Hz, zeta_0 1.666e-3) with the mass 1.5 %
     up; its nominal is 169.86148 / sqrt(1.015) Hz and 1.666e-3 (the lowest level alone reads 1 Hz off)."""
-    import gzip
-
     from experiment.backbone_files import read_backbone
     from pipeline.cli import main as surrogacy
     from study.structures import measured_levels
 
-    source = CHALLENGE / "P2.csv.gz"
-    if not source.exists():
-        pytest.skip(f"the ring-down challenge set is not available at {CHALLENGE} (shared data folder absent)")
-    ringdown = tmp_path / "P2.csv"
-    ringdown.write_bytes(gzip.decompress(source.read_bytes()))
+    ringdown = challenge_ringdown("P2", tmp_path)
     assert surrogacy(["freevib", str(ringdown), "--mode-hz", "170", "--out", str(tmp_path / "freevib")]) == 0
     measurement = measured_levels(read_backbone(tmp_path / "freevib" / "P2_mode_170Hz_backbone.csv"))
     estimate = low_amplitude_nominal(measurement)

@@ -13,8 +13,6 @@
 - the findings travel in the backbone CSV and are read back; a malformed findings line is refused.
 """
 
-import gzip
-import shutil
 from dataclasses import replace
 
 import numpy as np
@@ -29,7 +27,7 @@ from experiment.backbone_files import read_backbone, write_backbone
 from experiment.measured_files import read_ringdown
 from experiment.signal_checks import (FALSE_ALARM, FINDINGS, hit_residuals, record_findings, ringdown_findings,
                                       second_mode, second_mode_findings, second_mode_statistic)
-from locations import SHARED
+from locations import challenge_ringdown
 
 MODE_HZ = 169.0
 BAND = (0.7 * MODE_HZ, 1.3 * MODE_HZ)
@@ -118,19 +116,12 @@ def test_findings_travel_in_the_backbone_file(tmp_path):
         read_backbone(path)
 
 
-CHALLENGE = SHARED / "data" / "ringdown-challenge"
 CHALLENGE_HZ = 169.86147864728014  # the challenge reference's stuck frequency (its key)
 
 
 def challenge_hits(name, tmp_path):
-    """The hits of challenge file ``name`` (gunzipped into tmp_path); the test skips where the set is absent."""
-    packed = CHALLENGE / f"{name}.csv.gz"
-    if not packed.exists():
-        pytest.skip(f"the ring-down challenge set is absent ({packed})")
-    path = tmp_path / f"{name}.csv"
-    with gzip.open(packed) as source, open(path, "wb") as target:
-        shutil.copyfileobj(source, target)
-    return read_ringdown(path)
+    """The hits of challenge file ``name``; the test skips where the set is absent."""
+    return read_ringdown(challenge_ringdown(name, tmp_path))
 
 
 def test_challenge_clean_file_gives_no_second_mode(tmp_path):

@@ -10,9 +10,7 @@
   within each hit of 1e-3 over 1.65 s, found with its sign and rate (within 30 %); P1, clean, gives none.
 """
 
-import gzip
 import json
-import shutil
 from dataclasses import replace
 
 import numpy as np
@@ -22,7 +20,7 @@ from discrepancy.virtual_data import undeclared_ringdown
 from experiment.backbone import ringdown_backbone
 from experiment.measured_files import read_ringdown
 from experiment.signal_checks import derivative_covariance, drift_findings
-from locations import SHARED
+from locations import CHALLENGE, challenge_ringdown
 
 MODE_HZ = 169.0
 GEOMETRIC = 0.5 ** np.linspace(0.0, 1.0, 7)  # hits from the top amplitude down to half of it, in that order
@@ -30,7 +28,6 @@ SHUFFLED = GEOMETRIC[[0, 4, 2, 6, 1, 5, 3]]  # the same strengths in an order un
 HITS = {"hits": 7, "duration_s": 1.7, "pretrigger_s": 0.05, "start_fractions": GEOMETRIC}
 DECAY_S = HITS["duration_s"] - HITS["pretrigger_s"]
 WITHIN = "time since each hit's impact"
-CHALLENGE = SHARED / "data" / "ringdown-challenge"
 
 
 def drift_of(hits, mode_hz=MODE_HZ):
@@ -83,13 +80,8 @@ def test_bin_means_of_a_derivative_are_anticorrelated_where_bins_share_an_edge()
 
 
 def challenge_hits(name, directory):
-    path = CHALLENGE / f"{name}.csv.gz"
-    if not path.is_file():
-        pytest.skip(f"challenge ring-down not found at {path} (../shared/data beside the repository)")
-    csv = directory / f"{name}.csv"
-    with gzip.open(path) as packed, csv.open("wb") as unpacked:
-        shutil.copyfileobj(packed, unpacked)
-    return read_ringdown(csv)
+    """The hits of challenge file ``name``; the test skips where the set is absent."""
+    return read_ringdown(challenge_ringdown(name, directory))
 
 
 def test_challenge_drift_within_each_hit_is_found_with_its_sign_and_rate(tmp_path):
