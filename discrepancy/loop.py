@@ -52,7 +52,8 @@ the BIC by more than ``EVIDENCE`` (10: very strong evidence), its parameters are
 neither L-infinity error (frequency, damping) worse than the reference model's by more than the measurement's
 largest standard uncertainty (a least-squares optimum can trade the worst point for the rest). The loop stops
 when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect
-earns its parameters; a stepwise refinement then tries swapping and dropping effects. Every model fitted is kept
+earns its parameters; forward paths from the next-best first steps (``other_first_steps``) and a stepwise
+refinement then try other combinations. Every model fitted is kept
 (a model fitted again from a better start keeps the better optimum). The answer (``final_model``) is, among every
 fitted model that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of
 the lowest BIC: the loop never ends on a model worse by its own criterion than one it evaluated, and the other
@@ -83,6 +84,7 @@ UNDETERMINED = 3.0  # standard deviation of a fitted variable (log or logit) abo
 SINGULAR_FLOOR = 1e-12  # singular values floored at this fraction of the Jacobian's largest entry
 
 MAX_SHIFT = 0.1  # largest relative frequency change outside the joint (a sensor's mass, a mis-set modulus: percents)
+OTHER_PATHS = 2  # forward paths from the next-best first steps beside the greedy one (``other_first_steps``)
 ZETA_START = 1e-6  # least start of a fitted linear damping (a nominal of 0 would start its log at -inf)
 LIMIT_TEST = 2.706  # likelihood ratio above which a parameter is away from its law's limit (5 %, 50:50 chi^2_0/chi^2_1)
 
@@ -451,8 +453,9 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
 def select_effects(measurement: Measurement, fitted, library) -> Verdict:
     """The loop's decisions, for any model family: ``fitted(effects, previous)`` gives the best Fit of the
     reference model with ``effects`` added (None where the family cannot hold that combination), starting from
-    ``previous``. Forward selection by BIC from the reference model, then ``stepwise_refinement``; the answer is
-    ``final_model`` over every model the two evaluated."""
+    ``previous``. Forward selection by BIC from the reference model, forward paths from the next-best first
+    steps (``other_first_steps``, ``climb``), then ``stepwise_refinement``; the answer is ``final_model`` over
+    every model they evaluated."""
     n = 2 * len(measurement.amplitude)
     evaluated = {}  # effects (frozenset) -> the best Fit found of them, or None
 
@@ -495,8 +498,10 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
             break
         current = trials[best]
         verdict.steps.append(step(best, current, candidates, rejected))
+    for model in other_first_steps(verdict.steps[0].fit, current, evaluated, accepted):
+        climb(model, library, trial, accepted, n)
     stepwise_refinement(current, library, trial, accepted)
-    final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)])
+    final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)], n)
     if final is not current:
         verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
                                   {"before refinement": current.bic}))
@@ -506,14 +511,40 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
     return verdict
 
 
-def final_model(accepted: list) -> tuple:
-    """The answer among the ``accepted`` fits (every model the loop evaluated that meets ``admissible``): of those
-    whose BIC is within ``EVIDENCE`` of the lowest (models the data do not tell apart from the best), the one with
-    the fewest parameters, then the lowest BIC. Returns (that Fit, {effects: BIC} of the others with as many
-    parameters within ``EVIDENCE`` of it: answers the selection cannot tell from it). The loop therefore never
-    ends on a model worse by its own criterion than one it evaluated and could accept."""
+def other_first_steps(reference: Fit, current: Fit, evaluated: dict, accepted) -> list:
+    """The single-effect models other than the forward path's first that earn their parameter over the reference
+    (accepted, BIC lower by ``EVIDENCE``), the ``OTHER_PATHS`` best by BIC: where the greedy path's first step
+    was a look-alike, a path from one of them can reach a better model (``climb``)."""
+    first = set(current.effects[:1])
+    singles = [model for key, model in evaluated.items() if len(key) == 1 and not key & first and accepted(model)
+               and model.bic < reference.bic - EVIDENCE]
+    return sorted(singles, key=lambda model: model.bic)[:OTHER_PATHS]
+
+
+def climb(model: Fit, library, trial, accepted, n: int) -> Fit:
+    """Greedy forward selection from ``model``: add the accepted effect with the lowest BIC while it lowers the
+    BIC by more than ``EVIDENCE`` and the residual is above the noise (``AT_NOISE``); every fit lands among those
+    ``final_model`` chooses from."""
+    while model.chi_squared / max(n - model.n_parameters, 1) > AT_NOISE:
+        trials = [trial((*model.effects, effect), model) for effect in library if effect not in model.effects]
+        better = [found for found in trials if accepted(found) and found.bic < model.bic - EVIDENCE]
+        if not better:
+            break
+        model = min(better, key=lambda found: found.bic)
+    return model
+
+
+def final_model(accepted: list, n: int) -> tuple:
+    """The answer among the ``accepted`` fits (every model the loop evaluated that meets ``admissible``; n
+    residuals): where some reach the measurement's noise (chi^2 per degree of freedom at most ``AT_NOISE``), the
+    one of those with the fewest parameters, then the lowest BIC (nothing is added to a model at the noise);
+    otherwise, of the fits whose BIC is within ``EVIDENCE`` of the lowest (models the data do not tell apart from
+    the best), the one with the fewest parameters, then the lowest BIC. Returns (that Fit, {effects: BIC} of the
+    others with as many parameters within ``EVIDENCE`` of it: answers the selection cannot tell from it). The loop
+    therefore never ends on a model worse by its own criterion than one it evaluated and could accept."""
+    at_noise = [model for model in accepted if model.chi_squared / max(n - model.n_parameters, 1) <= AT_NOISE]
     lowest = min(model.bic for model in accepted)
-    near = [model for model in accepted if model.bic <= lowest + EVIDENCE]
+    near = at_noise or [model for model in accepted if model.bic <= lowest + EVIDENCE]
     final = min(near, key=lambda model: (model.n_parameters, model.bic))
     alternatives = {", ".join(sorted(model.effects)): model.bic for model in near
                     if model.n_parameters == final.n_parameters and set(model.effects) != set(final.effects)
