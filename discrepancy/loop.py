@@ -521,7 +521,7 @@ def other_first_steps(reference: Fit, current: Fit, evaluated: dict, accepted) -
     return sorted(singles, key=lambda model: model.bic)[:OTHER_PATHS]
 
 
-def climb(model: Fit, library, trial, accepted, n: int) -> Fit:
+def climb(model: Fit, library, trial, accepted, n: int) -> None:
     """Greedy forward selection from ``model``: add the accepted effect with the lowest BIC while it lowers the
     BIC by more than ``EVIDENCE`` and the residual is above the noise (``AT_NOISE``); every fit lands among those
     ``final_model`` chooses from."""
@@ -531,7 +531,6 @@ def climb(model: Fit, library, trial, accepted, n: int) -> Fit:
         if not better:
             break
         model = min(better, key=lambda found: found.bic)
-    return model
 
 
 def final_model(accepted: list, n: int) -> tuple:
@@ -572,7 +571,7 @@ def admissible(measurement: Measurement, trial: Fit, reference: dict, effects) -
     return reasons
 
 
-def stepwise_refinement(current: Fit, library, fitted, accepted) -> Fit:
+def stepwise_refinement(current: Fit, library, fitted, accepted) -> None:
     """Explore around the forward selection's model: swap an effect for one outside it, or drop one, while that
     gives an accepted fit (``accepted``: ``admissible`` for all its effects) with a lower BIC (dropping: a BIC
     that rises by less than EVIDENCE, the effect not earning its parameters). Greedy forward steps can take a
@@ -594,4 +593,3 @@ def stepwise_refinement(current: Fit, library, fitted, accepted) -> Fit:
                 current, improved = min(better, key=lambda trial: trial.bic), True
                 visited.add(frozenset(current.effects))
                 break
-    return current
