@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-from experiment.backbone import Backbone, MeasuredBackbone, ModeBackbone, low_amplitude_reference
+from experiment.backbone import PROVENANCES, Backbone, MeasuredBackbone, ModeBackbone, low_amplitude_reference
 from pipeline.files import atomic_path
 
 BACKBONE_TITLE = "backbone: natural frequency and damping ratio of one mode against its amplitude"
@@ -105,6 +105,9 @@ def read_backbone(path: Path) -> ModeBackbone:
     missing = [key for key in BACKBONE_KEYS if key not in header]
     if missing:
         raise file_error(path, ", ".join(missing), "missing from the '# key: value' header")
+    if header["provenance"] not in PROVENANCES:
+        raise file_error(path, "provenance", f"'{header['provenance']}'; expected one of {', '.join(PROVENANCES)} "
+                                             "(simulated data are virtual)")
     rows = [line for line in lines if line and not line.startswith("#")]
     if not rows or next(csv.reader(rows[:1])) != backbone_header(header["amplitude_unit"]):
         raise file_error(path, "columns", f"header row must read {','.join(backbone_header(header['amplitude_unit']))}")

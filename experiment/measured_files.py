@@ -124,14 +124,18 @@ def known_formats(kind: str | None = None) -> str:
     return "; ".join(entry.description for entry in MEASURED_FORMATS if kind in (None, entry.kind))
 
 
-def measured_format(path: Path) -> MeasuredFormat:
+def measured_format(path: Path, kind: str | None = None) -> MeasuredFormat:
     """The format of the measured file ``path``: the first of :data:`MEASURED_FORMATS` whose suffix and content
-    match. Raises MeasuredFileError for a missing file, a folder, or a file no format matches."""
+    match. Raises MeasuredFileError for a missing file, a folder, an empty file (naming the formats of ``kind``,
+    or all), or a file no format matches."""
     path = Path(path)
     if path.is_dir():
         raise MeasuredFileError(path, "file", f"a folder; expected a measured file: {known_formats()}")
     if not path.is_file():
         raise MeasuredFileError(path, "file", "does not exist")
+    if path.stat().st_size == 0:
+        raise MeasuredFileError(path, "file", f"empty (0 bytes); expected a {kind or 'measured file'}: "
+                                              f"{known_formats(kind)}")
     for entry in MEASURED_FORMATS:
         if path.suffix.lower() in entry.suffixes and entry.recognises(path):
             return entry
@@ -141,7 +145,7 @@ def measured_format(path: Path) -> MeasuredFormat:
 def read_of_kind(path: Path, kind: str, instead: str):
     """The content of the measured file ``path``, which must be of ``kind``; ``instead`` says what to do with a
     file of the other kind. Raises MeasuredFileError naming the file and its format otherwise."""
-    entry = measured_format(path)
+    entry = measured_format(path, kind)
     if entry.kind != kind:
         raise MeasuredFileError(path, "file",
                                 f"format {entry.name}; expected a {kind}: {known_formats(kind)}. {instead}")

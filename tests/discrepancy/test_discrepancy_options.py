@@ -3,7 +3,8 @@
 Checked: a nominal no linear mode has (a frequency not positive and finite, a damping ratio outside [0, 1) or not
 finite), fewer levels than a measurement needs, and a nominal given with --study are each refused in one line that
 names the option and what was expected, with exit status 2 and no output folder; a backbone holding a point no free
-decay gives is refused naming the point and its cause (not a signal-check finding beside it); without the nominal
+decay gives is refused naming the point and its cause (not a signal-check finding beside it), and so are a backbone
+stating a provenance that is not one of the three and an empty file, naming the file; without the nominal
 options the loop starts from the measurement's low-amplitude estimate, which discrepancy.json and .md state with
 its standard errors and where it came from.
 """
@@ -77,3 +78,25 @@ def test_without_the_nominal_options_the_estimate_is_recorded_with_its_source(tm
     report = (out / "discrepancy.md").read_text()
     assert f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g} +- " in report
     assert "estimated from the measurement" in report
+
+
+@pytest.mark.parametrize("name, edit, expected", [
+    ("simulated.csv", lambda text: text.replace("# provenance: virtual", "# provenance: simulated"),
+     "field 'provenance': 'simulated'; expected one of measured, virtual, unknown"),
+    ("empty.csv", lambda text: "", "field 'file': empty (0 bytes); expected a backbone: backbone CSV (.csv)"),
+    ("empty.mat", lambda text: "", "field 'file': empty (0 bytes); expected a backbone: backbone CSV (.csv)"),
+])
+def test_a_file_that_is_no_backbone_is_refused_naming_it_and_what_was_expected(tmp_path, capsys, name, edit,
+                                                                                expected):
+    """A backbone stating a provenance outside the three, and an empty file (not called a ring-down and sent to
+    freevib): one line naming the file, the field and what was expected; no output folder."""
+    written = tmp_path / "written.csv"
+    write_undeclared_backbone(written)
+    assert "# provenance: virtual\n" in written.read_text()
+    backbone = tmp_path / name
+    backbone.write_text(edit(written.read_text()))
+    out = tmp_path / "out"
+    assert surrogacy(["discrepancy", str(backbone), "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and f"{backbone}: {expected}" in error and "freevib" not in error
+    assert not out.exists()

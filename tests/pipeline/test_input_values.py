@@ -124,7 +124,9 @@ def test_ring_down_csv_with_a_byte_order_mark_reads(tmp_path):
 
 @pytest.mark.parametrize("name, content, message", [
     ("twice.csv", "time [s],acc1 [m/s^2],acc1 [m/s^2]\n0,1,2\n0.001,1,2\n", "field 'acc1 [m/s^2]': column named more than once"),
-    ("empty.mat", "", "not a readable MATLAB file"),
+    ("empty.mat", "", "field 'file': empty (0 bytes); expected a ring-down: ring-down CSV (.csv)"),
+    ("empty.csv", "", "field 'file': empty (0 bytes); expected a ring-down: ring-down CSV (.csv)"),
+    ("header.mat", "MATLAB 5.0", "not a readable MATLAB file"),
 ])
 def test_unreadable_ring_downs_are_named(tmp_path, capsys, name, content, message):
     path = tmp_path / name
