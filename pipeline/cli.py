@@ -10,7 +10,9 @@ import argparse
 import contextlib
 import functools
 import importlib
+import io
 import json
+import os
 import resource
 import signal
 import sys
@@ -83,12 +85,15 @@ def peak_memory_mb() -> float:
 
 def log_run(log: Path, command: list[str], wall_s: float, status: int) -> None:
     """Append one line of strict JSON (the stage's command line, wall time, peak memory, exit status: finite
-    numbers) to ``log``: one short line written in append mode, so concurrent runs never interleave inside a line."""
+    numbers) to ``log``: one short line written in append mode, so concurrent runs never interleave inside a line.
+    A log whose last line was cut short (no line end) gets a line end first, so the record stays a line of its own."""
     record = {"command": ["surrogacy", *command], "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
               "wall_s": round(wall_s, 2), "peak_memory_mb": round(peak_memory_mb(), 1), "status": status}
     log.parent.mkdir(parents=True, exist_ok=True)
-    with open(log, "a") as stream:
-        stream.write(json.dumps(record, allow_nan=False) + "\n")
+    with open(log, "ab+") as stream:
+        size = stream.seek(0, io.SEEK_END)
+        cut = size > 0 and os.pread(stream.fileno(), 1, size - 1) != b"\n"
+        stream.write((("\n" if cut else "") + json.dumps(record, allow_nan=False) + "\n").encode())
 
 
 def run(arguments) -> int:

@@ -271,18 +271,41 @@ def git_commit() -> str:
         return "unknown"
 
 
+RUN_RECORD = {"command": list, "finished": str, "wall_s": (int, float), "peak_memory_mb": (int, float),
+              "status": int}
+"""The fields of a run log's line (``pipeline.cli.log_run``) and their JSON types."""
+
+
+def run_record(line: str) -> dict | str:
+    """One line of a run log as its record, or what is wrong with it (a line cut short, not one JSON object, a
+    field of :data:`RUN_RECORD` missing or of another type)."""
+    try:
+        record = json.loads(line)
+    except json.JSONDecodeError as error:
+        return f"not one JSON object ({error}; a line cut short?)"
+    if not isinstance(record, dict):
+        return "not one JSON object"
+    wrong = [key for key, kind in RUN_RECORD.items()
+             if not isinstance(record.get(key), kind) or isinstance(record.get(key), bool)]
+    return f"field(s) {', '.join(wrong)} missing or not of their type" if wrong else record
+
+
 def timings_table(run_log: Path | None) -> list[str]:
-    """Per-stage wall time and peak memory: the last logged run of each command line."""
+    """Per-stage wall time and peak memory: the last logged run of each command line; a damaged line of the log
+    is named (the log, the line, what is wrong) and left out."""
     if run_log is None or not run_log.exists():
         return ["_no run log (run the stages with `surrogacy --run-log FILE`, as `make demo` does)_"]
-    runs = {}
-    for line in run_log.read_text().splitlines():
-        record = json.loads(line)
-        runs[" ".join(record["command"])] = record
+    runs, damaged = {}, []
+    for number, line in enumerate(run_log.read_text(errors="replace").splitlines(), start=1):
+        record = run_record(line) if line.strip() else "empty"
+        if isinstance(record, str):
+            damaged.append(f"_{run_log}, line {number}: {record}; left out of this table_")
+        else:
+            runs[" ".join(map(str, record["command"]))] = record
     lines = ["| command | finished | wall time (s) | peak memory (MB) | exit status |", "|---|---|---|---|---|"]
     lines += [f"| `{command}` | {record['finished']} | {record['wall_s']:.1f} | {record['peak_memory_mb']:.0f} | "
               f"{record['status']} |" for command, record in runs.items()]
-    return lines
+    return lines + ([""] + damaged if damaged else [])
 
 
 def provenance_section(folders: Folders) -> list[str]:

@@ -12,9 +12,9 @@ import pytest
 from geometry.parameters import BEAM_NAMES
 from pipeline.cli import main as surrogacy
 from discrepancy.virtual_data import write_undeclared_ringdown
-from reduction.superelement import asb_data_folder
+from locations import ASB_MODELS
 
-ASB_C1 = asb_data_folder().parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
+ASB_C1 = ASB_MODELS.parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
 
 
 def test_run_log_records_each_run_with_its_status(tmp_path):
@@ -32,6 +32,25 @@ def test_run_log_records_each_run_with_its_status(tmp_path):
     assert [record["status"] for record in records] == [2, 0, 0]
     assert records[0]["command"][:2] == ["surrogacy", "freevib"]  # the stage's command line, not the log option
     assert all(record["wall_s"] >= 0 and record["peak_memory_mb"] > 10 for record in records)
+
+
+def test_a_cut_run_log_keeps_the_next_run_whole_and_the_report_names_the_line(tmp_path):
+    """A run log whose last line was cut short: the next run's record is a line of its own (it was glued to the
+    cut one), and the report's timings name the log and the cut line and show the whole records."""
+    log, build, results = tmp_path / "runs.jsonl", tmp_path / "build", tmp_path / "results"
+    build.mkdir(), results.mkdir()
+    report = ["report", "--build", str(build), "--results", str(results), "--out", str(tmp_path / "report.md")]
+    assert surrogacy(["--run-log", str(log), *report]) == 0
+    whole = log.read_text()
+    log.write_text(whole + whole[:len(whole) // 2])
+    assert surrogacy(["--run-log", str(log), *report]) == 0
+    lines = log.read_text().splitlines()
+    assert len(lines) == 3 and lines[1] == whole[:len(whole) // 2].strip()
+    assert [json.loads(lines[index])["status"] for index in (0, 2)] == [0, 0]
+    text = (tmp_path / "report.md").read_text()
+    assert re.search(rf"_{re.escape(str(log))}, line 2: not one JSON object \(.+; a line cut short\?\); left out", text)
+    first = json.loads(lines[0])
+    assert f"| `{' '.join(first['command'])}` | {first['finished']} | {first['wall_s']:.1f} |" in text
 
 
 def test_report_into_a_folder_is_refused_before_any_work(tmp_path, capsys):
@@ -55,7 +74,7 @@ def pipeline_report(beam_roms, tmp_path_factory):
     folder = tmp_path_factory.mktemp("report")
     log, results = folder / "runs.jsonl", folder / "results"
     assert surrogacy(["--run-log", str(log), "study", "--out", str(results / "study-asb"), "--data",
-                      str(asb_data_folder().parent), "--set", "study.dataset=asb", "--set", "sample.n_designs=2000",
+                      str(ASB_MODELS.parent), "--set", "study.dataset=asb", "--set", "sample.n_designs=2000",
                       "--set", "sample.chunk_size=1000", "--set", 'study.models=["jenkins"]',
                       "--set", "pareto.generations=3", "--set", "pareto.population=16"]) == 0
     assert surrogacy(["--run-log", str(log), "discrepancy", str(ASB_C1), "--out",
