@@ -45,7 +45,7 @@ import numpy as np
 import scipy.io
 
 from experiment.backbone import PROVENANCES, Backbone, MeasuredBackbone, ModeBackbone, low_amplitude_reference
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, json_text
 
 BACKBONE_TITLE = "backbone: natural frequency and damping ratio of one mode against its amplitude"
 """First comment line of a backbone CSV."""
@@ -87,7 +87,7 @@ def write_backbone(mode: ModeBackbone, destination: Path) -> None:
         stream.writelines(f"# {key}: {values.get(key, getattr(mode, key))}\n" for key in BACKBONE_KEYS)
         for key in ("settings", "findings", "dropped"):
             if getattr(mode, key):
-                stream.write(f"# {key}: {json.dumps(getattr(mode, key), sort_keys=True)}\n")
+                stream.write(f"# {key}: {json_text(getattr(mode, key), sort_keys=True)}\n")
         writer = csv.writer(stream)
         writer.writerow(backbone_header(mode.amplitude_unit))
         writer.writerows(zip(*(getattr(mode.backbone, field).tolist() for _, _, field in BACKBONE_COLUMNS)))

@@ -25,7 +25,7 @@ import pandas as pd
 
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
-from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float
+from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
 from study.figures import plt, save
 
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
@@ -316,18 +316,18 @@ def provenance_section(folders: Folders) -> list[str]:
                            ("reduction", folders.build / "rom" / "BRB.json")):
         values = _read_json(sidecar)
         if values is not None:
-            lines.append(f"| {stage} | {json.dumps(values['versions'])} | - |")
+            lines.append(f"| {stage} | {json_text(values['versions'])} | - |")
     for beam in BEAM_NAMES:
         experiment = _read_json(folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json")
         if experiment is not None:
-            lines.append(f"| virtual experiment {beam} | {json.dumps(experiment['versions'])} | {experiment['seed']} |")
+            lines.append(f"| virtual experiment {beam} | {json_text(experiment['versions'])} | {experiment['seed']} |")
     configurations = []
     for dataset, folder in STUDIES:
         study = _read_json(folders.results / folder / "study.json")
         if study is not None:
-            lines.append(f"| study ({dataset}) | {json.dumps(study['versions'])} | {study['seed']} |")
+            lines.append(f"| study ({dataset}) | {json_text(study['versions'])} | {study['seed']} |")
             configurations += [f"Study configuration ({dataset}):", "", "```json",
-                               json.dumps(study["configuration"], indent=1, sort_keys=True), "```", ""]
+                               json_text(study["configuration"], indent=1, sort_keys=True), "```", ""]
     return lines + [""] + configurations + ["### Per-stage wall time and peak memory", "",
                                             *timings_table(folders.run_log)]
 

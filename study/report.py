@@ -4,10 +4,9 @@
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, json_text
 from study.analysis import reason_counts
 from study.exploration import manifest
 
@@ -58,7 +57,7 @@ def write_report(paths, parameters: dict) -> Path:
               f"seed {sample.seed}, {study.n_levels} levels per structure, models {', '.join(study.friction_models)}."
               f" Acceptance: L-inf(f) <= {parameters['acceptance'].frequency_tolerance_hz} Hz and L-inf(zeta) <= "
               f"{parameters['acceptance'].damping_tolerance}. Linear damping cases: "
-              f"{json.dumps(explored['damping_cases'])}, made each design's zeta_0 by the rule "
+              f"{json_text(explored['damping_cases'])}, made each design's zeta_0 by the rule "
               f"\"{explored['damping_rule']}\" (docs/design.md section 7).", "", "### Designs not converged (flagged, never dropped)",
               "", flag_table(paths.designs, study.friction_models, names)]
     analysis = paths.analysis

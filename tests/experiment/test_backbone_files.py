@@ -46,6 +46,34 @@ def test_backbone_round_trip_keeps_every_float(tmp_path):
     assert_same_backbone(read_backbone(tmp_path / "linear.csv"), written)
 
 
+def test_header_json_lines_are_strict_json(tmp_path):
+    """The settings, findings and dropped lines hold a NaN, an infinity and numpy scalars: written as strict JSON
+    (null for the numbers that are not finite; RFC 8259 has no NaN), read back by a parser that refuses NaN."""
+    import json
+    from dataclasses import replace
+
+    mode = mode_backbone(ringdown_backbone(linear_hits([1.0, 0.8]), FREQUENCY_HZ, grid_points=12), "oscillator",
+                         "virtual", {"mode_hz": np.float64(50.0), "band": [np.nan, np.inf]},
+                         {"checked": ["second_mode"], "found": [{"name": "second_mode", "outside_library": True,
+                                                                 "summary": "s", "evidence": {"floor": np.nan}}]})
+    mode = replace(mode, dropped=[{"amplitude": 1e-3, "natural_frequency_hz": np.nan, "damping_ratio": -np.inf,
+                                   "records": np.int64(2), "reason": "r"}])
+    write_backbone(mode, tmp_path / "strict.csv")
+    header = {line[2:].partition(": ")[0]: line[2:].partition(": ")[2]
+              for line in (tmp_path / "strict.csv").read_text().splitlines() if line.startswith("# ")}
+
+    def refuse(constant):
+        raise AssertionError(f"{constant} is not JSON")
+
+    settings, findings, dropped = (json.loads(header[key], parse_constant=refuse)
+                                   for key in ("settings", "findings", "dropped"))
+    assert settings == {"mode_hz": 50.0, "band": [None, None]} and findings["found"][0]["evidence"] == {"floor": None}
+    assert dropped == [{"amplitude": 1e-3, "natural_frequency_hz": None, "damping_ratio": None, "records": 2,
+                        "reason": "r"}]
+    read = read_backbone(tmp_path / "strict.csv")
+    assert read.settings == settings and read.findings == findings and read.dropped == dropped
+
+
 def test_backbone_file_without_provenance_is_refused(tmp_path):
     written = mode_backbone(ringdown_backbone(linear_hits([1.0]), FREQUENCY_HZ), "linear oscillator", "measured")
     write_backbone(written, tmp_path / "linear.csv")
