@@ -132,6 +132,7 @@ class Hysteresis(NamedTuple):
     state: SliderState
 
 
+@np.errstate(invalid="ignore")  # the padding sliders (k = 0, never sliding) give 0/0 in unused branches
 def periodic_hysteresis(system: JointSystem, displacement: np.ndarray, state: SliderState,
                         max_periods: int = MAX_PERIODS) -> Hysteresis:
     """Step every element's sliders through the periodic displacement (n_t, N) (m), period after period from

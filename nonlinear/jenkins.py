@@ -57,3 +57,24 @@ def dissipation(amplitude, stiffness, slip_force):
     check_jenkins(stiffness, slip_force)
     u0 = np.abs(np.asarray(amplitude, dtype=float))
     return 4.0 * slip_force * np.maximum(u0 - slip_force / stiffness, 0.0)
+
+
+def describing_function(amplitude, stiffness, slip_force):
+    """First-harmonic (describing-function) stiffnesses of a Jenkins element under u = u0 cos(tau) (N/m):
+    f(tau) ~ K_eq u0 cos(tau) - K_D u0 sin(tau) = K_eq u + (K_D / omega) du/dt.
+
+    Derivation: from the reversal at u0 the force falls along f = F_S - K_T u0 (1 - cos tau) until it reaches
+    -F_S at tau = beta, cos(beta) = 1 - 2 F_S / (K_T u0), then slides at -F_S up to tau = pi (half-wave symmetry
+    gives the other half). The Fourier coefficients (2/pi) int_0^pi f cos and (2/pi) int_0^pi f sin give
+
+        K_eq = K_T (beta - sin(2 beta) / 2) / pi,     K_D = D / (pi u0^2),   D = 4 F_S (u0 - F_S / K_T),
+
+    D the dissipation per cycle (paper Eq. 15). Stuck (K_T u0 <= F_S): K_eq = K_T, K_D = 0. A mass m on a spring
+    k in parallel with the element then has the single-harmonic backbone omega^2 = (k + K_eq) / m and damping
+    ratio zeta = K_D / (2 m omega^2) = D / (2 pi m omega^2 u0^2).
+    """
+    check_jenkins(stiffness, slip_force)
+    u0 = np.abs(np.asarray(amplitude, dtype=float))
+    beta = np.arccos(np.clip(1.0 - 2.0 * slip_force / (stiffness * u0), -1.0, 1.0))
+    equivalent = stiffness * (beta - np.sin(2.0 * beta) / 2.0) / np.pi
+    return equivalent, dissipation(u0, stiffness, slip_force) / (np.pi * u0 ** 2)
