@@ -9,9 +9,12 @@ STAMP := $(VENV)/.installed
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-ASB_DATA ?= ../shared/data
-REFERENCE ?= ../shared/reference
-RINGDOWN ?= ../shared/data/chen2022-brb-hammer/HammerImpact.mat
+# The public measured data: ../shared/data beside the repository where it is, else the project's data/, where
+# `make data` downloads it. REFERENCE (empty: the paper's tables, pipeline/published.py) names a folder of your own.
+DATA := $(if $(wildcard ../shared/data),../shared/data,data)
+ASB_DATA ?= $(DATA)
+REFERENCE ?=
+RINGDOWN ?= $(DATA)/chen2022-brb-hammer/HammerImpact.mat
 MODE_HZ ?= 80.5
 STUDY_DESIGNS ?= 100000
 STUDY_CHUNK ?= 500
@@ -23,16 +26,17 @@ RUN_LOG ?= results/runs.jsonl
 TEST_WORKERS ?= 2
 
 # A data file or folder named on the command line (or in the environment) must exist: make stops before running.
-$(foreach name,RINGDOWN ASB_DATA REFERENCE,$(if $(filter command line environment,$(origin $(name))),\
+$(foreach name,RINGDOWN ASB_DATA REFERENCE,$(if $(and $(filter command line environment,$(origin $(name))),$($(name))),\
   $(if $(wildcard $($(name))),,$(error $(name)=$($(name)): no such file or folder))))
 
 SURROGACY := $(BIN)/surrogacy --run-log $(RUN_LOG)
-DEMO := $(SURROGACY) demo --data $(ASB_DATA) --reference $(REFERENCE) --ringdown $(RINGDOWN) --mode-hz $(MODE_HZ) \
+DEMO := $(SURROGACY) demo --data $(ASB_DATA) $(if $(REFERENCE),--reference $(REFERENCE)) --ringdown $(RINGDOWN) \
+  --mode-hz $(MODE_HZ) \
   --designs $(STUDY_DESIGNS) --chunk $(STUDY_CHUNK) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
 STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb fit-beams confidence-asb \
   confidence-beams report
 
-.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence calibrate bench clean system-packages
+.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence calibrate bench clean system-packages data
 
 demo: $(STAMP)
 	$(DEMO)
@@ -73,7 +77,12 @@ calibrate: $(STAMP)
 	$(SURROGACY) calibrate --out results/calibration
 
 bench: $(STAMP)
-	$(BIN)/python -m benchmarks
+	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks
+
+# The public measured data (ASB backbones and reduced models, the Chen 2022 ring-down) into data/, hashes checked;
+# SURROGACY_DATA_URL=URL takes them from a mirror.
+data: $(STAMP)
+	$(BIN)/surrogacy data fetch --out data
 
 # Debian libraries that the gmsh wheel and off-screen PyVista load at import time.
 system-packages:

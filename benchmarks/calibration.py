@@ -14,6 +14,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from benchmarks import ASB_MODELS
 from benchmarks.table import row, show
 from calibration.calibrate import calibrate
 from calibration.files import hypervolumes
@@ -21,7 +22,6 @@ from calibration.objectives import fit_space, linf_errors, model_curves, unit_ze
 from experiment.measured_files import read_mode_backbone
 from nonlinear.condensation import modal_split
 from nonlinear.joint import parameter_names
-from reduction.superelement import asb_data_folder
 from study.datasets import DATASET_MODELS
 from study.pareto import non_dominated
 from study.structures import asb_superelement, structure
@@ -29,7 +29,7 @@ from study.structures import asb_superelement, structure
 
 def rows(configurations=("C1", "CD1"), n_designs: int = 4000, seed: int = 0) -> Iterator[dict]:
     """One row per configuration and friction model of the ASB (module docstring)."""
-    models_folder = asb_data_folder()
+    models_folder = ASB_MODELS
     backbones = models_folder.parent / "asb-backbones"
     for configuration in configurations:
         model_path = models_folder / f"MAT_NULLRED_{configuration}.mat"

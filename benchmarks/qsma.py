@@ -35,7 +35,8 @@ from nonlinear.condensation import joint_space, modal_split, stuck_modes  # noqa
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness, tangential_rows  # noqa: E402
 from nonlinear.qsma_vectorised import qsma_designs  # noqa: E402
-from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
+from benchmarks import ASB_MODELS  # noqa: E402
+from reduction.superelement import read_asb_superelement  # noqa: E402
 
 AMPLITUDE_RANGE = (7e-6, 1.1e-4)  # m kg^0.5, the measured ASB backbones
 CHUNK = 1000  # designs per vectorised call
@@ -96,7 +97,7 @@ def _timed_share(model: str, configuration: str, n_designs: int, n_levels: int, 
     """One process's share of the parallel measurement: load the model and compile, then ``repeats`` times wait
     for the other processes and evaluate ``n_designs`` designs; returns the wall-clock (start, end) of each
     pass in seconds since the epoch."""
-    space = joint_space(read_asb_superelement(asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"))
+    space = joint_space(read_asb_superelement(ASB_MODELS / f"MAT_NULLRED_{configuration}.mat"))
     n_groups = max(space.superelement.patch_groups) + 1
     designs = random_designs(model, n_designs, n_groups, np.random.default_rng(seed))
     amplitudes = np.geomspace(*AMPLITUDE_RANGE, n_levels)
@@ -129,7 +130,7 @@ def rows(models=MODEL_NAMES, n_designs: int = 4000, n_levels: int = 30, repeats:
          processes: int = 2, configuration: str = "CD1") -> Iterator[dict]:
     """The rows of the module docstring: per model its single-core rate (designs per CPU-second), then per model
     its rate per process with ``processes`` processes at once (designs per wall-clock second)."""
-    path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
+    path = ASB_MODELS / f"MAT_NULLRED_{configuration}.mat"
     if not path.exists():
         yield row("qsma", "all models", note=f"skipped: no ASB reduced model {path}")
         return

@@ -34,13 +34,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import PchipInterpolator
 
+from benchmarks import MEASURED_DATA
 from discrepancy.virtual_data import AMPLITUDES, REFERENCE_FREQUENCY_HZ, undeclared_ringdown
 from experiment.ringdown import RingDown
 from experiment.signal_checks import FALSE_ALARM, hit_residuals, second_mode
 
 SENSORS_X = np.array([-0.330, -0.271, -0.211, -0.151, -0.091, 0.091, 0.151, 0.211, 0.271, 0.330])  # m
 BEAM_LENGTH = 0.7112  # m, the BRB's overall length
-CHALLENGE_BACKBONE = Path(__file__).resolve().parents[2] / "shared/data/ringdown-challenge/reference_backbone.csv"
+CHALLENGE_BACKBONE = MEASURED_DATA / "ringdown-challenge" / "reference_backbone.csv"
 PROJECT_DURATION_S = 2.0  # s per hit: the decay reaches the noise within it
 LEVELS = (FALSE_ALARM, 1e-2, 5e-2)
 SEPARATIONS = (0.02, 0.03, 0.05)

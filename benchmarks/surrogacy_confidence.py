@@ -16,9 +16,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from benchmarks import ASB_MODELS
 from benchmarks.table import row, show
 from experiment.measured_files import read_mode_backbone
-from reduction.superelement import asb_data_folder
 from study.designs import design_chunk
 from study.errors import accepted
 from study.exploration import Exploration, Sample, structure_errors
@@ -33,7 +33,7 @@ MODEL = "iwan4"
 
 def rows(n_designs: int = 20000, seed: int = 0) -> Iterator[dict]:
     """One row per acceptance bounds (module docstring)."""
-    models_folder = asb_data_folder()
+    models_folder = ASB_MODELS
     structures = []
     for configuration in CONFIGURATIONS:
         model_path = models_folder / f"MAT_NULLRED_{configuration}.mat"

@@ -3,7 +3,7 @@
 floats as a serial run.
 
     python examples/dask_cluster_study.py --rom build/rom [--scheduler tcp://host:8786]
-    python examples/dask_cluster_study.py --data ../shared/data [--scheduler tcp://host:8786]
+    python examples/dask_cluster_study.py --data data [--scheduler tcp://host:8786]
 """
 
 import argparse

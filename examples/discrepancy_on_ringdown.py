@@ -1,6 +1,6 @@
 """The discrepancy loop on your own ring-down: which effects does a one-mode joint model need to follow it?
 
-    python examples/discrepancy_on_ringdown.py ../shared/data/chen2022-brb-hammer/HammerImpact.mat --mode-hz 80.5
+    python examples/discrepancy_on_ringdown.py data/chen2022-brb-hammer/HammerImpact.mat --mode-hz 80.5
     python examples/discrepancy_on_ringdown.py
 
 Without a file it writes a virtual ring-down (labelled virtual in the file) of a jointed beam whose joint slips

@@ -7,7 +7,7 @@ Without one, the superelements are the project's three beams (``build/rom``, fro
 measurements virtual: the QSMA backbone of one known iwan4 joint in each beam (labelled virtual), so every beam
 should accept the designs near it.
 
-    python examples/own_superelement_study.py --data ../shared/data --designs 2000 --out results/example-study
+    python examples/own_superelement_study.py --data data --designs 2000 --out results/example-study
     python examples/own_superelement_study.py --rom build/rom --designs 2000 --out results/example-study
 """
 

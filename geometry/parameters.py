@@ -6,7 +6,7 @@ lap in z in [-H/2, 0]; the upper half is the lower one rotated 180 degrees about
 the width through the lap centre, vertical when the beam hangs in the test rig with its bolts horizontal).
 
 Beams:
-- BRB: the nominal beam, dimensions from the public ABAQUS deck (``reference/brb_geometry.toml``).
+- BRB: the nominal beam, dimensions from the public ABAQUS deck (``pipeline.published.BRB_DECK``).
 - LBRB: the same lap and section with a longer ``body_length`` on either side.
 - SBRB: the BRB with a far-field "spring" in each body: a flexure, a length ``spring_length`` of the full-width
   section thinned symmetrically about the beam axis to ``spring_height``, centred ``spring_offset`` from the
@@ -24,11 +24,9 @@ Euler-Bernoulli beam with the lap tied were 0.4612 m and 6.1 mm.)
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
-REFERENCE_GEOMETRY = Path(__file__).resolve().parents[2] / "shared" / "reference" / "brb_geometry.toml"
+from pipeline.published import BRB_DECK
 
 
 class GeometryError(ValueError):
@@ -46,14 +44,14 @@ class BeamParameters:
     """
 
     name: str = "BRB"
-    body_length: float = 0.29972
-    lap_length: float = 0.12141
-    width: float = 0.0254
-    height: float = 0.0254
-    bolt_x: tuple[float, ...] = (-0.030353, 0.0, 0.030353)
-    hole_diameter: float = 0.008433
-    washer_outer_diameter: float = 0.0174625
-    patch_cuts: tuple[float, ...] = (0.0, 0.125, 0.375, 0.625, 0.875, 1.0)
+    body_length: float = BRB_DECK["body_length"]
+    lap_length: float = BRB_DECK["lap_length"]
+    width: float = BRB_DECK["width"]
+    height: float = BRB_DECK["height"]
+    bolt_x: tuple[float, ...] = BRB_DECK["bolt_x"]
+    hole_diameter: float = BRB_DECK["hole_diameter"]
+    washer_outer_diameter: float = BRB_DECK["washer_outer_diameter"]
+    patch_cuts: tuple[float, ...] = BRB_DECK["patch_cuts"]
     density: float = 7800.0
     spring_offset: float = 0.15
     spring_length: float = 0.0254
@@ -154,27 +152,6 @@ def validate_beam(beam: BeamParameters) -> None:
                  f"between 0 and the section height ({beam.height} m)", beam.spring_height)
         _require(beam.spring_length / 2 < beam.spring_offset < beam.body_length - beam.spring_length / 2,
                  "spring_offset", "a flexure lying wholly inside the body", beam.spring_offset)
-
-
-def reference_brb(path: Path = REFERENCE_GEOMETRY) -> BeamParameters:
-    """The nominal BRB read from the reference TOML (the ABAQUS deck's numbers)."""
-    try:
-        table = tomllib.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise GeometryError(f"{path}: reference geometry file not found") from None
-    except tomllib.TOMLDecodeError as error:
-        raise GeometryError(f"{path}: not valid TOML ({error})") from None
-    fields = {"body_length": "body_length", "lap_length": "lap_length", "width": "width", "height": "height",
-              "bolt_x": "bolt_x", "hole_diameter": "hole_diameter",
-              "washer_outer_diameter": "washer_outer_diameter", "patch_cuts": "patch_cuts_fraction",
-              "density": "density"}
-    values = {}
-    for field, key in fields.items():
-        if key not in table:
-            raise GeometryError(f"{path}: field '{key}' missing (expected the BRB's {field})")
-        value = table[key]
-        values[field] = tuple(float(v) for v in value) if isinstance(value, list) else float(value)
-    return BeamParameters(name="BRB", **values)
 
 
 BRB = BeamParameters()

@@ -38,14 +38,11 @@ from nonlinear.iwan import segalman_constants
 from nonlinear.parameters import (FrictionParameterError, check_iwan, check_jenkins, check_non_negative,
                                   check_positive)
 from nonlinear.sliders import Sliders, iwan_sliders, jenkins_sliders, with_linear_spring
+from pipeline.published import TABLE3
 
-TABLE3_LIMITS = {
-    "F_S": (1e1, 1e11, True), "K_T": (1e2, 1e14, True), "chi": (-0.99, -0.01, False),
-    "beta": (1e-4, 1e4, True), "theta": (0.0, 1.0, False), "K_z": (1e2, 1e14, True),
-    "K_c": (1e2, 1e14, True),
-}
-"""Paper Table 3: (minimum, maximum, logarithmic sampling) of each parameter (N, N/m or dimensionless); the core
-stiffness K_c, not in the paper, takes K_T's limits (module docstring)."""
+TABLE3_LIMITS = {**TABLE3, "K_c": TABLE3["K_T"]}
+"""Paper Table 3 (``pipeline.published.TABLE3``): (minimum, maximum, logarithmic sampling) of each parameter (N, N/m
+or dimensionless); the core stiffness K_c, not in the paper, takes K_T's limits (module docstring)."""
 STUCK_GROUP_PARAMETERS = ("K_T", "K_z")
 """Parameters of a stuck patch group: its tangential and normal stiffness (N/m)."""
 ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0, "K_c": 0.0}

@@ -32,6 +32,8 @@ DEMO_STEPS = tuple(step for step in STEPS if step not in ("discrepancy-modal-asb
 """The steps ``make demo`` runs: all but the one-mode loop on the six ASB backbones (about 3 minutes more), the
 beams' calibration (about 3 minutes) and the surrogacy confidence at each dataset's bounds from the data (about 1
 minute per friction model)."""
+FETCH = "make data, or surrogacy data fetch, downloads it"
+"""How to get the public measured data a skipped step needs (``pipeline.public_data``)."""
 BESIDE = {"study-asb": "fit-asb", "fit-asb": "report"}
 """Steps run in the background -> the step that waits for them: the ASB study beside beams, fe and rom (which
 compute on one core), its calibration beside the beams' study and the discrepancy loops."""
@@ -42,14 +44,14 @@ class DemoOptions:
     """What the demo reads and how big its studies are.
 
     data: folder with the ASB's measured backbones and reduced models (asb-backbones/, asb-reduced-models/).
-    reference: folder with the paper's tables. ringdown: a measured ring-down file, mode_hz its mode's frequency
-    guess (Hz). designs, chunk: designs per friction model and per chunk of the studies. scheduler: a
+    reference: a folder of the user's own paper tables for the studies (None: the paper's, in
+    ``pipeline.published``). ringdown: a measured ring-down file, mode_hz its mode's frequency guess (Hz). designs, chunk: designs per friction model and per chunk of the studies. scheduler: a
     dask.distributed address or "local" (None: in the study's process). run_log: the run log every stage appends
     to (``surrogacy --run-log``). build, results: the stages' output folders.
     """
 
     data: Path
-    reference: Path
+    reference: Path | None
     ringdown: Path
     mode_hz: float
     designs: int = 100_000
@@ -71,20 +73,23 @@ class Step:
 
 
 def study_options(options: DemoOptions) -> tuple[str, ...]:
-    """The options both studies share: the paper's tables, stale chunks recomputed, the sample's size."""
+    """The options both studies share: the user's paper tables where given, stale chunks recomputed, the sample's
+    size."""
     scheduler = ("--scheduler", options.scheduler) if options.scheduler else ()
-    return ("--reference", str(options.reference), "--restart-stale", "--set", f"sample.n_designs={options.designs}",
+    reference = ("--reference", str(options.reference)) if options.reference is not None else ()
+    return (*reference, "--restart-stale", "--set", f"sample.n_designs={options.designs}",
             "--set", f"sample.chunk_size={options.chunk}", *scheduler)
 
 
 def plan(options: DemoOptions) -> list[Step]:
-    """The demo's steps (``STEPS``), each with its runs or the reason it is skipped (its data absent)."""
+    """The demo's steps (``STEPS``), each with its runs or the reason it is skipped (its data absent, with the
+    command that fetches it)."""
     build, results = options.build, options.results
     backbones = options.data / "asb-backbones"
-    table1 = options.reference / "paper_table1_low_amplitude.csv"
+    no_backbones = f"{backbones} not found ({FETCH})"
     steps = [Step("study-asb", (("study", "--out", str(results / "study-asb"), "--data", str(options.data),
                                  "--set", "study.dataset=asb", *study_options(options)),))
-             if backbones.is_dir() else Step("study-asb", skipped=f"{backbones} not found"),
+             if backbones.is_dir() else Step("study-asb", skipped=no_backbones),
              Step("beams", (("beams", "--out", str(build / "beams")),)),
              Step("fe", (("fe", "--beams", str(build / "beams"), "--out", str(build / "fe")),)),
              Step("rom", (("rom", "--beams", str(build / "beams"), "--fe", str(build / "fe"), "--out",
@@ -94,13 +99,10 @@ def plan(options: DemoOptions) -> list[Step]:
                                        "--per-channel", "--provenance", "measured",  # the demo's ring-down is
                                        "--out", str(results / "freevib")),)))  # measured; its file does not say
     else:
-        steps.append(Step("freevib", skipped=f"{options.ringdown} not found"))
-    steps.append(fit_step(results, "asb", backbones.is_dir(), f"{backbones} not found"))
-    if table1.is_file():
-        steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
-                                           *study_options(options)),)))
-    else:
-        steps.append(Step("study-beams", skipped=f"{table1} not found (the paper's Table 1)"))
+        steps.append(Step("freevib", skipped=f"{options.ringdown} not found ({FETCH})"))
+    steps.append(fit_step(results, "asb", None if backbones.is_dir() else no_backbones))
+    steps.append(Step("study-beams", (("study", "--out", str(results / "study-beams"), "--rom", str(build / "rom"),
+                                       *study_options(options)),)))
     loops = []
     if options.ringdown.is_file():  # the backbone freevib made of it
         backbone = results / "freevib" / f"{freevib_stem(options.ringdown, options.mode_hz)}_backbone.csv"
@@ -115,29 +117,30 @@ def plan(options: DemoOptions) -> list[Step]:
     steps.append(Step("discrepancy-modal-asb", tuple(
         ("discrepancy", str(path), "--out", str(results / "discrepancy" / path.name.split("_20Nm")[0]))
         for path in asb_files if path.is_file())) if any(path.is_file() for path in asb_files)
-        else Step("discrepancy-modal-asb", skipped=f"{backbones} holds no ASB backbone"))
-    steps.append(fit_step(results, "beams", table1.is_file(), f"{table1} not found (the paper's Table 1)"))
-    steps += [confidence_step(results, "asb", backbones.is_dir(), f"{backbones} not found"),
-              confidence_step(results, "beams", table1.is_file(), f"{table1} not found (the paper's Table 1)")]
+        else Step("discrepancy-modal-asb", skipped=f"{backbones} holds no ASB backbone ({FETCH})"))
+    steps.append(fit_step(results, "beams"))
+    steps += [confidence_step(results, "asb", None if backbones.is_dir() else no_backbones),
+              confidence_step(results, "beams")]
     steps.append(Step("report", (("report", "--build", str(build), "--results", str(results), "--out",
                                   str(results / "report.md")),)))
     return steps
 
 
-def fit_step(results: Path, dataset: str, available: bool, why: str) -> Step:
-    """``fit-<dataset>``: the calibration of the dataset's study (``surrogacy fit``), with its bounds from the data."""
-    return (Step(f"fit-{dataset}", (("fit", "--study", str(results / f"study-{dataset}"), "--out",
-                                     str(results / f"fit-{dataset}")),))
-            if available else Step(f"fit-{dataset}", skipped=why))
+def fit_step(results: Path, dataset: str, skipped: str | None = None) -> Step:
+    """``fit-<dataset>``: the calibration of the dataset's study (``surrogacy fit``), with its bounds from the data;
+    skipped for the reason given, if one is."""
+    return (Step(f"fit-{dataset}", skipped=skipped) if skipped else
+            Step(f"fit-{dataset}", (("fit", "--study", str(results / f"study-{dataset}"), "--out",
+                                     str(results / f"fit-{dataset}")),)))
 
 
-def confidence_step(results: Path, dataset: str, available: bool, why: str) -> Step:
-    """``confidence-<dataset>``: each model's surrogacy confidence at the bounds ``fit-<dataset>`` derived."""
+def confidence_step(results: Path, dataset: str, skipped: str | None = None) -> Step:
+    """``confidence-<dataset>``: each model's surrogacy confidence at the bounds ``fit-<dataset>`` derived;
+    skipped for the reason given, if one is."""
     fit = results / f"fit-{dataset}"
-    return (Step(f"confidence-{dataset}", tuple(
+    return (Step(f"confidence-{dataset}", skipped=skipped) if skipped else Step(f"confidence-{dataset}", tuple(
         ("confidence", "--study", str(results / f"study-{dataset}"), "--model", model, "--bounds",
-         str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv")) for model in DEFAULT_MODELS[dataset]))
-        if available else Step(f"confidence-{dataset}", skipped=why))
+         str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv")) for model in DEFAULT_MODELS[dataset])))
 
 
 def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:

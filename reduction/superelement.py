@@ -141,11 +141,6 @@ def load_superelement(path: Path | str) -> Superelement:
                             patch_second_moments=moments if moments.size else None)
 
 
-def asb_data_folder() -> Path:
-    """Where the shared ASB reduced models live (outside the repository)."""
-    return Path(__file__).resolve().parents[2] / "shared" / "data" / "asb-reduced-models"
-
-
 def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch_groups=None) -> Superelement:
     """Read an ASB ``MAT_NULLRED_<conf>.mat`` (Hurty/Craig-Bampton, relative patch coordinates, rigid-body
     modes removed by a null-space projection; source: Nidish96/Computational-Work-For-ASB-Project).

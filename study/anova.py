@@ -21,10 +21,11 @@ import statsmodels.formula.api as smf
 from statsmodels.stats.anova import anova_lm
 
 from pipeline.files import atomic_path
+from pipeline.published import TABLE6
 
 FACTORS = {"surrogate": "surrogate_beam", "real": "real_beam", "model": "friction_model",
            "linear_damping": "linearized_zeta"}
-"""Column of the observations -> factor name in Table 6 (``paper_table6_anova.csv``)."""
+"""Column of the observations -> factor name in Table 6 (``pipeline.published.TABLE6``)."""
 TABLE_COLUMNS = ("factor", "df", "sum_sq", "mean_sq", "f_value", "p_value")
 
 
@@ -51,10 +52,12 @@ def surrogacy_anova(frame: pd.DataFrame) -> pd.DataFrame:
     return table.rename_axis("factor").reset_index()[list(TABLE_COLUMNS)]
 
 
-def read_paper_anova(path: Path) -> pd.DataFrame:
-    """The paper's Table 6 (CSV with ``TABLE_COLUMNS``); p_value kept as text (the paper writes "<2e-16")."""
-    return pd.read_csv(path, dtype={"factor": str, "p_value": str}, keep_default_na=False,
-                       na_values={column: [""] for column in TABLE_COLUMNS[1:5]})
+def paper_anova(table6: tuple = TABLE6) -> pd.DataFrame:
+    """The paper's Table 6 (``pipeline.published.TABLE6``) as a DataFrame with ``TABLE_COLUMNS``; p_value kept as
+    text (the paper writes "<2e-16"), a missing F value NaN."""
+    frame = pd.DataFrame(list(table6), columns=list(TABLE_COLUMNS))
+    frame["f_value"] = frame["f_value"].astype(float)
+    return frame
 
 
 def p_value_text(p_value: float) -> str:
@@ -65,7 +68,7 @@ def p_value_text(p_value: float) -> str:
 
 
 def anova_markdown(table: pd.DataFrame, paper: pd.DataFrame | None = None, left_out: int = 0) -> str:
-    """Markdown of ``surrogacy_anova`` with the paper's Table 6 (``read_paper_anova``) beside it: for each
+    """Markdown of ``surrogacy_anova`` with the paper's Table 6 (``paper_anova``) beside it: for each
     column ours and the paper's, matched on the factor name. left_out: observations missing from the balanced
     design (a replicate's surrogate accepted no design, SC undefined), stated under the table."""
     paper_rows = {} if paper is None else {row.factor: row for row in paper.itertuples()}
@@ -87,9 +90,8 @@ def anova_markdown(table: pd.DataFrame, paper: pd.DataFrame | None = None, left_
     return "\n".join(lines) + "\n"
 
 
-def write_anova_markdown(table: pd.DataFrame, destination: Path, paper_path: Path | None = None,
+def write_anova_markdown(table: pd.DataFrame, destination: Path, paper: pd.DataFrame | None = None,
                          left_out: int = 0) -> None:
-    """Write ``anova_markdown`` atomically, with the paper's Table 6 read from paper_path where given."""
-    paper = None if paper_path is None else read_paper_anova(paper_path)
+    """Write ``anova_markdown`` atomically, with the paper's Table 6 (``paper_anova``) beside it where given."""
     with atomic_path(destination) as temporary:
         temporary.write_text(anova_markdown(table, paper, left_out))

@@ -43,7 +43,7 @@ from study.surrogacy import SurrogacyMatrix, joint_counts, matrix_from_counts
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
     parameters = configuration(arguments, defaults())
-    paths = workflow.Paths(Path(arguments.out), Path(arguments.rom), Path(arguments.data), Path(arguments.reference))
+    paths = workflow.Paths(Path(arguments.out), Path(arguments.rom), Path(arguments.data), arguments.reference)
     with stage_folder(arguments.out):
         for step, result in workflow.run_steps(paths, parameters, arguments.steps, arguments.scheduler,
                                                arguments.restart_stale):
@@ -62,10 +62,12 @@ def register(subparsers) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     command.add_argument("--out", type=Path, default=Path("results/study-beams"), help="results folder")
     command.add_argument("--rom", type=Path, default=Path("build/rom"), help="reduction stage output (beams)")
-    command.add_argument("--data", type=Path, default=Path("../shared/data"),
-                         help="folder with asb-backbones/ and asb-reduced-models/ (ASB dataset)")
-    command.add_argument("--reference", type=Path, default=Path("../shared/reference"),
-                         help="folder with the paper's tables (Table 1 damping, Tables 5-6 for comparison)")
+    command.add_argument("--data", type=Path, default=Path("data"),
+                         help="folder with asb-backbones/ and asb-reduced-models/ (ASB dataset; default data/, where "
+                              "surrogacy data fetch puts them)")
+    command.add_argument("--reference", type=Path, metavar="FOLDER",
+                         help="a folder whose paper_table{1,3,5,6}_*.csv replace the paper's Tables 1, 3, 5 and 6 "
+                              "(default: the paper's, in pipeline/published.py)")
     command.add_argument("--steps", nargs="+", choices=workflow.STEPS, default=list(workflow.STEPS), help="steps to run, in order")
     command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
                                              "(default: evaluate in this process)")

@@ -53,7 +53,7 @@ def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
     for configuration in ASB_CONFIGURATIONS:
         source = Path(data_folder) / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
         if not source.exists():
-            raise StructureError(f"{source}: missing (the ASB measurements live in ../shared/data)")
+            raise StructureError(f"{source}: missing (the ASB measurements: surrogacy data fetch downloads them)")
         measured = read_mode_backbone(source)
         paths.append(measurement_path(folder, measured.structure))
         write_backbone(measured, paths[-1])
@@ -88,7 +88,7 @@ def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_
 
 def damping_cases(dataset: str, structures: list[Structure], table1: dict | None = None) -> dict[str, list[float]]:
     """Linear damping cases (module docstring): case name -> zeta_0 of each structure. table1: paper Table 1
-    (``virtual_experiment.reference_joint.read_low_amplitude_measurements``), for the beams."""
+    (``pipeline.published.TABLE1``: beam -> LowAmplitude), for the beams."""
     if dataset == "beams":
         return {beam: [table1[beam].damping] * len(structures) for beam in BEAM_NAMES}
     return {"measured": [float(s.measurement.damping[0]) for s in structures]}

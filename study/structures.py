@@ -144,7 +144,7 @@ def asb_superelement(path: Path) -> Superelement:
     same joint in all six configurations (C1-C4a have four equal square patches, CD1 five in a row)."""
     path = Path(path)
     if not path.exists():
-        raise StructureError(f"{path}: missing (the ASB reduced models live in ../shared/data)")
+        raise StructureError(f"{path}: missing (the ASB reduced models: surrogacy data fetch downloads them)")
     superelement = read_asb_superelement(path)
     return read_asb_superelement(path, patch_groups=(0,) * superelement.n_patches)
 

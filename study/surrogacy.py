@@ -28,6 +28,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from nonlinear.friction_models import friction_model
 from pipeline.files import atomic_path
+from pipeline.published import TABLE5
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ, accepted
 
 CONFIDENCE_LEVEL = 0.95
@@ -194,9 +195,10 @@ def plot_bounds_sensitivity(sweep: SurrogacyMatrix, frequency_bounds_hz, damping
     plt.close(figure)
 
 
-def read_paper_surrogacy(path: Path) -> pd.DataFrame:
-    """The paper's Table 5 (CSV with columns model, surrogate, real, confidence), as a DataFrame."""
-    return pd.read_csv(path, dtype={"model": str, "surrogate": str, "real": str, "confidence": float})
+def paper_surrogacy(table5: tuple = TABLE5) -> pd.DataFrame:
+    """The paper's Table 5 (``pipeline.published.TABLE5``) as a DataFrame with columns model, surrogate, real,
+    confidence."""
+    return pd.DataFrame(list(table5), columns=["model", "surrogate", "real", "confidence"])
 
 
 def surrogacy_table(matrices: Mapping[str, SurrogacyMatrix], structures: Sequence[str],
@@ -204,7 +206,7 @@ def surrogacy_table(matrices: Mapping[str, SurrogacyMatrix], structures: Sequenc
     """Long table of SC (``TABLE_COLUMNS``): one row per friction model, surrogate and real structure.
 
     matrices: friction model -> SurrogacyMatrix over the S structures named (in order) by ``structures``;
-    paper: ``read_paper_surrogacy``; its value is matched on (model, surrogate, real), the model under its
+    paper: ``paper_surrogacy``; its value is matched on (model, surrogate, real), the model under its
     paper name (``nonlinear.friction_models.FrictionModel.paper_name``), NaN where the paper has none.
     """
     rows = [(model, structures[surrogate], structures[real], matrix.confidence[surrogate, real],

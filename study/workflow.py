@@ -29,6 +29,7 @@ from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_uni
 from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
 from pipeline.config import resolve
 from pipeline.files import atomic_path, sha256_file, write_json
+from pipeline.published import PaperTables, paper_tables
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
 from study.analysis import anova_observations, design_rows, representative_designs, sample_counts
@@ -41,7 +42,6 @@ from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
 from virtual_experiment.hammer_test import virtual_experiments
-from virtual_experiment.reference_joint import TABLE1, TABLE3, read_low_amplitude_measurements
 
 
 VERSIONS = package_versions("numpy", "scipy", "numba")
@@ -49,10 +49,18 @@ STEPS = ("measurements", "explore", "analyse", "report")
 
 
 class Paths(NamedTuple):
+    """The study's folder and its inputs: the beams' superelements, the ASB data, and a folder of the user's own
+    paper tables that replace the project's (``pipeline.published.paper_tables``; None: the paper's)."""
+
     out: Path
     rom: Path
     data: Path
-    reference: Path
+    reference: Path | None = None
+
+    @property
+    def tables(self) -> PaperTables:
+        """The paper's tables, the user's from ``reference`` where it holds them."""
+        return paper_tables(self.reference)
 
     @property
     def measurements(self) -> Path:
@@ -98,11 +106,15 @@ def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], No
     if dataset == "asb":
         sources = [paths.data / "asb-backbones" / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
     else:
-        sources = [paths.rom / f"{beam}.npz" for beam in BEAM_NAMES] + [paths.reference / TABLE1, paths.reference / TABLE3]
+        sources = [paths.rom / f"{beam}.npz" for beam in BEAM_NAMES]
     missing = [str(source) for source in sources if not source.exists()]
     if missing:
         raise StructureError(f"{', '.join(missing)}: missing (inputs of the {dataset} measurements)")
     inputs = {"dataset": dataset, "sources": {source.name: sha256_file(source) for source in sources}}
+    if dataset == "beams":
+        tables = paths.tables
+        inputs["table1"] = {beam: [row.frequency_hz, row.damping] for beam, row in tables.table1.items()}
+        inputs["table3"] = {name: list(limits) for name, limits in tables.table3.items()}
     sidecar = paths.measurements / "measurements.json"
     kinds = [measurement_path(paths.measurements, name).stem for name in structure_names(dataset)]
     if is_current(sidecar, inputs, VERSIONS, kinds):
@@ -112,7 +124,7 @@ def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], No
     if dataset == "asb":
         write_asb_measurements(paths.data, paths.measurements)
     else:
-        virtual_experiments(paths.rom, paths.measurements, paths.reference / TABLE1, paths.reference / TABLE3)
+        virtual_experiments(paths.rom, paths.measurements, tables.table1, tables.table3)
     files = {kind: paths.measurements / f"{kind}.csv" for kind in kinds}
     write_json(sidecar, sidecar_record(inputs, VERSIONS, files))
 
@@ -122,7 +134,7 @@ def exploration(paths: Paths, parameters: dict) -> Exploration:
     study = parameters["study"]
     structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels,
                                     study.prestress)
-    table1 = read_low_amplitude_measurements(paths.reference / TABLE1) if study.dataset == "beams" else None
+    table1 = paths.tables.table1 if study.dataset == "beams" else None
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
                        damping_cases(study.dataset, structures, table1), DAMPING_RULE[study.dataset])
 
@@ -149,7 +161,8 @@ def read_study(folder: Path) -> StudyFolder:
     record = json.loads(record_path.read_text())
     parameters = resolve(defaults(), record["configuration"], source=str(record_path))
     inputs = record["inputs"]
-    paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]), Path(inputs["reference"]))
+    paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]),
+                  None if inputs.get("reference") is None else Path(inputs["reference"]))
     explored = exploration(paths, parameters)
     if (paths.designs / "exploration.json").exists():  # a study of its measurements only has no sample to check
         check_explored(explored, paths.designs)
@@ -208,8 +221,7 @@ def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) 
     names = explored.names
     case = DEFAULT_DAMPING_CASE[study.dataset]
     out = paths.analysis
-    paper = (surrogacy.read_paper_surrogacy(paths.reference / "paper_table5_surrogacy.csv")
-             if study.dataset == "beams" else None)
+    paper = surrogacy.paper_surrogacy(paths.tables.table5) if study.dataset == "beams" else None
     sweep_frequency = acceptance.frequency_tolerance_hz * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     sweep_damping = acceptance.damping_tolerance * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     counts = {}
@@ -235,7 +247,7 @@ def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) 
     if study.dataset == "beams":
         observations = anova_observations(counts, names)
         table = anova.surrogacy_anova(observations)
-        anova.write_anova_markdown(table, out / "anova.md", paths.reference / "paper_table6_anova.csv",
+        anova.write_anova_markdown(table, out / "anova.md", anova.paper_anova(paths.tables.table6),
                                    int(observations["confidence"].isna().sum()))
         with atomic_path(out / "anova.csv") as temporary:
             table.to_csv(temporary, index=False)
@@ -335,7 +347,8 @@ def write_study_record(paths: Paths, parameters: dict) -> None:
     write_json(paths.out / "study.json", {
         "configuration": {section: asdict(values) for section, values in parameters.items()},
         "seed": parameters["sample"].seed, "inputs": {"rom": str(paths.rom), "data": str(paths.data),
-                                                     "reference": str(paths.reference)},
+                                                     "reference": None if paths.reference is None
+                                                     else str(paths.reference)},
         "versions": package_versions("numpy", "scipy", "numba", "pyarrow", "statsmodels", "pymoo", "dask")})
 
 

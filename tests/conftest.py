@@ -14,7 +14,8 @@ from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
 from geometry.beams import make_beam  # noqa: E402
 from geometry.parameters import BEAM_NAMES, BEAMS, MeshParameters  # noqa: E402
 from pipeline.cli import main as surrogacy  # noqa: E402
-from reduction.superelement import asb_data_folder, read_asb_superelement  # noqa: E402
+from locations import ASB_MODELS  # noqa: E402
+from reduction.superelement import read_asb_superelement  # noqa: E402
 
 BUILD = Path(__file__).resolve().parents[1] / "build"
 
@@ -35,7 +36,7 @@ def asb_superelement():
     path in the reason, where the shared data folder is absent."""
 
     def read(configuration: str, **options):
-        path = asb_data_folder() / f"MAT_NULLRED_{configuration}.mat"
+        path = ASB_MODELS / f"MAT_NULLRED_{configuration}.mat"
         if not path.exists():
             pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
         return read_asb_superelement(path, **options)

@@ -9,6 +9,8 @@ import pytest
 REPOSITORY = Path(__file__).resolve().parents[1]
 SHARED = REPOSITORY.parent / "shared"
 CHALLENGE = SHARED / "data" / "ringdown-challenge"  # virtual ring-downs from another generator, with their key
+ASB_MODELS = SHARED / "data" / "asb-reduced-models"  # the ASB's reduced models, MAT_NULLRED_<configuration>.mat
+REFERENCE = SHARED / "reference"  # the paper's tables and the BRB deck's dimensions, as transcribed files
 
 
 def challenge_ringdown(name: str, folder: Path) -> Path:

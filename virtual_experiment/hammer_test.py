@@ -52,10 +52,8 @@ from nonlinear.joint import parameter_names
 from nonlinear.transient import Hammer, ring_down, sensor_modes
 from pipeline.cache import package_versions
 from pipeline.files import atomic_path, sha256_file, write_json
-from virtual_experiment.reference_joint import (MODEL, TABLE1, TABLE3, LowAmplitudeMeasurement, beam_space,
-                                                outside_limits, read_low_amplitude_measurements,
-                                                read_parameter_limits, reference_folder, reference_joint,
-                                                stuck_frequency_hz)
+from pipeline.published import TABLE1, TABLE3, LowAmplitude
+from virtual_experiment.reference_joint import MODEL, beam_space, outside_limits, reference_joint, stuck_frequency_hz
 
 @dataclass(frozen=True)
 class HammerTest:
@@ -295,7 +293,7 @@ def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_pa
 
 
 def low_amplitude_table(experiments: dict[str, VirtualExperiment],
-                        measurements: dict[str, LowAmplitudeMeasurement]) -> list[dict]:
+                        measurements: dict[str, LowAmplitude]) -> list[dict]:
     """Each beam's virtual low-amplitude frequency (the backbone's value at its lowest amplitude) against Table 1:
     rows {beam, virtual_hz, table1_hz, difference_percent}, in the order of ``experiments``."""
     rows = []
@@ -314,33 +312,33 @@ def write_low_amplitude_table(rows: list[dict], destination: Path) -> None:
         writer.writerows(rows)
 
 
-def virtual_experiments(rom_folder: Path, out_folder: Path, table1_path: Path | None = None,
-                        table3_path: Path | None = None, test: HammerTest = HammerTest(), beams=BEAM_NAMES,
-                        ring_downs: bool = True) -> list[dict]:
+def virtual_experiments(rom_folder: Path, out_folder: Path, table1: dict[str, LowAmplitude] = TABLE1,
+                        table3: dict[str, tuple[float, float, bool]] = TABLE3, test: HammerTest = HammerTest(),
+                        beams=BEAM_NAMES, ring_downs: bool = True) -> list[dict]:
     """The three beams' virtual experiments with one reference joint, written to ``out_folder``.
 
-    rom_folder: holds ``<beam>.npz`` (the reduction stage's output). The reference joint is tuned on the BRB to
-    its Table 1 frequency and checked against Table 3's limits (ValueError naming the parameters otherwise); each
+    rom_folder: holds ``<beam>.npz`` (the reduction stage's output). table1, table3: the paper's Tables 1 and 3
+    (``pipeline.published``). The reference joint is tuned on the BRB to its Table 1 frequency and checked
+    against Table 3's limits (ValueError naming the parameters otherwise); each
     beam is tested with ``test`` and its Table 1 linear damping, then written by :func:`write_virtual_experiment`;
     ``low_amplitude.csv`` compares the virtual low-amplitude frequencies with Table 1. Returns its rows. The hits
     run on one worker process per core (:func:`hit_pool`).
     """
     rom_folder, out_folder = Path(rom_folder), Path(out_folder)
-    measurements = read_low_amplitude_measurements(table1_path or reference_folder() / TABLE1)
-    spaces = {beam: beam_space(rom_folder / f"{beam}.npz", measurements[beam].frequency_hz)
+    spaces = {beam: beam_space(rom_folder / f"{beam}.npz", table1[beam].frequency_hz)
               for beam in dict.fromkeys(("BRB", *beams))}
-    design = reference_joint(spaces["BRB"], measurements["BRB"].frequency_hz)
+    design = reference_joint(spaces["BRB"], table1["BRB"].frequency_hz)
     names = parameter_names(MODEL, int(np.max(spaces["BRB"].superelement.patch_groups)) + 1)
-    outside = outside_limits(design, names, read_parameter_limits(table3_path or reference_folder() / TABLE3))
+    outside = outside_limits(design, names, table3)
     if outside:
         raise ValueError(f"reference joint outside paper Table 3's limits: {'; '.join(outside)}")
     experiments = {}
     with hit_pool() as pool:
         for beam in beams:
-            measurement = measurements[beam]
+            measurement = table1[beam]
             experiments[beam] = virtual_experiment(spaces[beam], beam, design, measurement.damping,
                                                    measurement.frequency_hz, test, pool=pool)
             write_virtual_experiment(out_folder, experiments[beam], rom_folder / f"{beam}.npz", ring_downs)
-    rows = low_amplitude_table(experiments, measurements)
+    rows = low_amplitude_table(experiments, table1)
     write_low_amplitude_table(rows, out_folder / "low_amplitude.csv")
     return rows

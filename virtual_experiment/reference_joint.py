@@ -1,4 +1,5 @@
-"""The reference joint of the beams' virtual experiments, and the paper's tables it is tuned to and checked against.
+"""The reference joint of the beams' virtual experiments, tuned to the paper's Table 1 and checked against its
+Table 3 (``pipeline.published``).
 
 Reference joint (:func:`reference_joint`). A uniform interface over the lap: every patch pair carries stiffness
 and slip force in proportion to its area A_p (Table 3's parameters are per patch pair, N and N/m):
@@ -18,8 +19,6 @@ Table 1's: the paper's "approximately 2 %" and "large increase" (section 3).
 
 from __future__ import annotations
 
-import csv
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +27,9 @@ from scipy.optimize import brentq
 from fem.bolts import BOLT_PRELOAD
 from nonlinear.condensation import JointSpace, joint_space
 from nonlinear.qsma_vectorised import qsma_designs
+from pipeline.published import TABLE3
 from reduction.superelement import beam_superelement, target_mode
 
-TABLE1 = "paper_table1_low_amplitude.csv"  # beam, frequency_hz, damping_factor
-TABLE3 = "paper_table3_parameter_limits.csv"  # parameter, minimum, maximum, sampling, unit
 MODEL = "iwan4"
 POISSON_RATIO = 0.29  # paper section 4.1
 N_BOLTS = 3
@@ -41,39 +39,12 @@ BETA = 0.1  # Iwan macroslip spike relative to the power-law part
 LOW_AMPLITUDE = 1e-9  # m kg^0.5: QSMA level called for the stuck eigenproblem (its frequency does not depend on it)
 
 
-@dataclass(frozen=True)
-class LowAmplitudeMeasurement:
-    """One row of the paper's Table 1: the first bending mode's low-amplitude frequency (Hz) and damping factor."""
-
-    beam: str
-    frequency_hz: float
-    damping: float
-
-
-def reference_folder() -> Path:
-    """Where the paper's tables live (outside the repository, beside the ASB data): ../shared/reference."""
-    return Path(__file__).resolve().parents[2] / "shared" / "reference"
-
-
-def read_low_amplitude_measurements(path: Path) -> dict[str, LowAmplitudeMeasurement]:
-    """Paper Table 1 from its CSV (columns beam, frequency_hz, damping_factor): beam -> measurement."""
-    with open(path, newline="") as stream:
-        return {row["beam"]: LowAmplitudeMeasurement(row["beam"], float(row["frequency_hz"]),
-                                                     float(row["damping_factor"]))
-                for row in csv.DictReader(stream)}
-
-
-def read_parameter_limits(path: Path) -> dict[str, tuple[float, float]]:
-    """Paper Table 3 from its CSV (columns parameter, minimum, maximum, ...): parameter -> (minimum, maximum)."""
-    with open(path, newline="") as stream:
-        return {row["parameter"]: (float(row["minimum"]), float(row["maximum"])) for row in csv.DictReader(stream)}
-
-
-def outside_limits(design, names: list[str], limits: dict[str, tuple[float, float]]) -> list[str]:
-    """The design's entries outside Table 3's limits, as 'name = value' strings (empty: all inside)."""
+def outside_limits(design, names: list[str], limits: dict[str, tuple[float, float, bool]] = TABLE3) -> list[str]:
+    """The design's entries outside Table 3's limits (``pipeline.published.TABLE3``: parameter -> (minimum,
+    maximum, logarithmic)), as 'name = value' strings (empty: all inside)."""
     outside = []
     for name, value in zip(names, np.asarray(design, dtype=float)):
-        low, high = limits[name.split("[")[0]]
+        low, high, _ = limits[name.split("[")[0]]
         if not low <= value <= high:
             outside.append(f"{name} = {value:g} (limits {low:g} to {high:g})")
     return outside

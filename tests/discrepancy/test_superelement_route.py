@@ -156,9 +156,9 @@ def test_reference_model_is_required(brb):
 def small_asb_study(tmp_path_factory):
     """A small study of the ASB on its measured backbones (Jenkins and Iwan), through the study's command."""
     from pipeline.cli import main as surrogacy
-    from reduction.superelement import asb_data_folder
+    from locations import ASB_MODELS
 
-    data = asb_data_folder().parent
+    data = ASB_MODELS.parent
     if not (data / "asb-backbones").is_dir():
         pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
     out = tmp_path_factory.mktemp("study") / "study-asb"

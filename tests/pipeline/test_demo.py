@@ -13,7 +13,7 @@ from pipeline.cli import main as surrogacy
 
 
 def options(tmp_path, **changes) -> demo.DemoOptions:
-    values = dict(data=tmp_path / "data", reference=tmp_path / "reference", ringdown=tmp_path / "hits.mat",
+    values = dict(data=tmp_path / "data", reference=None, ringdown=tmp_path / "hits.mat",
                   mode_hz=80.5, designs=2000, chunk=500, build=tmp_path / "build", results=tmp_path / "results")
     return demo.DemoOptions(**(values | changes))
 
@@ -22,14 +22,18 @@ def by_name(steps) -> dict:
     return {step.name: step for step in steps}
 
 
-def test_without_data_only_the_project_s_own_stages_run(tmp_path):
+def test_without_data_the_beams_run_and_each_measured_step_says_how_to_fetch_its_data(tmp_path):
     steps = by_name(demo.plan(options(tmp_path)))
     assert list(steps) == list(demo.STEPS) and demo.STEPS[0] in demo.BESIDE  # started first, beside the others
-    assert steps["fit-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found"
-    assert [name for name, step in steps.items() if not step.skipped] == ["beams", "fe", "rom", "report"]
-    assert steps["freevib"].skipped == f"{tmp_path / 'hits.mat'} not found"
-    assert steps["study-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found"
-    assert "Table 1" in steps["study-beams"].skipped
+    fetch = "(make data, or surrogacy data fetch, downloads it)"
+    assert steps["fit-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found {fetch}"
+    assert [name for name, step in steps.items() if not step.skipped] == [
+        "beams", "fe", "rom", "study-beams", "discrepancy", "fit-beams", "confidence-beams", "report"]
+    assert steps["freevib"].skipped == f"{tmp_path / 'hits.mat'} not found {fetch}"
+    assert steps["study-asb"].skipped == f"{tmp_path / 'data' / 'asb-backbones'} not found {fetch}"
+    assert steps["discrepancy-modal-asb"].skipped.endswith(fetch)
+    assert "--reference" not in steps["study-beams"].runs[0]  # the paper's tables, in the project
+    assert [run[4] for run in steps["discrepancy"].runs] == ["BRB", "LBRB", "SBRB"]
     assert steps["rom"].runs == (("rom", "--beams", str(tmp_path / "build" / "beams"), "--fe",
                                   str(tmp_path / "build" / "fe"), "--out", str(tmp_path / "build" / "rom")),)
 
@@ -37,10 +41,8 @@ def test_without_data_only_the_project_s_own_stages_run(tmp_path):
 def test_with_data_every_measured_data_step_runs_with_the_study_s_options(tmp_path):
     (tmp_path / "data" / "asb-backbones").mkdir(parents=True)
     (tmp_path / "data" / "asb-backbones" / "ASB_C1_20Nm_BB.mat").write_bytes(b"")
-    (tmp_path / "reference").mkdir()
-    (tmp_path / "reference" / "paper_table1_low_amplitude.csv").write_text("beam\n")
     (tmp_path / "hits.mat").write_bytes(b"")
-    steps = by_name(demo.plan(options(tmp_path, scheduler="local")))
+    steps = by_name(demo.plan(options(tmp_path, scheduler="local", reference=tmp_path / "reference")))
     assert not any(step.skipped for step in steps.values())
     shared = ("--reference", str(tmp_path / "reference"), "--restart-stale", "--set", "sample.n_designs=2000",
               "--set", "sample.chunk_size=500", "--scheduler", "local")
@@ -112,7 +114,8 @@ def test_a_failed_stage_stops_the_demo_and_the_background_study(tmp_path, monkey
 def test_the_command_runs_the_chosen_steps_and_skips_what_has_no_data(tmp_path, capsys):
     missing = tmp_path / "missing.mat"
     assert surrogacy(["demo", "--steps", "freevib", "--ringdown", str(missing)]) == 0
-    assert capsys.readouterr().out == f"freevib: {missing} not found, skipped\n"
+    assert capsys.readouterr().out == (f"freevib: {missing} not found (make data, or surrogacy data fetch, "
+                                       "downloads it), skipped\n")
 
 
 def test_make_demo_is_one_surrogacy_demo_command():

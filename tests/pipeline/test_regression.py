@@ -92,9 +92,9 @@ def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
     from study.datasets import structure_names
     from study.errors import accepted
     from study.surrogacy import surrogacy_matrix
-    from reduction.superelement import asb_data_folder
+    from locations import ASB_MODELS
 
-    data = asb_data_folder().parent
+    data = ASB_MODELS.parent
     if not (data / "asb-backbones").is_dir():
         pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
     out = tmp_path / "study"

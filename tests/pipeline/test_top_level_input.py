@@ -10,9 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from locations import REPOSITORY
+from locations import ASB_MODELS, REPOSITORY
 from pipeline.cli import main as surrogacy
-from reduction.superelement import asb_data_folder
 
 
 
@@ -70,7 +69,7 @@ def test_malformed_beams_config_leaves_earlier_results_intact(coarse_beam_folder
 
 
 def test_malformed_study_config_leaves_earlier_results_intact(tmp_path, capsys):
-    data = asb_data_folder().parent
+    data = ASB_MODELS.parent
     if not (data / "asb-backbones").is_dir():
         pytest.skip(f"ASB data not available at {data} (shared data folder absent)")
     out = tmp_path / "study-asb"

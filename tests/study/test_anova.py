@@ -7,11 +7,9 @@ import pandas as pd
 import pytest
 
 from geometry.parameters import BEAM_NAMES
-from locations import SHARED
-from study.anova import anova_markdown, read_paper_anova, surrogacy_anova, write_anova_markdown
+from study.anova import anova_markdown, paper_anova, surrogacy_anova, write_anova_markdown
 from study.surrogacy import replicate_surrogacy, replicate_table
 
-PAPER_TABLE6 = SHARED / "reference" / "paper_table6_anova.csv"
 STRUCTURES = BEAM_NAMES
 MODELS = ("jenkins", "iwan4", "iwan5", "iwan4_stuck")
 LINEAR_DAMPING = (1.67e-3, 2.0e-3, 2.5e-3)
@@ -73,10 +71,7 @@ def test_replicate_populations_feed_the_anova(tmp_path):
         frames.append(replicate_table(replicates, STRUCTURES, model, linear_damping))
     table = surrogacy_anova(pd.concat(frames, ignore_index=True))
     assert list(table.df) == [2, 2, 3, 2, 1070]
-    (pd.DataFrame({"factor": ["surrogate_beam", "residuals"], "df": [2, 1070], "sum_sq": [31.23, 62.46],
-                           "mean_sq": [15.616, 0.058], "f_value": [267.533, np.nan], "p_value": ["<2e-16", ""]})
-             .to_csv(tmp_path / "paper.csv", index=False))
-    write_anova_markdown(table, tmp_path / "table6.md", tmp_path / "paper.csv")
+    write_anova_markdown(table, tmp_path / "table6.md", paper_anova())
     text = (tmp_path / "table6.md").read_text()
     assert "| surrogate_beam | 2 | 2 |" in text and "| 267.533 |" in text and "<2e-16 |" in text
     assert "| residuals | 1070 | 1070 |" in text
@@ -90,10 +85,8 @@ def test_undefined_observations_are_left_out_and_stated():
     assert "3 observations left out" in anova_markdown(table, left_out=3)
 
 
-def test_paper_table6_is_read():
-    if not PAPER_TABLE6.exists():
-        pytest.skip(f"paper Table 6 not available at {PAPER_TABLE6}")
-    paper = read_paper_anova(PAPER_TABLE6)
+def test_paper_table6_as_a_frame():
+    paper = paper_anova()
     assert list(paper.df) == [2, 2, 3, 2, 1070] and paper.p_value[0] == "<2e-16" and np.isnan(paper.f_value[4])
 
 

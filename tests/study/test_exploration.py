@@ -33,9 +33,8 @@ import pytest
 import nonlinear.condensation as condensation
 import study.exploration as exploration_module
 from experiment.backbone_files import read_asb_backbone
-from locations import REPOSITORY
+from locations import ASB_MODELS, REPOSITORY
 from nonlinear.joint import parameter_names
-from reduction.superelement import asb_data_folder
 from study.exploration import (ChunkTiming, Explored, Exploration, Sample, StudyError, check_explored, chunk_path,
                                chunk_tables, explore, finished_chunks, manifest, read_exploration, write_chunk)
 from study.structures import asb_superelement, structure
@@ -51,7 +50,7 @@ KILLED_AT_WRITE = 10  # the killed study finishes chunks 0-3 of both models and 
 
 def asb_files(configuration: str) -> tuple[Path, Path]:
     """The ASB configuration's reduced model and measured backbone."""
-    models = asb_data_folder()
+    models = ASB_MODELS
     return (models / f"MAT_NULLRED_{configuration}.mat",
             models.parent / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat")
 
@@ -567,7 +566,7 @@ def test_analysis_refuses_a_folder_that_is_not_this_studys_exploration(explorati
 
 def asb_study_arguments(out: Path, *steps: str) -> list[str]:
     """``surrogacy study`` on the ASB with Jenkins and 4 designs in 2 chunks (a few seconds)."""
-    return ["study", "--out", str(out), "--data", str(asb_data_folder().parent),
+    return ["study", "--out", str(out), "--data", str(ASB_MODELS.parent),
             "--reference", str(REPOSITORY.parent / "shared" / "reference"), "--set", "study.dataset=asb",
             "--set", 'study.models=["jenkins"]', "--set", "sample.n_designs=4", "--set", "sample.chunk_size=2",
             "--steps", *steps]

@@ -8,13 +8,11 @@ import pytest
 from scipy import stats
 
 from geometry.parameters import BEAM_NAMES
-from locations import SHARED
 from study.errors import accepted
-from study.surrogacy import (read_paper_surrogacy, replicate_surrogacy, replicate_table, surrogacy_against_bounds,
+from study.surrogacy import (paper_surrogacy, replicate_surrogacy, replicate_table, surrogacy_against_bounds,
                              surrogacy_markdown, surrogacy_matrix, surrogacy_table, plot_bounds_sensitivity,
                              write_surrogacy_csv, write_surrogacy_markdown)
 
-PAPER_TABLE5 = SHARED / "reference" / "paper_table5_surrogacy.csv"
 STRUCTURES = BEAM_NAMES
 
 
@@ -205,9 +203,7 @@ def test_markdown_has_table5_layout(tmp_path):
     assert (tmp_path / "table5.md").read_text() == text
 
 
-def test_paper_table5_is_read_with_every_model():
-    if not PAPER_TABLE5.exists():
-        pytest.skip(f"paper Table 5 not available at {PAPER_TABLE5}")
-    paper = read_paper_surrogacy(PAPER_TABLE5)
+def test_paper_table5_is_matched_for_every_model():
+    paper = paper_surrogacy()
     _, table = two_model_table(paper)
     assert len(paper) == 36 and table.paper.notna().all()

@@ -27,9 +27,8 @@ from reduction.superelement import stuck_joint_modes
 from geometry.parameters import BEAM_NAMES
 from virtual_experiment.hammer_test import (HammerTest, hammer_hits, hit_pool, low_amplitude_table,
                                             virtual_experiment, virtual_experiments, write_virtual_experiment)
-from virtual_experiment.reference_joint import (TABLE1, TABLE3, beam_space, outside_limits,
-                                                read_low_amplitude_measurements, read_parameter_limits,
-                                                reference_folder, reference_joint, stuck_frequency_hz)
+from pipeline.published import TABLE1
+from virtual_experiment.reference_joint import beam_space, outside_limits, reference_joint, stuck_frequency_hz
 
 ROM = REPOSITORY / "build" / "rom"  # built by the beam_roms fixture (conftest)
 # Two hits of the default test's hardest ones: 0.64 and 1.6 N s nominal, 5e-5 to 2.5e-4 m kg^0.5 (about 20 s).
@@ -54,10 +53,7 @@ def newmark_period_error(test: HammerTest) -> float:
 
 @pytest.fixture(scope="module")
 def table1():
-    path = reference_folder() / TABLE1
-    if not path.exists():
-        pytest.skip(f"paper Table 1 not available at {path} (shared reference folder absent)")
-    return read_low_amplitude_measurements(path)
+    return TABLE1
 
 
 @pytest.fixture(scope="module")
@@ -84,9 +80,7 @@ def test_reference_joint_gives_the_measured_brb_frequency(brb, table1):
     space, design = brb
     assert stuck_frequency_hz(space, design) == pytest.approx(table1["BRB"].frequency_hz, abs=0.01)
     assert stuck_frequency_hz(space, design) < stuck_joint_modes(space.superelement)[0][0]
-    limits_path = reference_folder() / TABLE3
-    if limits_path.exists():
-        assert outside_limits(design, parameter_names("iwan4", 3), read_parameter_limits(limits_path)) == []
+    assert outside_limits(design, parameter_names("iwan4", 3)) == []
 
 
 def test_reference_joint_softens_two_percent_and_damps_over_the_experiment(brb, table1):
