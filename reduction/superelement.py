@@ -1,7 +1,7 @@
 """The superelement: the reduced linear model of two unjoined halves, as the nonlinear stage sees it.
 
 One interface for the project's own Hurty/Craig-Bampton superelements (docs/design.md section 4) and for the
-external ASB models (``/work/shared/data/asb-reduced-models``, see its README). The joint acts on relative
+external ASB models (``asb-reduced-models/`` of the public data, ``pipeline.public_data``). The joint acts on relative
 patch motions only, so the nonlinear stage needs: the mass and stiffness in the reduced coordinates, the map
 from reduced coordinates to the relative (top minus bottom) virtual-node motion of every patch, and the
 patch layout.
