@@ -8,11 +8,14 @@ study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside 
 (fitted designs against the study's fronts), the discrepancy
 loop's before/after table, and the provenance (commit, versions, seeds, configuration, per-stage wall times and
 peak memory from the ``surrogacy --run-log`` file). A stage whose files are missing is named as not run, never
-filled in.
+filled in; a file absent where its stage ran (a figure, a calibration's table beside its records, a discrepancy
+loop's record) is named as missing where it belongs, never linked or dropped; a damaged record (cut short, a field
+missing) is refused naming it, before any file is written.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -42,7 +45,30 @@ class Folders:
 
 
 def _read_json(path: Path) -> dict | None:
-    return json.loads(path.read_text()) if path.exists() else None
+    """The JSON object a stage wrote at ``path`` (None where the file is absent); a damaged file (cut short, not
+    one JSON object) raises a ValueError naming it."""
+    if not path.exists():
+        return None
+    try:
+        value = json.loads(path.read_text(errors="replace"))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: not one JSON object ({error}); rerun the stage that writes it") from error
+    if not isinstance(value, dict):
+        raise ValueError(f"{path}: not one JSON object; rerun the stage that writes it")
+    return value
+
+
+@contextlib.contextmanager
+def read_as(path: Path, what: str):
+    """Reading the record ``path`` (a ``what``) in the block: a field missing or of another type, or a table that
+    does not parse, raises a ValueError naming the file and the field (never a traceback, never half a row)."""
+    try:
+        yield
+    except KeyError as error:
+        raise ValueError(f"{path}: not a {what}: field {error} missing (rerun the stage that writes it)") from error
+    except (IndexError, TypeError, ValueError) as error:
+        raise ValueError(f"{path}: not a {what}: a field not as written ({error}; rerun the stage that writes "
+                         "it)") from error
 
 
 def _relative(target: Path, start: Path) -> str:
@@ -50,10 +76,28 @@ def _relative(target: Path, start: Path) -> str:
     return Path(os.path.relpath(Path(target).resolve(), Path(start).resolve())).as_posix()
 
 
-def _image(target: Path, caption: str, report_folder: Path) -> str:
-    if not target.exists():
+def _image(target: Path, caption: str, report_folder: Path, ran: bool = True) -> str:
+    """A Markdown image line for the figure ``target`` (linked relative to ``report_folder``), or, where its stage
+    did not run (``ran`` false) and the file is absent, a line saying so. A figure absent although its stage ran
+    is named by :func:`missing_figures`."""
+    if not ran and not target.exists():
         return f"_{caption}: {target} not written (stage not run)_"
     return f"![{caption}]({_relative(target, report_folder)})"
+
+
+IMAGE_LINK = re.compile(r"!\[([^\]]*)\]\((?!https?:)([^)]+)\)")
+"""A Markdown image link to a local file: caption and path."""
+
+
+def missing_figures(text: str, report_folder: Path) -> str:
+    """``text`` (Markdown linked relative to ``report_folder``) with every image link to an absent file replaced
+    by a line naming the file as missing (never a broken link in the report)."""
+    def checked(link: re.Match) -> str:
+        target = Path(os.path.normpath(Path(report_folder) / link.group(2)))
+        return link.group(0) if target.exists() else (
+            f"_{link.group(1)}: figure missing: {target} is absent although its stage ran (deleted, or not drawn: "
+            "rerun the stage to draw it)_")
+    return IMAGE_LINK.sub(checked, text)
 
 
 def stage_table(folder: Path, columns: list[str], cells) -> list[str]:
@@ -62,7 +106,8 @@ def stage_table(folder: Path, columns: list[str], cells) -> list[str]:
     lines = ["| beam | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for beam in BEAM_NAMES:
         sidecar = _read_json(folder / f"{beam}.json")
-        row = cells(sidecar) if sidecar is not None else ["not run"] + [""] * (len(columns) - 1)
+        with read_as(folder / f"{beam}.json", "stage sidecar"):
+            row = cells(sidecar) if sidecar is not None else ["not run"] + [""] * (len(columns) - 1)
         lines.append(f"| {beam} | " + " | ".join(row) + " |")
     return lines
 
@@ -81,7 +126,8 @@ def geometry_section(build: Path, out: Path) -> list[str]:
     table = stage_table(build / "beams", ["nodes", "mass on the mesh (kg)", "mass from the drawing (kg)",
                                           "interface area, mesh / drawing (mm^2)"], mesh_cells)
     return (["## 1. Geometry: the three Brake-Reuss beams", "", *table, ""]
-            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out) for beam in BEAM_NAMES])
+            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out, (build / "beams" / f"{beam}.json").exists())
+               for beam in BEAM_NAMES])
 
 
 def fe_section(build: Path, out: Path) -> list[str]:
@@ -92,8 +138,9 @@ def fe_section(build: Path, out: Path) -> list[str]:
                                          f"{1e-6 * sidecar['contact_pressure_range_pa'][1]:.1f}"])
     lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "", *table, ""]
     for beam in BEAM_NAMES:
-        lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out),
-                  _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out)]
+        ran = (build / "fe" / f"{beam}.json").exists()
+        lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out, ran),
+                  _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out, ran)]
     return lines
 
 
@@ -103,8 +150,8 @@ def reduction_section(build: Path, out: Path) -> list[str]:
                         lambda sidecar: [f"{sidecar['mass_kg']:.4f}",
                                          ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])])
     return (["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "", *table, ""]
-            + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out)
-               for beam in BEAM_NAMES])
+            + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out,
+                      (build / "rom" / f"{beam}.json").exists()) for beam in BEAM_NAMES])
 
 
 def plot_backbones(destination: Path, groups: dict) -> None:
@@ -127,18 +174,23 @@ def plot_backbones(destination: Path, groups: dict) -> None:
     save(figure, destination)
 
 
-def backbone_section(results: Path, out: Path) -> list[str]:
-    """The backbones the studies fit (virtual beams, measured ASB) in one figure, the Chen ring-down's FreeVib
-    backbone, and the virtual experiments' low-amplitude frequencies against paper Table 1."""
+def backbone_groups(results: Path) -> dict:
+    """The backbones the studies fit and freevib's, by the title of their group in the backbone figure (the
+    groups that hold any)."""
     sources = {"beams: VIRTUAL experiments": sorted((results / "study-beams" / "measurements").glob("*.csv")),
                "ASB: measured": sorted((results / "study-asb" / "measurements").glob("*.csv")),
                "ring-down (surrogacy freevib)": sorted((results / "freevib").glob("*_backbone.csv"))}
     groups = {title: [read_mode_backbone(path) for path in files if path.name != "low_amplitude.csv"]
               for title, files in sources.items()}
-    groups = {title: backbones for title, backbones in groups.items() if backbones}
+    return {title: backbones for title, backbones in groups.items() if backbones}
+
+
+def backbone_section(results: Path, out: Path, groups: dict) -> list[str]:
+    """The backbones the studies fit (virtual beams, measured ASB; ``groups`` of :func:`backbone_groups`) in one
+    figure (``report_backbones.png`` beside the report, drawn by :func:`write_pipeline_report`), the Chen
+    ring-down's FreeVib backbone, and the virtual experiments' low-amplitude frequencies against paper Table 1."""
     lines = ["## 4. Backbones to fit (paper Fig. 3)", ""]
     if groups:
-        plot_backbones(out / "report_backbones.png", groups)
         lines += ["The beams' backbones are **virtual**: simulated hammer ring-downs of one reference joint in "
                   "each beam's model, processed as measured data (paper's measured curves are not public). The "
                   "ASB's are measured.", "", _image(out / "report_backbones.png", "backbones", out), ""]
@@ -150,9 +202,9 @@ def backbone_section(results: Path, out: Path) -> list[str]:
         lines += [f"| {row['beam']} | {row['virtual_hz']:.2f} | {row['table1_hz']:.2f} | "
                   f"{row['difference_percent']:+.2f} |" for row in np.atleast_1d(table)]
         lines.append("")
-    figures = sorted((results / "freevib").glob("*.png"))
+    runs = sorted({path.stem for pattern in ("*.png", "*.json") for path in (results / "freevib").glob(pattern)})
     lines += ["Measured ring-down (Chen 2022 BRB hammer test), both FreeVib estimators:", ""]
-    lines += [_image(path, path.stem, out) for path in figures] or ["_freevib not run_"]
+    lines += [_image(results / "freevib" / f"{stem}.png", stem, out) for stem in runs] or ["_freevib not run_"]
     for mode in groups.get("ring-down (surrogacy freevib)", []):
         settings = mode.settings
         lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 8), "
@@ -172,27 +224,92 @@ def embedded_study(report: Path, out: Path, number: int) -> list[str]:
     return text.replace("## Surrogacy study:", f"## {number}. Surrogacy study:", 1).splitlines()
 
 
+def study_not_reported(report: Path) -> str:
+    """What the pipeline report says of a study whose ``report.md`` is absent: not run, or run (its study.json
+    or designs are there) without its report."""
+    folder = report.parent
+    if not any((folder / name).exists() for name in ("study.json", "designs", "analysis")):
+        return "_study not run_"
+    return (f"_{report} absent: the study ran ({folder} holds its files) but its report step did not, or the report "
+            f"was deleted (rerun `surrogacy study --out {folder}` with the study's options and `--steps report`)_")
+
+
+def calibrated_models(folder: Path) -> list[str]:
+    """The friction models a calibration folder (``surrogacy fit --out``) holds anything of: a folder of
+    calibration records (``<model>/<structure>.json``), a front (``front_<model>.csv``) or a figure
+    (``fits_<model>.png``)."""
+    models = {path.parent.name for path in folder.glob("*/*.json")}
+    models |= {path.stem.removeprefix("front_") for path in folder.glob("front_*.csv")}
+    return sorted(models | {path.stem.removeprefix("fits_") for path in folder.glob("fits_*.png")})
+
+
 def calibration_section(results: Path, out: Path) -> list[str]:
-    """Each calibration's table (``surrogacy fit``: results/fit-<dataset>/calibration.md) and its figures of the
-    best compromise against the measurement."""
+    """Each calibration's table (``surrogacy fit``: results/fit-<dataset>/calibration.md), its figures of the
+    best compromise against the measurement (one per model it holds) and its confidence matrices; a table, a
+    figure or a confidence CSV absent where the calibration's other files are is named."""
     lines = ["## 7. Calibration: joint designs fitted to the measured backbones", ""]
-    tables = sorted(results.glob("fit-*/calibration.md"))
-    for table in tables:
-        body = table.read_text().splitlines()[1:]  # without its own title
-        lines += [f"Calibration of {table.parent.name.removeprefix('fit-')} ({_relative(table, out)}):", *body, ""]
-        lines += [_image(path, path.stem, out) for path in sorted(table.parent.glob("fits_*.png"))]
-        for path in sorted(table.parent.glob("confidence_*.csv")):
-            lines += confidence_matrix(path, out)
-            figure = path.with_suffix(".png")
-            lines += [_image(figure, figure.stem, out), ""] if figure.exists() else []
-    return lines + ([] if tables else ["_calibration not run_"])
+    folders = sorted(path for path in results.glob("fit-*") if path.is_dir())
+    for folder in folders:
+        table, models = folder / "calibration.md", calibrated_models(folder)
+        name = folder.name.removeprefix("fit-")
+        if table.exists():
+            body = table.read_text().splitlines()[1:]  # without its own title
+            lines += [f"Calibration of {name} ({_relative(table, out)}):", *body, ""]
+        else:
+            records = sorted(folder.glob("*/*.json"))
+            lines += [f"_Calibration of {name}: {table} absent; "
+                      + (f"its {len(records)} calibration record(s) are there ({', '.join(models)}): the "
+                         "calibration ran, its table was deleted or not written (rerun `surrogacy fit`, which "
+                         "writes it from the records)_" if records else
+                         f"no calibration record in {folder} either (calibration not run)_"), ""]
+        lines += [_image(folder / f"fits_{model}.png", f"fits_{model}", out) for model in models]
+        for model in sorted({path.name.removeprefix("confidence_").split(".")[0]
+                             for path in folder.glob("confidence_*") if path.suffix in (".csv", ".png")}):
+            path = folder / f"confidence_{model}.csv"
+            lines += (confidence_matrix(path, out) if path.exists() else
+                      [f"_Surrogacy confidence of {model}: {path} absent beside its figure (rerun `surrogacy "
+                       "confidence`)_", ""])
+            lines += [_image(path.with_suffix(".png"), f"confidence_{model}", out), ""]
+    return lines + ([] if folders else ["_calibration not run_"])
+
+
+CONFIDENCE_NAMES = ("model", "surrogate", "real")
+CONFIDENCE_BOUNDS = ("surrogate_frequency_tolerance_hz", "surrogate_damping_tolerance", "sample_accepted_surrogate")
+CONFIDENCE_ESTIMATES = ("confidence", "lower", "upper", "sample_confidence")
+"""The columns of a ``surrogacy confidence`` CSV the report reads: names (never empty), numbers every row has, and
+estimates (empty where a region was not reached or the sample accepted nothing)."""
+
+
+def confidence_table(path: Path) -> pd.DataFrame:
+    """A ``surrogacy confidence`` CSV (docs/formats.md) with its numbers as floats. A file pandas cannot parse, a
+    column missing, no row, an empty name or a bound that is not a finite number (a line cut short leaves its last
+    cells empty) raises a ValueError naming the file, the line (the header is line 1) and the column."""
+    try:
+        table = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (OSError, ValueError) as error:  # pandas' parser errors and a UnicodeDecodeError are ValueErrors
+        raise ValueError(f"{path}: not a readable surrogacy confidence CSV ({error})") from None
+    missing = [column for column in (*CONFIDENCE_NAMES, *CONFIDENCE_BOUNDS, *CONFIDENCE_ESTIMATES)
+               if column not in table]
+    if missing or table.empty:
+        raise ValueError(f"{path}: " + (f"column {missing[0]!r} missing" if missing else "no row")
+                         + "; expected the table surrogacy confidence writes")
+    for column in CONFIDENCE_NAMES + CONFIDENCE_BOUNDS:
+        values = table[column] if column in CONFIDENCE_NAMES else pd.to_numeric(table[column], errors="coerce")
+        bad = np.flatnonzero(values == "") if column in CONFIDENCE_NAMES else np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise ValueError(f"{path}: line {bad[0] + 2}, column {column!r}: {table[column][bad[0]]!r}; expected "
+                             + ("a name" if column in CONFIDENCE_NAMES else "a finite number")
+                             + " (a line cut short?)")
+    numbers = list(CONFIDENCE_BOUNDS + CONFIDENCE_ESTIMATES)
+    table[numbers] = table[numbers].apply(pd.to_numeric, errors="coerce")
+    return table
 
 
 def confidence_matrix(path: Path, out: Path) -> list[str]:
     """A ``surrogacy confidence`` CSV as a matrix: rows the surrogate I (with its bounds), columns the real
     structure J, each cell SC_IJ [95 % interval] by subset simulation, and the study's own sample's count at the
     same bounds where it accepted any design."""
-    table = pd.read_csv(path)
+    table = confidence_table(path)
     names = list(dict.fromkeys(table["real"]))
     lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({_relative(path, out)}; "
              "subset simulation, in brackets its 95 % interval, \"not reached\" where its runs stalled short of I's "
@@ -213,9 +330,9 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
     """Per measurement: the effects the discrepancy loop found (or "unexplained"), the errors of the reference
     model (before) and of the final model (after), and beside them the findings of the ring-down's signal checks
     (``experiment.signal_checks``: what the backbone hides)."""
-    verdicts = sorted((results / "discrepancy").glob("*/discrepancy.json"))
+    runs = sorted(path for path in (results / "discrepancy").glob("*") if path.is_dir())
     lines = ["## 8. Discrepancy loop: what the one-mode joint model lacks", ""]
-    if not verdicts:
+    if not runs:
         return lines + ["_discrepancy not run_"]
     lines += ["Reference model: the one-mode joint model (a linear mode and a Jenkins element) on a measurement "
               "file, or the Jenkins joint refitted on the structure's superelement from the study's designs "
@@ -229,32 +346,48 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
               "| measurement | provenance | reference model | effects found | signal findings | verdict | "
               "L-inf f (Hz) before -> after | RMS f (Hz) | L-inf zeta | RMS zeta |",
               "|---|---|---|---|---|---|---|---|---|---|"]
-    for path in verdicts:
-        verdict = json.loads(path.read_text())
-        before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
-        changes = [f"{json_float(before[key]):.3g} -> {json_float(after[key]):.3g}"
-                   for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
-        if "joint_law" not in verdict:
-            lines.append(f"| [{path.parent.name}]({_relative(path.with_suffix('.md'), out)}) | written before the "
-                         "loop named the joint law apart: rerun `surrogacy discrepancy` | | | | | | | | |")
+    for folder in runs:
+        path = folder / "discrepancy.json"
+        verdict = _read_json(path)
+        if verdict is None:
+            present = sorted(child.name for child in folder.iterdir() if not child.name.startswith("."))
+            lines.append(f"| {folder.name} | {path.name} absent from {folder} "
+                         f"({'beside ' + ', '.join(present) if present else 'no result file there'}): rerun "
+                         "`surrogacy discrepancy` | | | | | | | | |")
             continue
-        found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
-                 f"{', '.join(verdict['added']) or 'none'}")
-        if verdict["alternatives"]:
-            found += " (as good within the noise: " + "; ".join(verdict["alternatives"]) + ")"
-        findings = verdict.get("findings", [])
-        seen = "; ".join(f"{entry['name']}: {entry['summary']}" for entry in findings) or (
-            "none" if verdict.get("signal_checks") else "not checked")
-        outside = [entry["name"] for entry in findings if entry["outside_library"]]
-        answer = (f"unexplained ({', '.join(outside)})" if outside else
-                  "residual unexplained" if verdict["unexplained"] else "explained to the noise")
-        reference = (f"superelement, {verdict['steps'][0]['parameters']['design']}" if "study" in verdict
-                     else "one-mode joint")
-        lines.append(f"| [{path.parent.name}]({_relative(path.with_suffix('.md'), out)}) | {verdict['provenance']} | "
-                     f"{reference} | {found} | {seen} | {answer} | " + " | ".join(changes) + " |")
+        document = path.with_suffix(".md")
+        name = (f"[{folder.name}]({_relative(document, out)})" if document.exists() else
+                f"{folder.name} ({document} absent)")
+        with read_as(path, "discrepancy record"):
+            lines.append(verdict_row(verdict, name))
     lines.append("")
-    lines += [_image(path.with_suffix(".png"), f"{path.parent.name} before and after", out) for path in verdicts]
+    lines += [_image(folder / "discrepancy.png", f"{folder.name} before and after", out) for folder in runs
+              if any((folder / name).exists() for name in ("discrepancy.json", "discrepancy.png"))]
     return lines
+
+
+def verdict_row(verdict: dict, name: str) -> str:
+    """A row of section 8's table for the discrepancy record ``verdict`` (``discrepancy.json``) named ``name``."""
+    before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
+    changes = [f"{json_float(before[key]):.3g} -> {json_float(after[key]):.3g}"
+               for key in ("frequency_linf_hz", "frequency_rms_hz", "damping_linf", "damping_rms")]
+    if "joint_law" not in verdict:
+        return (f"| {name} | written before the loop named the joint law apart: rerun `surrogacy discrepancy` "
+                "| | | | | | | | |")
+    found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
+             f"{', '.join(verdict['added']) or 'none'}")
+    if verdict["alternatives"]:
+        found += " (as good within the noise: " + "; ".join(verdict["alternatives"]) + ")"
+    findings = verdict.get("findings", [])
+    seen = "; ".join(f"{entry['name']}: {entry['summary']}" for entry in findings) or (
+        "none" if verdict.get("signal_checks") else "not checked")
+    outside = [entry["name"] for entry in findings if entry["outside_library"]]
+    answer = (f"unexplained ({', '.join(outside)})" if outside else
+              "residual unexplained" if verdict["unexplained"] else "explained to the noise")
+    reference = (f"superelement, {verdict['steps'][0]['parameters']['design']}" if "study" in verdict
+                 else "one-mode joint")
+    return (f"| {name} | {verdict['provenance']} | {reference} | {found} | {seen} | {answer} | "
+            + " | ".join(changes) + " |")
 
 
 def git_commit() -> str:
@@ -316,18 +449,24 @@ def provenance_section(folders: Folders) -> list[str]:
                            ("reduction", folders.build / "rom" / "BRB.json")):
         values = _read_json(sidecar)
         if values is not None:
-            lines.append(f"| {stage} | {json_text(values['versions'])} | - |")
+            with read_as(sidecar, "stage sidecar"):
+                lines.append(f"| {stage} | {json_text(values['versions'])} | - |")
     for beam in BEAM_NAMES:
-        experiment = _read_json(folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json")
+        path = folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json"
+        experiment = _read_json(path)
         if experiment is not None:
-            lines.append(f"| virtual experiment {beam} | {json_text(experiment['versions'])} | {experiment['seed']} |")
+            with read_as(path, "virtual experiment record"):
+                lines.append(f"| virtual experiment {beam} | {json_text(experiment['versions'])} | "
+                             f"{experiment['seed']} |")
     configurations = []
     for dataset, folder in STUDIES:
-        study = _read_json(folders.results / folder / "study.json")
+        path = folders.results / folder / "study.json"
+        study = _read_json(path)
         if study is not None:
-            lines.append(f"| study ({dataset}) | {json_text(study['versions'])} | {study['seed']} |")
-            configurations += [f"Study configuration ({dataset}):", "", "```json",
-                               json_text(study["configuration"], indent=1, sort_keys=True), "```", ""]
+            with read_as(path, "study record"):
+                lines.append(f"| study ({dataset}) | {json_text(study['versions'])} | {study['seed']} |")
+                configurations += [f"Study configuration ({dataset}):", "", "```json",
+                                   json_text(study["configuration"], indent=1, sort_keys=True), "```", ""]
     return lines + [""] + configurations + ["### Per-stage wall time and peak memory", "",
                                             *timings_table(folders.run_log)]
 
@@ -335,11 +474,10 @@ def provenance_section(folders: Folders) -> list[str]:
 def write_pipeline_report(folders: Folders, destination: Path) -> Path:
     """Write the report (module docstring) to ``destination`` (Markdown) and its backbone figure beside it. A
     destination that cannot be written (a folder, or in a folder that cannot be one) is refused before any work
-    (``pipeline.files.OutputFolderError``)."""
+    (``pipeline.files.OutputFolderError``); a damaged record is refused naming it before any file is written."""
     check_output_file(destination)
     check_output_folder(Path(destination).parent)
-    out = Path(destination).parent
-    out.mkdir(parents=True, exist_ok=True)
+    out, groups = Path(destination).parent, backbone_groups(folders.results)
     lines = ["# Surrogate system hypothesis for joint mechanics: pipeline report", "",
              "The beams' \"measurements\" in this report are **VIRTUAL** (simulated ring-downs of a reference joint, "
              "labelled virtual wherever they appear); the ASB backbones and the Chen 2022 ring-down are measured.",
@@ -348,14 +486,16 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
     lines += geometry_section(folders.build, out) + [""]
     lines += fe_section(folders.build, out) + [""]
     lines += reduction_section(folders.build, out) + [""]
-    lines += backbone_section(folders.results, out) + [""]
+    lines += backbone_section(folders.results, out, groups) + [""]
     for number, (dataset, folder) in enumerate(STUDIES, start=5):
         study_report = folders.results / folder / "report.md"
         lines += (embedded_study(study_report, out, number) if study_report.exists()
-                  else [f"## {number}. Surrogacy study: {dataset}", "", "_study not run_"]) + [""]
+                  else [f"## {number}. Surrogacy study: {dataset}", "", study_not_reported(study_report)]) + [""]
     lines += calibration_section(folders.results, out) + [""]
     lines += discrepancy_section(folders.results, out) + [""]
     lines += provenance_section(folders)
+    if groups:
+        plot_backbones(out / "report_backbones.png", groups)
     with atomic_path(destination) as temporary:
-        temporary.write_text("\n".join(lines) + "\n")
+        temporary.write_text(missing_figures("\n".join(lines) + "\n", out))
     return Path(destination)

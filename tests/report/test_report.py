@@ -146,8 +146,96 @@ def test_discrepancy_section_shows_the_signal_findings_beside_the_errors(tmp_pat
         (folder / "discrepancy.json").write_text(json.dumps({
             "provenance": "virtual", "effects": [], "unexplained": bool(findings), "findings": findings,
             "signal_checks": checked, "joint_law": [], "added": [], "alternatives": {}, "steps": [{"errors": errors, "parameters": {}}]}))
+        (folder / "discrepancy.md").write_text("Discrepancy loop\n")
     rows = {line.split("|")[1].strip(): line for line in discrepancy_section(tmp_path / "results", tmp_path)
             if line.startswith("| [")}
     ring, asb = (rows[f"[{name}](results/discrepancy/{name}/discrepancy.md)"] for name in ("ring", "asb"))
     assert "| second_mode: a second mode at 174.6 Hz | unexplained (second_mode) | 0.5 -> 0.5 |" in ring
     assert "| joint law: macroslip; added: none | not checked | explained to the noise |" in asb
+
+
+def test_report_on_a_partly_deleted_results_folder_names_what_is_missing(pipeline_report, tmp_path):
+    """The results with a study figure, a calibration figure, calibration.md (its records kept), one loop's
+    discrepancy.json and another's .md and .png deleted, and a build whose BRB mesh ran without its render and
+    nothing else, and a study folder without its report: exit 0, no link to an absent file, each absent file named
+    where it belongs, no loop dropped, neither the calibration nor that study called not run, the stages never run
+    named so."""
+    import shutil
+
+    report, build, results = pipeline_report
+    damaged, partial = tmp_path / "results", tmp_path / "build"
+    shutil.copytree(results, damaged)
+    shutil.copytree(damaged / "discrepancy" / "ASB_C1", damaged / "discrepancy" / "ASB_C1_again")
+    (partial / "beams").mkdir(parents=True)
+    shutil.copy(build / "beams" / "BRB.json", partial / "beams")
+    (damaged / "study-beams").mkdir()
+    shutil.copy(damaged / "study-asb" / "study.json", damaged / "study-beams")  # a study without its report
+    deleted = [damaged / "study-asb" / "analysis" / "pareto_jenkins.png", damaged / "fit-asb" / "fits_jenkins.png",
+               damaged / "fit-asb" / "calibration.md", damaged / "discrepancy" / "ASB_C1" / "discrepancy.json",
+               damaged / "discrepancy" / "ASB_C1_again" / "discrepancy.md",
+               damaged / "discrepancy" / "ASB_C1_again" / "discrepancy.png"]
+    for path in deleted:
+        path.unlink()
+    out = damaged / "report.md"
+    assert surrogacy(["report", "--build", str(partial), "--results", str(damaged), "--out", str(out)]) == 0
+    text = out.read_text()
+    linked = [(out.parent / link).resolve() for link in re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)]
+    assert linked and all(path.exists() for path in linked)
+    for path in (deleted[0], deleted[1], deleted[5], partial / "beams" / "BRB.png"):
+        assert f"figure missing: {path} is absent although its stage ran" in text
+    records = len(list((damaged / "fit-asb").glob("*/*.json")))
+    assert f"{deleted[2]} absent; its {records} calibration record(s) are there (jenkins): the calibration ran" in text
+    assert "_calibration not run_" not in text
+    assert (f"| ASB_C1 | discrepancy.json absent from {deleted[3].parent} (beside discrepancy.md, "
+            "discrepancy.png)") in text
+    assert f"| ASB_C1_again ({deleted[4]} absent) | measured |" in text
+    assert f"_LBRB mesh: {partial / 'beams' / 'LBRB.png'} not written (stage not run)_" in text
+    assert (f"## 5. Surrogacy study: beams\n\n_{damaged / 'study-beams' / 'report.md'} absent: the study ran "
+            f"({damaged / 'study-beams'} holds its files) but its report step did not") in text
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda text: text[:len(text) // 2], "not one JSON object ("),
+    (lambda text: json.dumps({key: value for key, value in json.loads(text).items() if key != "steps"}),
+     "not a discrepancy record: field 'steps' missing"),
+])
+def test_a_damaged_discrepancy_record_is_refused_naming_it_and_changes_no_file(pipeline_report, tmp_path, capsys,
+                                                                                damage, message):
+    """A discrepancy.json cut in half, or without its steps: one line naming the file, exit 2, and the report
+    and its backbone figure as the last run wrote them (a record is never trusted on its name alone)."""
+    import shutil
+
+    from stage_runs import digests
+
+    report, build, results = pipeline_report
+    damaged = tmp_path / "results"
+    shutil.copytree(results, damaged)
+    record = damaged / "discrepancy" / "ASB_C1" / "discrepancy.json"
+    record.write_text(damage(record.read_text()))
+    before = digests(damaged)
+    assert surrogacy(["report", "--build", str(build), "--results", str(damaged), "--out",
+                      str(damaged / "report.md")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith(f"surrogacy report: error: {record}: {message}") and len(error.splitlines()) == 1
+    assert digests(damaged) == before
+
+
+def test_a_confidence_table_cut_short_is_refused_naming_the_line(tmp_path):
+    """The confidence CSV of a region not reached (the estimate's cells empty, as written) reads; cut inside its
+    third row, it is refused naming the file, the line and the first empty cell; a file without a row, too."""
+    from report.document import confidence_matrix, confidence_table
+    from study.subset_simulation import subset_table, write_subset_csv
+
+    path = tmp_path / "confidence_jenkins.csv"
+    write_subset_csv(subset_table(None, "jenkins", ["ASB C1", "ASB C2", "ASB C3"], 0.3, 5e-4, surrogate=0,
+                                  note="not reached"), path)
+    assert "| ASB C1 (0.3, 0.0005) | not reached / - | not reached / - | not reached / - |" in confidence_matrix(
+        path, tmp_path)
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[:3] + [lines[3][:len("jenkins,ASB C1,ASB C3")]]))
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: line 4, column "
+                                         r"'surrogate_frequency_tolerance_hz': ''; expected a finite number"):
+        confidence_table(path)
+    path.write_text(lines[0] + "\n")
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: no row"):
+        confidence_table(path)
