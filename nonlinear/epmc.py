@@ -130,6 +130,8 @@ class ModeEquations:
         modal_g = g @ self.system.joint_shapes.T  # (2H+1, n_modes): c_j^T G
         k = np.arange(1, self.harmonics + 1)[:, None]
         d = self.system.eigenvalues[None, :] - (k * omega) ** 2
+        if self.harmonics >= 1:
+            d[0, self.system.target] = 1.0  # prescribed below
         e = k * omega * xi
         denominator = d ** 2 + e ** 2
         modal = np.empty_like(modal_g)

@@ -137,40 +137,53 @@ def periodic_hysteresis(system: JointSystem, displacement: np.ndarray, state: Sl
                         max_periods: int = MAX_PERIODS) -> Hysteresis:
     """Step every element's sliders through the periodic displacement (n_t, N) (m), period after period from
     ``state``, until the state at a period's end equals that at its start (positions to PERIODIC_TOLERANCE of the
-    largest motion, directions exactly); then one more period gives the deficit and its Jacobian (module
-    docstring): dg(n)/du(n) = K_d - (stiffness of the sliders stuck at n), and each slider stuck at n whose last
-    slip was at sample m adds k_j at (n, m) (its force is k_j (u(n) - u(m)) + const)."""
+    largest motion, directions exactly); that period gives the deficit and its Jacobian (``hysteresis_jacobian``).
+    """
     sliders = system.sliders
     n_elements, samples = displacement.shape
     tolerance = PERIODIC_TOLERANCE * max(float(np.abs(displacement).max()), np.finfo(float).tiny)
-    last_slip = np.full(sliders.stiffness.shape, -1)
+    force = np.empty((n_elements, samples))
+    sliding = np.empty((samples,) + sliders.stiffness.shape, dtype=bool)
+    earlier_slip = np.full(sliders.stiffness.shape, -1)  # sample of each slider's last slip before the period
     periodic, periods = False, 0
     while periods < max_periods and not periodic:
+        if periods:
+            earlier_slip = np.where(sliding.any(axis=0), samples - 1 - np.argmax(sliding[::-1], axis=0),
+                                    earlier_slip)
         start = state
         position, direction = state
         for n in range(samples):
-            _, _, new_position, direction = slider_response(displacement[:, n], position, direction, sliders)
-            last_slip[new_position != position] = n
+            force[:, n], _, new_position, direction = slider_response(displacement[:, n], position, direction,
+                                                                      sliders)
+            sliding[n] = new_position != position
             position = new_position
         state, periods = SliderState(position, direction), periods + 1
         periodic = bool(np.all(np.abs(state.position - start.position) <= tolerance)
                         and np.array_equal(state.direction, start.direction))
-    force = np.empty((n_elements, samples))
-    jacobian = np.zeros((n_elements, samples, samples))
-    position, direction = state
-    rows = np.arange(n_elements)[:, None] * samples
-    for n in range(samples):
-        force[:, n], _, new_position, direction = slider_response(displacement[:, n], position, direction, sliders)
-        sliding = new_position != position
-        stuck = ~sliding & (sliders.stiffness > 0.0)
-        memory = stuck & (last_slip >= 0)
-        jacobian[:, n, :] = np.bincount((rows + last_slip)[memory], weights=sliders.stiffness[memory],
-                                        minlength=n_elements * samples).reshape(n_elements, samples)
-        jacobian[:, n, n] += system.stiffness - np.sum(sliders.stiffness * stuck, axis=1)
-        last_slip[sliding] = n
-        position = new_position
     deficit = system.stiffness[:, None] * displacement - force
-    return Hysteresis(deficit, jacobian, periods, periodic, SliderState(position, direction))
+    return Hysteresis(deficit, hysteresis_jacobian(system, sliding, earlier_slip), periods, periodic, state)
+
+
+def hysteresis_jacobian(system: JointSystem, sliding: np.ndarray, earlier_slip: np.ndarray) -> np.ndarray:
+    """dg(n)/du(m) (n_t, N, N), N/m, of the last period of the time loop from each slider's sliding at each of its
+    samples (N, n_t, n_sliders) bool and the sample of its last slip in the periods before (n_t, n_sliders), -1
+    for none (module docstring): dg(n)/du(n) = K_d - (stiffness of the sliders stuck at n), and each slider stuck
+    at n whose last slip was at sample m (of this period or, before its first slip in it, of the earlier ones)
+    adds k_j at (n, m), its force being k_j (u(n) - u(m)) + const; one that never slid carries k_j u(n)."""
+    stiffness = system.sliders.stiffness
+    samples, n_elements = sliding.shape[0], sliding.shape[1]
+    index = np.arange(samples)[:, None, None]
+    last = np.maximum.accumulate(np.where(sliding, index, -1), axis=0)
+    last = np.where(last < 0, earlier_slip, last)
+    stuck = ~sliding & (stiffness > 0.0)
+    memory = stuck & (last >= 0)
+    weights = np.broadcast_to(stiffness, sliding.shape)[memory]
+    cell = ((index * n_elements + np.arange(n_elements)[:, None]) * samples + last)[memory]
+    jacobian = np.bincount(cell, weights=weights, minlength=samples * n_elements * samples)
+    jacobian = jacobian.reshape(samples, n_elements, samples).transpose(1, 0, 2).astype(float)
+    diagonal = system.stiffness[None, :] - np.sum(stiffness * stuck, axis=2)  # (N, n_t)
+    jacobian[:, np.arange(samples), np.arange(samples)] += diagonal.T
+    return jacobian
 
 
 class SlipDeficit(NamedTuple):
@@ -194,6 +207,7 @@ def slip_deficit_harmonics(system: JointSystem, motion: np.ndarray, basis: tuple
     return SlipDeficit(harmonics, jacobian, hysteresis.periodic)
 
 
+@np.errstate(invalid="ignore")  # as periodic_hysteresis: padding sliders
 def static_equilibrium(system: JointSystem, load: np.ndarray, state: SliderState | None = None,
                        tolerance: float = 1e-12, max_iterations: int = 50) -> tuple[np.ndarray, SliderState]:
     """The static step: tangential joint motion r_s (n_t,) m and slider state under a static load (n_modes,)
@@ -236,12 +250,12 @@ def dynamic_compliance(system: JointSystem, omega: float, xi: float, harmonics: 
     cancellation near a resonance). resonant_target False: the target mode is left out of harmonic 1, where the
     nonlinear mode prescribes it (``nonlinear.epmc``)."""
     k = np.arange(harmonics + 1)[:, None]
-    d = system.eigenvalues[None, :] - (k * omega) ** 2
-    e = np.broadcast_to(k * omega * xi, d.shape)
-    denominator = d ** 2 + e ** 2
-    keep = np.ones_like(d)
+    keep = np.ones((harmonics + 1, system.eigenvalues.size))
     if not resonant_target and harmonics >= 1:
         keep[1, system.target] = 0.0
+    d = np.where(keep > 0, system.eigenvalues[None, :] - (k * omega) ** 2, 1.0)  # left out: any nonzero value
+    e = np.broadcast_to(k * omega * xi, d.shape)
+    denominator = d ** 2 + e ** 2
     weights = {
         "real": d / denominator, "imaginary": e / denominator,
         # chain rule: dd/domega = -2 k^2 omega, de/domega = k xi, de/dxi = k omega
