@@ -115,16 +115,16 @@ def test_stuck_beam_gives_its_linear_mode(beam_roms):
 
 @pytest.mark.slow
 def test_epmc_and_qsma_agree_in_microslip_on_the_beam(beam_roms):
-    """The BRB with four-parameter Iwan joints (thousands of sliders per element) at slip ratios 1e-2 to 0.3:
+    """The BRB with four-parameter Iwan joints (thousands of sliders per element) at slip ratios 2e-3 to 0.13:
     EPMC and QSMA are two routes to the same weakly nonlinear mode, so they agree where the mode shape barely
-    changes: frequency within 1e-4, damping within 3 % (the sliders resolve the power law to 4e-3 in slip). About
-    60 s."""
+    changes: frequency within 2e-4 and damping within 1e-3 (measured 1e-5 to 7.5e-5 and 1e-4 to 3.5e-4, both
+    growing with the slip). About 50 s."""
     space = joint_space(beam_superelement(beam_roms / "BRB.npz"))
     design = np.array([300.0, 1e7, -0.5, 0.1, 1e9] * 3)
-    amplitude = np.geomspace(2e-6, 5e-5, 3)
+    amplitude = np.geomspace(5e-6, 3e-4, 4)
     qsma = qsma_reference(space, "iwan4", design, amplitudes=amplitude)
     mode = nonlinear_mode(joint_system(space, "iwan4", design), amplitude, harmonics=3)
     assert mode.converged.all() and qsma.converged.all()
     assert 1e-3 < qsma.slip_ratio.max(axis=1)[0] and qsma.slip_ratio.max() < 0.5
-    np.testing.assert_allclose(mode.frequency, qsma.frequency, rtol=1e-4)
-    np.testing.assert_allclose(mode.damping, qsma.damping, rtol=3e-2)
+    np.testing.assert_allclose(mode.frequency, qsma.frequency, rtol=2e-4)
+    np.testing.assert_allclose(mode.damping, qsma.damping, rtol=1e-3)
