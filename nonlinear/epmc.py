@@ -170,7 +170,8 @@ def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int
                    step: float = 0.2) -> NonlinearMode:
     """EPMC of ``system`` at the increasing modal amplitudes (n,) m kg^0.5: from the linear mode at the first
     amplitude, a pseudo-arclength continuation in ln q (``nonlinear.harmonic_balance.pseudo_arclength``) to the
-    last, each amplitude then solved exactly by Newton's method at fixed q from the branch interpolated there."""
+    last, each amplitude then solved exactly by Newton's method at fixed q from the branch interpolated there.
+    Amplitudes beyond a branch that stopped (its corrector failed) are NaN and not converged."""
     amplitudes = np.asarray(amplitudes, dtype=float)
     if amplitudes.ndim != 1 or amplitudes.size == 0 or np.any(amplitudes <= 0) or np.any(np.diff(amplitudes) <= 0):
         raise ValueError(f"amplitudes must be positive and increasing; got {amplitudes}")
@@ -184,6 +185,10 @@ def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int
     for level in levels:
         if branch is None:
             guess = start
+        elif level > branch.parameters[-1]:  # beyond where the branch stopped
+            solutions.append(np.full(start.size, np.nan))
+            converged.append(False)
+            continue
         else:
             after = min(int(np.searchsorted(branch.parameters, level)), len(branch.parameters) - 1)
             before = max(after - 1, 0)
@@ -198,7 +203,9 @@ def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int
     omega = equations.omega_0 * solutions[:, equations.size]
     xi = equations.omega_0 * solutions[:, equations.size + 1]
     joint = amplitudes[:, None, None] * solutions[:, :equations.size].reshape(len(levels), -1, equations.n_t)
-    modal = np.array([equations.modal_harmonics(y, level) for y, level in zip(solutions, levels)])
+    modal = np.array([equations.modal_harmonics(y, level) if np.all(np.isfinite(y))
+                      else np.full((harmonic_count(harmonics), system.eigenvalues.size), np.nan)
+                      for y, level in zip(solutions, levels)])
     return NonlinearMode(amplitudes, omega, xi / (2.0 * omega), joint, modal, harmonics, samples,
                          np.array(converged), equations.omega_0,
                          1 if branch is None else len(branch.parameters))

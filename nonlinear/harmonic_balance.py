@@ -291,12 +291,13 @@ def element_jacobian(jacobian: np.ndarray) -> np.ndarray:
 
 
 class Continuation(NamedTuple):
-    """Points of a solution branch: parameters (n_points,), unknowns (n_points, n_unknowns), and the Newton
-    iterations each took."""
+    """Points of a solution branch: parameters (n_points,), unknowns (n_points, n_unknowns), the Newton
+    iterations each took, and whether the branch reached the end (else it stopped where the corrector failed)."""
 
     parameters: np.ndarray
     unknowns: np.ndarray
     iterations: np.ndarray
+    reached: bool
 
 
 Residual = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -322,7 +323,8 @@ def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, end: floa
     until the parameter passes ``end`` (increasing). Predictor along the unit tangent t of the branch
     ([dR/dy dR/dp] t = 0, oriented as the previous one), corrector by Newton's method on R = 0 and
     t . ((y, p) - predicted) = 0; the step (in the scaled unknowns and parameter) grows by 1.5 after a corrector
-    of at most 3 iterations and halves after a failed one. Raises RuntimeError below ``min_step``."""
+    of at most 3 iterations and halves after a failed one; the branch stops where the step falls below
+    ``min_step`` (``Continuation.reached`` False)."""
     max_step = 10.0 * step if max_step is None else max_step
     points, parameters, iterations = [np.asarray(y0, dtype=float)], [float(start)], [0]
     y, parameter, previous = points[0], float(start), None
@@ -349,12 +351,11 @@ def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, end: floa
                 break
             step /= 2.0
             if step < min_step:
-                raise RuntimeError(f"continuation stopped at parameter {parameter:.6g}: the corrector did not "
-                                   f"converge with steps down to {min_step:g}")
+                return Continuation(np.array(parameters), np.array(points), np.array(iterations), False)
         y, parameter, previous = trial[:-1], float(trial[-1]), tangent
         points.append(y)
         parameters.append(parameter)
         iterations.append(count)
         if count <= 3:
             step = min(1.5 * step, max_step)
-    return Continuation(np.array(parameters), np.array(points), np.array(iterations))
+    return Continuation(np.array(parameters), np.array(points), np.array(iterations), parameter >= end)
