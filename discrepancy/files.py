@@ -81,13 +81,20 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
                   + f" fit as well with as many parameters (BIC within {EVIDENCE:g}); the data do not tell them "
                     "from the answer below."]
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
-    lines += ["", f"Joint law: {', '.join(verdict.joint_law) or 'macroslip (Jenkins)'}. Effects added outside the "
-                  f"joint: {', '.join(verdict.added) or 'none'}. " + (
+    lines += ["", f"Verdict: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
         "stands for (chi^2/dof of the backbone's fit in the table above)." if outside else
         "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
         "The residual is at the measurement's noise.")]
     return "\n".join(lines) + "\n"
+
+
+def verdict_summary(joint_law, added, alternatives) -> str:
+    """A verdict in one line (the printed line, discrepancy.md, the report): the joint law (macroslip where the
+    loop named none), the effects added outside the joint and the models as good within the noise (a verdict's or
+    discrepancy.json's ``joint_law``, ``added``, ``alternatives``)."""
+    line = f"joint law {', '.join(joint_law) or 'macroslip'}; added outside the joint {', '.join(added) or 'none'}"
+    return line + ("; as good within the noise: " + " or ".join(alternatives) if alternatives else "")
 
 
 EXTRAPOLATION = 3.0  # the figure draws a one-mode final model up to this factor above the fitted range

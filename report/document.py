@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from discrepancy.files import verdict_summary
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
@@ -374,10 +375,7 @@ def verdict_row(verdict: dict, name: str) -> str:
     if "joint_law" not in verdict:
         return (f"| {name} | written before the loop named the joint law apart: rerun `surrogacy discrepancy` "
                 "| | | | | | | | |")
-    found = (f"joint law: {', '.join(verdict['joint_law']) or 'macroslip'}; added: "
-             f"{', '.join(verdict['added']) or 'none'}")
-    if verdict["alternatives"]:
-        found += " (as good within the noise: " + "; ".join(verdict["alternatives"]) + ")"
+    found = verdict_summary(verdict["joint_law"], verdict["added"], verdict["alternatives"])
     findings = verdict.get("findings", [])
     seen = "; ".join(f"{entry['name']}: {entry['summary']}" for entry in findings) or (
         "none" if verdict.get("signal_checks") else "not checked")

@@ -151,7 +151,7 @@ def test_discrepancy_section_shows_the_signal_findings_beside_the_errors(tmp_pat
             if line.startswith("| [")}
     ring, asb = (rows[f"[{name}](results/discrepancy/{name}/discrepancy.md)"] for name in ("ring", "asb"))
     assert "| second_mode: a second mode at 174.6 Hz | unexplained (second_mode) | 0.5 -> 0.5 |" in ring
-    assert "| joint law: macroslip; added: none | not checked | explained to the noise |" in asb
+    assert "| joint law macroslip; added outside the joint none | not checked | explained to the noise |" in asb
 
 
 def test_report_on_a_partly_deleted_results_folder_names_what_is_missing(pipeline_report, tmp_path):
