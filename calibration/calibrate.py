@@ -1,5 +1,6 @@
 """A calibration of one friction model on one structure: a global multi-objective search, then least-squares
-polishes along its front, then the best compromise with its uncertainty (docs/design.md section 11).
+polishes along its front, a deterministic multistart, then the best compromise with its uncertainty
+(docs/design.md section 11).
 
 Global phase. NSGA-II (``study.pareto.nsga2_front``) over the unit box of ``calibration.objectives`` (the joint's
 Table 3 parameters and zeta_0) on the two L-infinity errors, seeded with the designs a study found (its sample's
@@ -9,16 +10,26 @@ by less than 0.25 % over 30 generations), at most ``MAX_GENERATIONS`` (a run tha
 
 Local phase. For each weight of ``WEIGHTS`` between frequency (w -> 1) and damping (w -> 0), the ``STARTS`` points
 of the global front and the seeds with the lowest weighted chi^2 are polished by ``calibration.local_fit.local_fit``
-(the chi^2 optimum need not lie near the L-infinity front); a model that contains another (iwan5 and iwan4_core
-contain iwan4) is also polished from that model's calibrated optimum of lowest weighted chi^2, so the larger model
-fits at least as well. These are extra starts only: the global search keeps its own seeds, whose basins can be
-better (on ASB CD1 the stuck core's best, chi^2 162.6, is not near the contained iwan4's optimum, 208.8).
+(the chi^2 optimum need not lie near the L-infinity front); a model that contains another
+(``FrictionModel.contains``) is also polished from that model's calibrated optimum of lowest weighted chi^2, so the
+larger model fits at least as well.
 
-Result. The calibrated front is the non-dominated set, in the two L-infinity errors, of the global front and every
-polished point. The best compromise is the polished point of w = 1/2 (the plain chi^2 of frequency and damping)
-with the lowest chi^2, with its plain errors and its parameters' uncertainty; besides its own starts, w = 1/2 is
-polished from the best optimum of every other weight (on the measured ASB these reach lower chi^2 than the
-front's points: C1 iwan4 77 against 144, C3 132 against 189, CD1 209 against 238).
+Multistart. The global phase follows the study's sample, and a sample of another seed reaches other basins (on the
+measured ASB the best compromise's chi^2 moved by up to 28 % between two study seeds). So that the best
+compromise does not depend on the sample, w = 1/2 is also polished from ``MULTISTARTS`` points of a fixed
+(unscrambled) Sobol sequence of ``MULTISTART_POINTS`` points over the whole box: those of lowest chi^2. Each
+polished point is then scanned along each coordinate over its whole unit range (``SCAN_POINTS`` values, all
+coordinates in one QSMA call) and polished again from the best point of the scans while that lowers chi^2 by more
+than ``SCAN_GAIN`` (relative), at most ``SCAN_SWEEPS`` times: a friction model's chi^2 is flat in a parameter
+that does not act (F_S of a joint that never slips at the measured levels), where a gradient method stays.
+
+Result. The calibrated front is the non-dominated set, in the two L-infinity errors, of every point the
+calibration evaluated (``calibration.objectives.FrontArchive``: the global phase's, every local fit's and the
+multistart's). The best compromise is the w = 1/2 fit (the plain chi^2 of frequency and damping) of lowest chi^2
+among its own starts, the multistart's, the contained model's and the best optimum of every other weight, scanned
+and polished as a multistart point, and continued from where its evaluation budget stopped it up to
+``CONTINUATIONS`` times: it is reported as converged only where its last run stopped on its tolerances. It comes
+with its plain errors and its parameters' uncertainty.
 """
 
 from __future__ import annotations
@@ -27,11 +38,13 @@ from typing import NamedTuple
 
 import numpy as np
 from pymoo.termination.default import DefaultMultiObjectiveTermination
+from scipy.stats import qmc
 
 from calibration.local_fit import LocalFit, Uncertainty, local_fit, residual_rows, uncertainty
-from calibration.objectives import FitSpace, fit_space, linf_errors, model_curves, plain_errors, unit_zeta0
+from calibration.objectives import (FitSpace, FrontArchive, fit_space, linf_errors, model_curves, plain_errors,
+                                   unit_zeta0)
 from nonlinear.condensation import modal_split
-from study.pareto import non_dominated, nsga2_front
+from study.pareto import nsga2_front
 from study.structures import Structure
 
 WEIGHTS = (0.1, 0.3, 0.5, 0.7, 0.9)
@@ -42,13 +55,25 @@ POPULATION = 64
 MAX_GENERATIONS = 800
 ZETA0_SEEDS = 4
 """Values of zeta_0 (spread over its unit range) each seed design is paired with, besides the study's."""
+MULTISTART_POINTS = 4096
+"""Points of the Sobol sequence over the unit box whose chi^2 the multistart ranks (a power of two)."""
+MULTISTARTS = 8
+"""Points of lowest chi^2 among them that w = 1/2 is polished from."""
+SCAN_POINTS = 33
+"""Values of each coordinate, evenly over its unit range, of one scan."""
+SCAN_SWEEPS = 6
+SCAN_GAIN = 1e-6
+"""Relative fall of chi^2 a scan must find to be polished from."""
+CONTINUATIONS = 9
+"""Restarts of the best compromise's fit from where its evaluation budget (400 each) stopped it."""
 
 
 class Calibration(NamedTuple):
     """One friction model calibrated on one structure.
 
     space: the box. front_unit (k, d + 1), front_errors (k, 2) (e_f Hz, e_zeta -): the calibrated front, sorted by
-    e_f, and front_source (k,): "global" or "polished w=<w>". fits: every local fit. best: the best compromise,
+    e_f, and front_source (k,): the phase that evaluated each point ("global", "polished w=<w>", "multistart" or
+    "best compromise"). fits: every local fit. best: the best compromise,
     best_errors its plain errors (``calibration.objectives.plain_errors``), best_uncertainty its parameters'.
     global_evaluations, global_generations: the global phase's cost.
     """
@@ -75,6 +100,45 @@ def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.rando
     return np.column_stack([np.repeat(designs_unit, zeta0.shape[1], axis=0), zeta0.ravel()])
 
 
+def chi_squared(structure: Structure, space: FitSpace, unit, split, archive: FrontArchive | None = None
+                ) -> np.ndarray:
+    """The plain chi^2 (w = 1/2) of unit points (n, d + 1): (n,)."""
+    return np.sum(residual_rows(structure, space, unit, 0.5, split, archive) ** 2, axis=1)
+
+
+def coordinate_scans(point: np.ndarray) -> np.ndarray:
+    """Points ((d + 1) SCAN_POINTS, d + 1): ``point`` (d + 1,) with each coordinate in turn at SCAN_POINTS values
+    evenly over [0, 1]."""
+    values = np.linspace(0.0, 1.0, SCAN_POINTS)
+    points = np.repeat(point[None, :], point.size * SCAN_POINTS, axis=0)
+    points[np.arange(points.shape[0]), np.repeat(np.arange(point.size), SCAN_POINTS)] = np.tile(values, point.size)
+    return points
+
+
+def scanned(structure: Structure, space: FitSpace, fit: LocalFit, split, archive: FrontArchive,
+            continuations: int = 0) -> LocalFit:
+    """``fit`` (w = 1/2) polished again from the best point of its coordinate scans while they lower its chi^2 by
+    more than SCAN_GAIN, at most SCAN_SWEEPS times (module docstring); each fit restarted up to ``continuations``
+    times where its budget stops it."""
+    for _ in range(SCAN_SWEEPS):
+        points = coordinate_scans(fit.unit)
+        values = chi_squared(structure, space, points, split, archive)
+        best = int(np.argmin(values))
+        if not values[best] < fit.chi_squared * (1.0 - SCAN_GAIN):
+            break
+        fit = local_fit(structure, space, points[best], 0.5, split, continuations=continuations, archive=archive)
+    return fit
+
+
+def multistart(structure: Structure, space: FitSpace, split, archive: FrontArchive) -> list[LocalFit]:
+    """The multistart's w = 1/2 fits (module docstring): from the MULTISTARTS points of lowest chi^2 among the
+    first MULTISTART_POINTS of the unscrambled Sobol sequence over the unit box, each scanned."""
+    points = qmc.Sobol(len(space.names), scramble=False).random(MULTISTART_POINTS)
+    values = chi_squared(structure, space, points, split, archive)
+    return [scanned(structure, space, local_fit(structure, space, points[start], 0.5, split, archive=archive),
+                    split, archive) for start in np.argsort(values)[:MULTISTARTS]]
+
+
 def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study_zeta0: float, seed: int = 0,
               max_generations: int = MAX_GENERATIONS, fitted_seeds=None) -> Calibration:
     """Calibrate ``model`` on ``structure`` (module docstring). seeds_unit: (n, d) the study's designs in Table 3
@@ -85,34 +149,40 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
     space = fit_space(model, n_groups, structure.measurement)
     split = modal_split(structure.space)
     measurement = structure.measurement
+    archive = FrontArchive(len(space.names))
 
     def objective(unit):
-        return linf_errors(measurement, model_curves(structure, space, unit, split))
+        return linf_errors(measurement, model_curves(structure, space, unit, split, archive))
 
     seeds = seed_points(space, seeds_unit, study_zeta0, np.random.default_rng(seed))
     fitted_seeds = np.empty((0, len(space.names))) if fitted_seeds is None else np.atleast_2d(fitted_seeds)
     termination = DefaultMultiObjectiveTermination(n_max_gen=max_generations)
+    archive.source = "global"
     found = nsga2_front(objective, seeds, population=POPULATION, seed=seed, termination=termination)
     fits = []
     starts = np.vstack([found.designs, seeds])
     for weight in WEIGHTS:
-        chi_squared = np.sum(residual_rows(structure, space, starts, weight, split) ** 2, axis=1)
-        fits += [local_fit(structure, space, starts[start], weight, split)
-                 for start in np.argsort(chi_squared)[:STARTS]]
+        archive.source = f"polished w={weight:g}"
+        chi_squared_w = np.sum(residual_rows(structure, space, starts, weight, split) ** 2, axis=1)
+        fits += [local_fit(structure, space, starts[start], weight, split, archive=archive)
+                 for start in np.argsort(chi_squared_w)[:STARTS]]
         if len(fitted_seeds):  # besides the search's own starts, not instead of them
             fitted_chi_squared = np.sum(residual_rows(structure, space, fitted_seeds, weight, split) ** 2, axis=1)
-            fits.append(local_fit(structure, space, fitted_seeds[np.argmin(fitted_chi_squared)], weight, split))
+            fits.append(local_fit(structure, space, fitted_seeds[np.argmin(fitted_chi_squared)], weight, split,
+                                  archive=archive))
+    archive.source = "polished w=0.5"
     fits += [local_fit(structure, space, min((fit for fit in fits if fit.weight == weight),
-                                             key=lambda fit: fit.chi_squared).unit, 0.5, split)
+                                             key=lambda fit: fit.chi_squared).unit, 0.5, split, archive=archive)
              for weight in WEIGHTS if weight != 0.5]  # the sweep's other optima as starts of the best compromise
-    polished = np.array([fit.unit for fit in fits])
-    candidates = np.vstack([found.designs, polished])
-    errors = np.vstack([found.errors, objective(polished)])
-    sources = ["global"] * len(found.designs) + [f"polished w={fit.weight:g}" for fit in fits]
-    front = np.flatnonzero(non_dominated(errors))
-    front = front[np.lexsort((errors[front, 1], errors[front, 0]))]
+    archive.source = "multistart"
+    fits += multistart(structure, space, split, archive)
+    archive.source = "best compromise"
     best = min((fit for fit in fits if fit.weight == 0.5), key=lambda fit: fit.chi_squared)
+    best = scanned(structure, space, local_fit(structure, space, best.unit, 0.5, split, continuations=CONTINUATIONS,
+                                               archive=archive), split, archive, CONTINUATIONS)
+    fits.append(best)
     best_curves = model_curves(structure, space, best.unit[None, :], split)
-    return Calibration(structure.name, space, candidates[front], errors[front], tuple(sources[i] for i in front),
-                       tuple(fits), best, plain_errors(measurement, best_curves),
-                       uncertainty(structure, space, best.unit, split), found.evaluations, found.generations)
+    front_unit, front_errors, front_source = archive.front()
+    return Calibration(structure.name, space, front_unit, front_errors, front_source, tuple(fits), best,
+                       plain_errors(measurement, best_curves), uncertainty(structure, space, best.unit, split),
+                       found.evaluations, found.generations)

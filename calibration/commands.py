@@ -1,21 +1,30 @@
 """``surrogacy fit --study FOLDER``: calibrate each friction model of a finished study on each of its structures
-(global NSGA-II to a front that stops moving, least-squares polishes along it, the best compromise with its
-uncertainty and a fitted zeta_0), seeded with the study's Pareto designs. Files: ``calibration.files``."""
+(global NSGA-II to a front that stops moving, least-squares polishes along it, a deterministic multistart, the best
+compromise with its uncertainty and a fitted zeta_0), seeded with the study's Pareto designs. With ``--replicates
+STUDY ...`` (studies of the same inputs at other seeds) each is calibrated too and the spread of every best
+compromise's chi^2 over the seeds is reported. Files: ``calibration.files``."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from calibration.calibrate import MAX_GENERATIONS
-from calibration.workflow import calibrate_study
+from calibration.workflow import calibrate_replicates, calibrate_study
 
 
 def run(arguments: argparse.Namespace) -> None:
-    """Calibrate the study's models on its structures; each (model, structure) once, skipped on a rerun."""
-    out = calibrate_study(arguments.study, arguments.out, arguments.models, arguments.structures, arguments.seed,
-                          arguments.max_generations)
-    print(f"wrote {out / 'calibration.md'}, front_<model>.csv, fits_<model>.png and <model>/<structure>.json")
+    """Calibrate the study's models on its structures (and the replicate studies'); each (model, structure) once,
+    skipped on a rerun; a nested model worse than one it contains is named on stderr."""
+    options = (arguments.models, arguments.structures, arguments.seed, arguments.max_generations)
+    replicates, defects = calibrate_replicates(arguments.replicates or (), arguments.out, *options)
+    out, found = calibrate_study(arguments.study, arguments.out, *options, replicates=replicates)
+    for line in defects + found:
+        print(f"defect: {line}", file=sys.stderr)
+    print(f"wrote {out / 'calibration.md'}, front_<model>.csv, fits_<model>.png and <model>/<structure>.json"
+          + (f", spread.csv and replicates/seed-<seed>/ of seeds {', '.join(map(str, replicates))}"
+             if replicates else ""))
 
 
 def register(subparsers) -> None:
@@ -28,5 +37,8 @@ def register(subparsers) -> None:
     command.add_argument("--seed", type=int, default=0, help="NSGA-II's random seed (plus the structure's index)")
     command.add_argument("--max-generations", type=int, default=MAX_GENERATIONS,
                          help="cap of the global phase's generations (it stops earlier when its front stops moving)")
+    command.add_argument("--replicates", type=Path, nargs="+",
+                         help="studies of the same inputs at other seeds: each calibrated into OUT/replicates/"
+                              "seed-<seed>, and the spread of every best compromise's chi^2 over the seeds reported")
     command.add_argument("--out", type=Path, default=Path("results/fit"), help="output folder")
     command.set_defaults(run=run)

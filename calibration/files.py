@@ -4,8 +4,14 @@
                                (parameters with uncertainty, zeta_0, chi^2, plain errors, undetermined parameters),
                                the global phase's cost, the calibrated front and the study's fronts' best points
                                and hypervolumes; written once, so that a rerun skips what is finished
-    front_<model>.csv          every structure's calibrated front: structure, source (global or polished w=...),
-                               the design's parameters (N, N/m, -), zeta_0, frequency_error_hz, damping_error
+    front_<model>.csv          every structure's calibrated front (the non-dominated set of every design the
+                               calibration evaluated) and its best compromise: structure, source (the phase that
+                               evaluated the design: global, polished w=..., multistart, best compromise; the
+                               best compromise's own row last), the design's parameters (N, N/m, -), zeta_0,
+                               frequency_error_hz, damping_error
+    spread.csv                 with replicate studies (other seeds): per model, structure and study seed the best
+                               compromise's chi^2, reduced chi^2 and convergence, and the spread of the reduced
+                               chi^2 over the seeds, (max - min) / min
     fits_<model>.png           the measurement and the best compromise's backbone, per structure
     bounds.csv                 acceptance bounds from the data per model and structure (``calibration.bounds``)
     calibration.md             the tables of every model and structure
@@ -53,7 +59,8 @@ def calibration_record(calibration: Calibration, key: str, study_front: dict) ->
                                  for name, value, kind in zip(space.names, uncertainty.physical, uncertainty.kind)},
                  "undetermined": list(uncertainty.undetermined), "chi_squared": best.chi_squared,
                  "reduced_chi_squared": uncertainty.reduced_chi_squared, "converged": best.converged,
-                 "message": best.message, "errors": calibration.best_errors},
+                 "message": best.message, "evaluations": best.evaluations, "restarts": best.restarts,
+                 "errors": calibration.best_errors},
         "local_fits": {"count": len(calibration.fits), "converged": sum(fit.converged for fit in calibration.fits),
                        "evaluations": sum(fit.evaluations for fit in calibration.fits)},
         "global": {"evaluations": calibration.global_evaluations, "generations": calibration.global_generations},
@@ -91,6 +98,9 @@ def record_problem(record, model: str, structure: str, names) -> str | None:
         if (record["model"], record["structure"]) != (model, structure):
             return f"fields 'model', 'structure': {record['model']!r}, {record['structure']!r}; expected {model!r}, " \
                    f"{structure!r}"
+        field("best.message", str)
+        if not isinstance(record["best"].get("converged"), bool):
+            return f"field 'best.converged': {record['best'].get('converged')!r}; expected true or false"
         for name in names:
             if not np.isfinite(field(f"best.parameters.{name}", number)):
                 return f"field 'best.parameters.{name}': expected a finite number"
@@ -117,7 +127,8 @@ def read_calibration(path: Path, key: str, model: str, structure: str, names) ->
 
 
 def write_fronts(path: Path, records: list[dict], space_of) -> None:
-    """front_<model>.csv of the model's records; space_of(record) -> its FitSpace."""
+    """front_<model>.csv of the model's records: each structure's front, then its best compromise (source "best
+    compromise", its L-infinity errors); space_of(record) -> its FitSpace."""
     rows = []
     for record in records:
         space = space_of(record)
@@ -125,8 +136,35 @@ def write_fronts(path: Path, records: list[dict], space_of) -> None:
         for design, z, (f, d), source in zip(designs, zeta0, record["front"]["errors"], record["front"]["source"]):
             rows.append({"structure": record["structure"], "source": source, **dict(zip(space.names, [*design, z])),
                          "frequency_error_hz": f, "damping_error": d})
+        best = record["best"]
+        rows.append({"structure": record["structure"], "source": "best compromise",
+                     **{name: best["parameters"][name] for name in space.names},
+                     "frequency_error_hz": best["errors"]["frequency_linf_hz"],
+                     "damping_error": best["errors"]["damping_linf"]})
     with atomic_path(path) as temporary:
         pd.DataFrame(rows).to_csv(temporary, index=False)
+
+
+SPREAD_COLUMNS = ("model", "structure", "seed", "chi_squared", "reduced_chi_squared", "converged", "spread")
+
+
+def spread_table(records_by_seed: dict) -> pd.DataFrame:
+    """spread.csv (``SPREAD_COLUMNS``): records_by_seed, study seed -> the records of its calibration (the same
+    models and structures, in the same order); spread: (max - min) / min of the reduced chi^2 over the seeds."""
+    table = pd.DataFrame([{"model": record["model"], "structure": record["structure"], "seed": seed,
+                           "chi_squared": record["best"]["chi_squared"],
+                           "reduced_chi_squared": json_float(record["best"]["reduced_chi_squared"]),
+                           "converged": bool(record["best"]["converged"])}
+                          for seed, records in records_by_seed.items() for record in records])
+    reduced = table.groupby(["model", "structure"], sort=False)["reduced_chi_squared"]
+    table["spread"] = reduced.transform("max") / reduced.transform("min") - 1.0
+    return table[list(SPREAD_COLUMNS)]
+
+
+def write_spread(table: pd.DataFrame, destination: Path) -> None:
+    """spread.csv (full precision), atomically."""
+    with atomic_path(destination) as temporary:
+        table.to_csv(temporary, index=False)
 
 
 def plot_fits(path: Path, model: str, curves: list) -> None:
@@ -136,8 +174,10 @@ def plot_fits(path: Path, model: str, curves: list) -> None:
                            f"{model}: the calibration's best compromise against the measurement")
 
 
-def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
-    """calibration.md: one table row per model and structure, then the acceptance bounds from the data
+def markdown(records: list[dict], bounds: pd.DataFrame, nested=(), spread: pd.DataFrame | None = None) -> str:
+    """calibration.md: one table row per model and structure (with the best compromise's convergence), the
+    nested models against the models they contain (``nested``: ``calibration.workflow.nested_row``), the spread
+    over study seeds where there is one (``spread_table``), then the acceptance bounds from the data
     (``calibration.bounds``). records: as ``calibration_record`` makes them or read back from their JSON (an error
     that is not a number, null there, as NaN)."""
     lines = ["# Calibration (surrogacy fit)", "",
@@ -147,7 +187,7 @@ def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
              "undetermined.", "",
              "| model | structure | study e_f (Hz) | calibrated e_f (Hz) | study e_zeta | calibrated e_zeta | "
              "HV study | HV calibrated | best: max rel. f | best: max rel. zeta | zeta_0 | reduced chi^2 | "
-             "undetermined | global generations |", "|---" * 14 + "|"]
+             "undetermined | global generations | converged |", "|---" * 15 + "|"]
     for record in records:
         study = record["study"]
         front = np.array(record["front"]["errors"], dtype=float)
@@ -160,7 +200,27 @@ def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
             f"{json_float(record['hypervolume']['calibrated']):.3f} | "
             f"{best['errors']['frequency_max_relative']:.2e} | {best['errors']['damping_max_relative']:.3f} | "
             f"{best['parameters']['zeta_0']:.3g} | {best['reduced_chi_squared']:.3g} | "
-            f"{', '.join(best['undetermined']) or 'none'} | {record['global']['generations']} |")
+            f"{', '.join(best['undetermined']) or 'none'} | {record['global']['generations']} | "
+            f"{'yes' if best['converged'] else 'NO: ' + best['message']} |")
+    if nested:
+        lines += ["", "Nested models: the best compromise's chi^2 of a model beside that of the model it contains and "
+                      "that of the contained optimum in the larger model's box; a larger model above both is a "
+                      "defect (an optimum it contains missed).", "",
+                  "| model | contains | structure | chi^2 | contained chi^2 | contained optimum in the model | "
+                  "holds |", "|---" * 7 + "|"]
+        lines += [f"| {row['model']} | {row['contains']} | {row['structure']} | {row['chi_squared']:.6g} | "
+                  f"{row['contained_chi_squared']:.6g} | {row['mapped_chi_squared']:.6g} | "
+                  f"{'yes' if row['holds'] else 'NO (defect)'} |" for row in nested]
+    if spread is not None:
+        seeds = list(dict.fromkeys(spread["seed"]))
+        lines += ["", f"Spread over study seeds {', '.join(map(str, seeds))}: the best compromise's reduced chi^2 "
+                      "calibrated from each seed's study (spread.csv; spread = (max - min) / min).", "",
+                  "| model | structure | " + " | ".join(f"seed {seed}" for seed in seeds) + " | spread | "
+                  "all converged |", "|---" * (len(seeds) + 4) + "|"]
+        for (model, structure), rows in spread.groupby(["model", "structure"], sort=False):
+            values = dict(zip(rows["seed"], rows["reduced_chi_squared"]))
+            lines.append(f"| {model} | {structure} | " + " | ".join(f"{values[seed]:.4g}" for seed in seeds)
+                         + f" | {rows['spread'].iloc[0]:.2%} | {'yes' if rows['converged'].all() else 'no'} |")
     lines += ["", "Acceptance bounds from the data (bounds.csv): each L-infinity error at most "
                   f"{MULTIPLE:g} times the best compromise's as the study evaluates it (the study's zeta_0 for the "
                   f"damping case and its damping rule; the calibrated e_zeta is with the fitted zeta_0) and at least "
@@ -175,6 +235,7 @@ def markdown(records: list[dict], bounds: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_markdown(path: Path, records: list[dict], bounds: pd.DataFrame) -> None:
+def write_markdown(path: Path, records: list[dict], bounds: pd.DataFrame, nested=(),
+                   spread: pd.DataFrame | None = None) -> None:
     with atomic_path(path) as temporary:
-        temporary.write_text(markdown(records, bounds))
+        temporary.write_text(markdown(records, bounds, nested, spread))

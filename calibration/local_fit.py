@@ -12,7 +12,9 @@ Method. scipy.optimize.least_squares, trust-region reflective in the unit box [0
 samples in log), the Jacobian by central differences of step ``STEP`` through one vectorised QSMA call of
 2 (d + 1) designs (one-sided at a bound): ``box_least_squares``, which the discrepancy loop's refit on a
 structure's superelement uses too (``discrepancy.superelement_route``). A fit is converged when least_squares stops on its tolerances
-(status 1-4), not on its evaluation budget (status 0).
+(status 1-4), not on its evaluation budget (status 0); a fit given ``continuations`` that stops on its budget is
+restarted from where it stopped, up to that many times, and is reported as not converged if the last one stops on
+its budget too.
 
 Uncertainty. At the optimum u*, with J the Jacobian of the plain residual (w = 1/2), m residuals and p = d + 1
 coordinates, the covariance of the unit coordinates is C = s^2 (J^T J)^+ with s^2 = chi^2 / (m - p) the reduced
@@ -30,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
-from calibration.objectives import FitSpace, model_curves, normalised_residuals, physical
+from calibration.objectives import FitSpace, FrontArchive, model_curves, normalised_residuals, physical
 from nonlinear.condensation import ModalSplit
 from nonlinear.joint import sampling_scale
 from study.structures import Structure
@@ -45,9 +47,10 @@ UNDETERMINED = 0.25
 
 
 def residual_rows(structure: Structure, space: FitSpace, unit, weight: float,
-                  split: ModalSplit | None = None) -> np.ndarray:
-    """Weighted residuals (n, 2 levels) of unit points (n, d + 1) (module docstring)."""
-    curves = model_curves(structure, space, unit, split)
+                  split: ModalSplit | None = None, archive: FrontArchive | None = None) -> np.ndarray:
+    """Weighted residuals (n, 2 levels) of unit points (n, d + 1) (module docstring); every point evaluated is
+    offered to ``archive``."""
+    curves = model_curves(structure, space, unit, split, archive)
     frequency, damping = normalised_residuals(structure.measurement, curves)
     rows = np.hstack([np.sqrt(2.0 * weight) * frequency, np.sqrt(2.0 * (1.0 - weight)) * damping])
     rows[~curves.converged] = UNDEFINED_RESIDUAL
@@ -94,7 +97,8 @@ def jacobian(structure: Structure, space: FitSpace, unit, weight: float, split: 
 
 class LocalFit(NamedTuple):
     """One weighted least-squares fit: the weight, the unit optimum (d + 1,), its design (d,) and zeta_0, the
-    weighted chi^2, least_squares' status, message and evaluations, and whether it converged (status 1-4)."""
+    weighted chi^2, least_squares' status and message (of its last run), its evaluations (every run), whether it
+    converged (status 1-4) and how many times it was restarted from where its budget stopped it."""
 
     weight: float
     unit: np.ndarray
@@ -105,16 +109,24 @@ class LocalFit(NamedTuple):
     message: str
     evaluations: int
     converged: bool
+    restarts: int
 
 
 def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5, split: ModalSplit | None = None,
-              max_evaluations: int = 400) -> LocalFit:
-    """Weighted least squares from the unit point ``start`` (d + 1,) (module docstring)."""
-    solution = box_least_squares(lambda points: residual_rows(structure, space, points, weight, split), start,
-                                 max_evaluations=max_evaluations)
+              max_evaluations: int = 400, continuations: int = 0, archive: FrontArchive | None = None) -> LocalFit:
+    """Weighted least squares from the unit point ``start`` (d + 1,), ``max_evaluations`` per run, restarted from
+    where a run stopped on that budget up to ``continuations`` times (module docstring); every point evaluated is
+    offered to ``archive``."""
+    evaluations, restarts = 0, -1
+    while True:
+        solution = box_least_squares(lambda points: residual_rows(structure, space, points, weight, split, archive),
+                                     start, max_evaluations=max_evaluations)
+        evaluations, restarts, start = evaluations + int(solution.nfev), restarts + 1, solution.x
+        if solution.status != 0 or restarts == continuations:
+            break
     design, zeta0 = physical(space, solution.x)
     return LocalFit(weight, solution.x, design[0], float(zeta0[0]), float(2.0 * solution.cost), int(solution.status),
-                    str(solution.message), int(solution.nfev), bool(solution.status > 0))
+                    str(solution.message), evaluations, bool(solution.status > 0), restarts)
 
 
 class Uncertainty(NamedTuple):

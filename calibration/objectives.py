@@ -27,6 +27,7 @@ from nonlinear.condensation import ModalSplit
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from study.errors import curve_errors
+from study.pareto import non_dominated
 from study.structures import Measurement, Structure
 
 ZETA0_FLOOR = 1e-6
@@ -77,15 +78,49 @@ class Curves(NamedTuple):
     converged: np.ndarray
 
 
-def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None) -> Curves:
-    """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring)."""
+def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None,
+                 archive: FrontArchive | None = None) -> Curves:
+    """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring); the points
+    and their L-infinity errors are offered to ``archive`` (``FrontArchive``) where one is given."""
     designs, zeta0 = physical(space, unit)
     result = qsma_designs(structure.space, space.model, designs, amplitudes=structure.measurement.amplitude,
                           linear_damping=0.0, split=split)
     converged = result.converged.all(axis=1)
     frequency = np.where(converged[:, None], result.frequency / (2.0 * np.pi), np.nan)
     damping = np.where(converged[:, None], result.damping + zeta0[:, None], np.nan)
-    return Curves(frequency, damping, converged)
+    curves = Curves(frequency, damping, converged)
+    if archive is not None:
+        archive.offer(unit, linf_errors(structure.measurement, curves))
+    return curves
+
+
+class FrontArchive:
+    """The non-dominated set, in the two L-infinity errors, of every point a calibration evaluates: unit points
+    (k, d + 1), their errors (k, 2) (e_f Hz, e_zeta -) and the phase that evaluated each (``source``, set by the
+    caller before each phase). Each batch offered is merged and the dominated rows dropped
+    (``study.pareto.non_dominated``), so the archive stays the front of everything evaluated so far."""
+
+    def __init__(self, dimension: int):
+        self.unit = np.empty((0, dimension))
+        self.errors = np.empty((0, 2))
+        self.sources: list[str] = []
+        self.source = ""
+
+    def offer(self, unit, errors) -> None:
+        """Merge unit points (n, d + 1) and their errors (n, 2) (NaN rows never enter)."""
+        unit, errors = np.atleast_2d(np.asarray(unit, dtype=float)), np.atleast_2d(errors)
+        merged_unit, merged_errors = np.vstack([self.unit, unit]), np.vstack([self.errors, errors])
+        sources = self.sources + [self.source] * len(unit)
+        keep = np.flatnonzero(non_dominated(merged_errors))
+        _, first = np.unique(merged_unit[keep], axis=0, return_index=True)  # a point evaluated twice once
+        keep = keep[np.sort(first)]
+        self.unit, self.errors = merged_unit[keep], merged_errors[keep]
+        self.sources = [sources[i] for i in keep]
+
+    def front(self) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+        """The archive sorted by e_f, then e_zeta: unit (k, d + 1), errors (k, 2), sources (k,)."""
+        order = np.lexsort((self.errors[:, 1], self.errors[:, 0]))
+        return self.unit[order], self.errors[order], tuple(self.sources[i] for i in order)
 
 
 def linf_errors(measurement: Measurement, curves: Curves) -> np.ndarray:

@@ -4,6 +4,7 @@ rerun with the same inputs repeats nothing."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -11,9 +12,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from calibration.bounds import bounds_table, write_bounds
-from calibration.calibrate import MAX_GENERATIONS, calibrate
-from calibration.files import calibration_record, plot_fits, read_calibration, write_fronts, write_markdown
+from calibration.calibrate import MAX_GENERATIONS, calibrate, chi_squared
+from calibration.files import (calibration_record, plot_fits, read_calibration, spread_table, write_fronts,
+                               write_markdown, write_spread)
 from calibration.objectives import fit_space
+from nonlinear.condensation import modal_split
 from nonlinear.friction_models import MODEL_NAMES, friction_model
 from nonlinear.joint import contained_unit_designs, parameter_limits, parameter_names, to_unit
 from pipeline.cache import package_versions
@@ -124,12 +127,32 @@ def check_fronts(path: Path, model: str, n_groups: int, structures: list[str], n
                          "front of every structure the study analysed")
 
 
+def nested_row(record: dict, contained: dict, structure: Structure, n_groups: int) -> dict:
+    """A model's best compromise against that of the model it contains (``FrictionModel.contains``) on one
+    structure: both chi^2, the chi^2 of the contained optimum mapped into the model's box (``contained_seeds``;
+    it differs from the contained chi^2 by what the containment leaves: iwan4_core's weakest core, iwan4's
+    Jenkins limit), and ``holds``: the model's chi^2 is at most the higher of the two (1e-9 relative; the
+    calibration polishes from the mapped optimum, so it reaches at most that). A model that does not hold is a
+    defect of the calibration: it missed an optimum it contains."""
+    mapped = contained_seeds(record["model"], n_groups, structure.measurement, contained)[-1:]
+    space = fit_space(record["model"], n_groups, structure.measurement)
+    at_contained = float(chi_squared(structure, space, mapped, modal_split(structure.space))[0])
+    model_chi, contained_chi = record["best"]["chi_squared"], contained["best"]["chi_squared"]
+    return {"model": record["model"], "contains": contained["model"], "structure": structure.name,
+            "chi_squared": model_chi, "contained_chi_squared": contained_chi,
+            "mapped_chi_squared": at_contained,
+            "holds": bool(model_chi <= max(contained_chi, at_contained) * (1.0 + 1e-9))}
+
+
 def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
-                    max_generations: int = MAX_GENERATIONS) -> Path:
+                    max_generations: int = MAX_GENERATIONS, replicates=()) -> tuple[Path, list[str]]:
     """Calibrate ``models`` (default: the study's; in the registry's order) on ``structures`` (default: the
     study's) of the study in ``study``, seeded with its Pareto designs and its zeta_0, and a model that contains
     another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out``
-    (``calibration.files``) and return it.
+    (``calibration.files``) and return it with the nested models' defects (``nested_row``), one line each.
+    replicates: study seed -> folder of a calibration (``calibrate_replicates``) of a study of the same inputs at
+    that seed: the spread of each best compromise's chi^2 over them and this one is written (``spread.csv``,
+    ``calibration.md``).
     Raises ValueError for an unknown model, a model or structure the study does not hold, a cap below one, or a
     study without its analysis or with a fronts file that cannot be read (``check_fronts``), before the output folder
     is touched. A record whose key matches but which lacks a field this run reads is calibrated again
@@ -147,6 +170,9 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                          f"structures {list(explored.names)})")
     if max_generations < 1:
         raise ValueError(f"option --max-generations = {max_generations}: expected at least 1")
+    if replicates and parameters["sample"].seed in replicates:
+        raise ValueError(f"option --replicates: a study of seed {parameters['sample'].seed}, the seed of {study}; "
+                         "expected studies of other seeds")
     case = DEFAULT_DAMPING_CASE[parameters["study"].dataset]  # the study's zeta_0, paired with its seeds
     chosen = [(model, explored.names.index(name)) for model in models for name in structures]
     for model in models:
@@ -188,5 +214,46 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
         bounds = bounds_table(every, [study_errors(explored, case, record) for record in every],
                               {name: s.measurement for name, s in structure_of.items()}, case)
         write_bounds(bounds, out / "bounds.csv")
-        write_markdown(out / "calibration.md", every, bounds)
-    return out
+        nested = [nested_row(record, calibrated[contained, index], explored.structures[index], explored.n_groups)
+                  for (model, index), record in calibrated.items()
+                  if (contained := friction_model(model).contains) and (contained, index) in calibrated]
+        spread = None
+        if replicates:
+            spread = spread_table({parameters["sample"].seed: every,
+                                   **{seed: replicate_records(folder, every) for seed, folder in replicates.items()}})
+            write_spread(spread, out / "spread.csv")
+        write_markdown(out / "calibration.md", every, bounds, nested, spread)
+    defects = [f"{row['model']} on {row['structure']}: best compromise chi^2 {row['chi_squared']:.6g} above "
+               f"{row['contains']}'s {row['contained_chi_squared']:.6g}, which it contains (a defect of the "
+               "calibration)" for row in nested if not row["holds"]]
+    return out, defects
+
+
+def replicate_records(folder: Path, records: list[dict]) -> list[dict]:
+    """The records of a replicate calibration in ``folder`` of the same models and structures as ``records``.
+    Raises ValueError naming a missing one."""
+    def read(record):
+        path = folder / record["model"] / f"{record['structure'].replace(' ', '_')}.json"
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            raise ValueError(f"{path}: missing or unreadable; expected the replicate's calibration of "
+                             f"{record['model']} on {record['structure']}") from None
+    return [read(record) for record in records]
+
+
+def calibrate_replicates(studies, out: Path, models=None, structures=None, seed: int = 0,
+                         max_generations: int = MAX_GENERATIONS) -> tuple[dict[int, Path], list[str]]:
+    """Calibrate each study folder of ``studies`` (the same inputs at other sample seeds) as ``calibrate_study``
+    does, into ``out``/replicates/seed-<its seed>; returns study seed -> folder and their defects, each line
+    prefixed with the seed. Raises ValueError for two studies of one seed."""
+    folders, defects = {}, []
+    for study in studies:
+        study_seed = read_study(study)[1]["sample"].seed
+        if study_seed in folders:
+            raise ValueError(f"option --replicates: {study}: a second study of seed {study_seed}; expected studies "
+                             "of distinct seeds")
+        folders[study_seed], found = calibrate_study(study, out / "replicates" / f"seed-{study_seed}", models,
+                                                     structures, seed, max_generations)
+        defects += [f"seed {study_seed}: {line}" for line in found]
+    return folders, defects

@@ -256,30 +256,36 @@ def test_two_bodies_joined_by_a_core_follow_the_closed_form_under_amplitude_and_
                                np.sqrt(REDUCED_MASS) * (forces * np.sqrt(REDUCED_MASS) - slip_force) / core, rtol=1e-9)
 
 
-@pytest.mark.parametrize("model", ["iwan5", "iwan4_core"])
-def test_a_model_at_its_contained_point_is_the_four_parameter_iwan_model(cd1, model):
-    """The calibration seeds iwan5 and iwan4_core with iwan4's optimum (``contained_unit_designs``, from unit
-    coordinates): theta = 1 (no stiction drop) is iwan4 bit for bit, and the weakest core (K_c = 1e2 N/m, against
-    tangents of at least 1e5 N/m here) moves the frequency by less than 1e-6 and the damping by less than 1e-5
-    (measured 7.5e-8 and 5.3e-6, the largest at 1e-2 m kg^0.5, deep in macroslip, where the core is the only
-    stiffness a sliding patch keeps): far below a measurement's uncertainty, so the seed is iwan4's optimum."""
+@pytest.mark.parametrize("model", ["iwan5", "iwan4_core", "iwan4"])
+def test_a_model_at_its_contained_point_is_the_model_it_contains(cd1, model):
+    """The calibration seeds a model with the optimum of the model it contains (``contained_unit_designs``, from unit
+    coordinates). iwan5 at theta = 1 (no stiction drop) is iwan4 bit for bit; the weakest core (K_c = 1e2 N/m,
+    against tangents of at least 1e5 N/m here) moves iwan4's frequency by less than 1e-6 and its damping by less
+    than 1e-5 (measured 7.5e-8 and 5.3e-6, the largest at 1e-2 m kg^0.5, deep in macroslip, where the core is the
+    only stiffness a sliding patch keeps); iwan4 at chi = -0.99, beta = 1e4 is Jenkins to within 1e-4 of the slip
+    force, which moves the frequency by less than 1e-5 and the damping (1e-3 of it linear) by less than 1e-3
+    (measured 4.1e-6 and 5.9e-4, about 1e-3 Hz and 6e-7 on the ASB's 1e-4 f and 2 % zeta floors): below a
+    measurement's uncertainty, so the seed is the contained model's optimum."""
     _, space = cd1
-    designs = random_designs("iwan4", 20, 3, np.random.default_rng(32))
-    designs[:, 1::5] = np.maximum(designs[:, 1::5], 1e5)  # K_T at least 1e5 N/m
+    inner = friction_model(model).contains
+    designs = random_designs(inner, 20, 3, np.random.default_rng(32))
+    stiffness = [k for k, name in enumerate(parameter_names(inner, 3)) if name.startswith("K_T")]
+    designs[:, stiffness] = np.maximum(designs[:, stiffness], 1e5)  # K_T at least 1e5 N/m
     amplitudes = np.logspace(-8, -2, 13)
-    unit = to_unit(designs, *parameter_limits("iwan4", 3))
+    unit = to_unit(designs, *parameter_limits(inner, 3))
     contained = from_unit(contained_unit_designs(unit, model, 3), *parameter_limits(model, 3))
-    iwan4 = qsma_designs(space, "iwan4", from_unit(unit, *parameter_limits("iwan4", 3)), amplitudes=amplitudes,
-                         linear_damping=LINEAR_DAMPING)
+    smaller = qsma_designs(space, inner, from_unit(unit, *parameter_limits(inner, 3)), amplitudes=amplitudes,
+                           linear_damping=LINEAR_DAMPING)
     larger = qsma_designs(space, model, contained, amplitudes=amplitudes, linear_damping=LINEAR_DAMPING)
-    assert iwan4.converged.mean() > 0.99
-    np.testing.assert_array_equal(larger.converged, iwan4.converged)
-    both = iwan4.converged
+    assert smaller.converged.mean() > 0.99
+    np.testing.assert_array_equal(larger.converged, smaller.converged)
+    both = smaller.converged
     if model == "iwan5":
-        np.testing.assert_array_equal(larger.frequency, iwan4.frequency)
-        np.testing.assert_array_equal(larger.damping, iwan4.damping)
+        np.testing.assert_array_equal(larger.frequency, smaller.frequency)
+        np.testing.assert_array_equal(larger.damping, smaller.damping)
     else:
-        np.testing.assert_allclose(larger.frequency[both], iwan4.frequency[both], rtol=1e-6)
-        np.testing.assert_allclose(larger.damping[both], iwan4.damping[both], rtol=1e-5)
+        core = model == "iwan4_core"
+        np.testing.assert_allclose(larger.frequency[both], smaller.frequency[both], rtol=1e-6 if core else 1e-5)
+        np.testing.assert_allclose(larger.damping[both], smaller.damping[both], rtol=1e-5 if core else 1e-3)
     with pytest.raises(FrictionParameterError, match="contains no other model"):
-        contained_unit_designs(unit, "iwan4", 3)
+        contained_unit_designs(unit, "jenkins", 3)
