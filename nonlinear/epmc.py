@@ -28,11 +28,12 @@ from typing import NamedTuple
 import numpy as np
 
 from nonlinear.condensation import JointSpace
-from nonlinear.harmonic_balance import (JointSystem, SliderState, compliance_operator, dynamic_compliance,
+from nonlinear.harmonic_balance import (JointSystem, compliance_operator, dynamic_compliance,
                                         element_jacobian, fourier_basis, harmonic_count, newton, pseudo_arclength,
                                         slip_deficit_harmonics, stacked_sliders, static_equilibrium)
-from nonlinear.joint import patch_elements, stuck_stiffness, tangential_elements, tangential_rows
-from nonlinear.qsma import stuck_target_mode
+from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_elements,
+                             tangential_rows)
+from nonlinear.qsma import qsma_reference, stuck_target_mode
 
 HARMONICS = (1, 3, 5, 7, 9, 11, 15)  # harmonic counts tried by ``converged_harmonics``, in order
 SAMPLES = 256  # samples per period of the AFT time loop
@@ -245,3 +246,38 @@ def converged_harmonics(system: JointSystem, amplitudes, counts=HARMONICS, sampl
             return HarmonicConvergence(previous.harmonics, True, modes, np.array(frequency_change),
                                        np.array(damping_change))
     return HarmonicConvergence(modes[-1].harmonics, False, modes, np.array(frequency_change), np.array(damping_change))
+
+
+def slip_amplitude(space: JointSpace, model: str, design, stuck_group: int | None = None) -> float:
+    """The modal amplitude q (m kg^0.5) at which the first tangential element of the design reaches its macroslip
+    displacement (F_S / K_T or phi_max) in the stuck mode, min_e phi_e / |b_e|: the scale of an amplitude range
+    from stuck into macroslip. Infinite where no element can slip or none moves."""
+    elements = patch_elements(model, design, space.superelement.patch_groups, stuck_group)
+    slip = slip_displacement(tangential_elements(elements))[0]
+    shape = stuck_target_mode(space, stuck_stiffness(elements)[0]).shape
+    joint_shape = space.joint_modes[tangential_rows(space.superelement.n_patches)] @ shape
+    with np.errstate(divide="ignore"):
+        return float(np.min(slip / np.abs(joint_shape)))
+
+
+class ModeComparison(NamedTuple):
+    """EPMC and QSMA of one design at the same modal amplitudes: the nonlinear mode (at the harmonic count the
+    convergence check chose), the check itself, and QSMA's result (``nonlinear.qsma.QSMAResult``)."""
+
+    mode: NonlinearMode
+    harmonics: HarmonicConvergence
+    qsma: object
+
+
+def compare_with_qsma(space: JointSpace, model: str, design, amplitudes, counts=HARMONICS, samples: int = SAMPLES,
+                      check_levels: int = 3, stuck_group: int | None = None) -> ModeComparison:
+    """EPMC of a design with its harmonic count chosen by ``converged_harmonics`` at ``check_levels`` amplitudes
+    spread over ``amplitudes`` (the first, the last and between), then at every amplitude; QSMA
+    (``nonlinear.qsma.qsma_reference``) at the same amplitudes, without linear damping on either."""
+    amplitudes = np.asarray(amplitudes, dtype=float)
+    system = joint_system(space, model, design, stuck_group)
+    checked = amplitudes[np.unique(np.linspace(0, amplitudes.size - 1, check_levels).round().astype(int))]
+    harmonics = converged_harmonics(system, checked, counts, samples)
+    mode = nonlinear_mode(system, amplitudes, harmonics.harmonics, samples)
+    return ModeComparison(mode, harmonics, qsma_reference(space, model, design, amplitudes=amplitudes,
+                                                          stuck_group=stuck_group))

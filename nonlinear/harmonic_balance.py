@@ -95,7 +95,8 @@ def fourier_basis(harmonics: int, samples: int) -> tuple[np.ndarray, np.ndarray]
     """E (N, 2H+1): the series at tau_n = 2 pi n / N (columns 1, cos k tau, sin k tau, k = 1..H), and its
     inverse P (2H+1, N) on the samples (P E = I for N > 2H). Raises ValueError for too few samples."""
     if samples <= 2 * harmonics:
-        raise ValueError(f"{samples} samples per period cannot carry {harmonics} harmonics (expected > {2 * harmonics})")
+        raise ValueError(f"{samples} samples per period cannot carry {harmonics} harmonics "
+                         f"(expected > {2 * harmonics})")
     tau = 2.0 * np.pi * np.arange(samples) / samples
     k = np.arange(1, harmonics + 1)
     basis = np.ones((samples, harmonic_count(harmonics)))
@@ -256,13 +257,14 @@ def dynamic_compliance(system: JointSystem, omega: float, xi: float, harmonics: 
     d = np.where(keep > 0, system.eigenvalues[None, :] - (k * omega) ** 2, 1.0)  # left out: any nonzero value
     e = np.broadcast_to(k * omega * xi, d.shape)
     denominator = d ** 2 + e ** 2
+    # chain rule: dd/domega = -2 k^2 omega, de/domega = k xi, de/dxi = k omega
+    real_d, real_e = (e ** 2 - d ** 2) / denominator ** 2, -2 * d * e / denominator ** 2
+    imaginary_d, imaginary_e = -2 * d * e / denominator ** 2, (d ** 2 - e ** 2) / denominator ** 2
     weights = {
         "real": d / denominator, "imaginary": e / denominator,
-        # chain rule: dd/domega = -2 k^2 omega, de/domega = k xi, de/dxi = k omega
-        "real_omega": (e ** 2 - d ** 2) / denominator ** 2 * (-2 * k ** 2 * omega) - 2 * d * e / denominator ** 2 * k * xi,
-        "imaginary_omega": -2 * d * e / denominator ** 2 * (-2 * k ** 2 * omega) + (d ** 2 - e ** 2) / denominator ** 2 * k * xi,
-        "real_xi": -2 * d * e / denominator ** 2 * k * omega,
-        "imaginary_xi": (d ** 2 - e ** 2) / denominator ** 2 * k * omega,
+        "real_omega": real_d * (-2 * k ** 2 * omega) + real_e * k * xi,
+        "imaginary_omega": imaginary_d * (-2 * k ** 2 * omega) + imaginary_e * k * xi,
+        "real_xi": real_e * k * omega, "imaginary_xi": imaginary_e * k * omega,
     }
     c = system.joint_shapes
     return DynamicCompliance(**{name: np.einsum("km,me,mf->kef", value * keep, c, c)
