@@ -21,7 +21,8 @@ import time
 from pathlib import Path
 
 STAGE_COMMANDS = ("pipeline.commands", "geometry.commands", "fem.commands", "reduction.commands",
-                  "experiment.commands", "study.commands", "calibration.commands", "discrepancy.commands",
+                  "nonlinear.commands", "experiment.commands", "study.commands", "calibration.commands",
+                  "discrepancy.commands",
                   "report.commands")
 
 
