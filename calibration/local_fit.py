@@ -89,6 +89,19 @@ def box_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: i
                          method="trf", x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
 
 
+def continued_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: int = 400,
+                            continuations: int = 0):
+    """``box_least_squares`` restarted from where a run stopped on its budget of ``max_evaluations``, up to
+    ``continuations`` times: (the last run's OptimizeResult, evaluations of every run, restarts made). The fit
+    converged where the last run's status is positive (a tolerance met), not 0 (its budget spent)."""
+    evaluations, restarts = 0, -1
+    while True:
+        solution = box_least_squares(residuals, start, lower, upper, max_evaluations)
+        evaluations, restarts, start = evaluations + int(solution.nfev), restarts + 1, solution.x
+        if solution.status != 0 or restarts == continuations:
+            return solution, evaluations, restarts
+
+
 def jacobian(structure: Structure, space: FitSpace, unit, weight: float, split: ModalSplit | None = None
              ) -> np.ndarray:
     """(2 levels, d + 1): d r / d u of the calibration's residual (``residual_rows``) by central differences."""
@@ -117,13 +130,9 @@ def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5,
     """Weighted least squares from the unit point ``start`` (d + 1,), ``max_evaluations`` per run, restarted from
     where a run stopped on that budget up to ``continuations`` times (module docstring); every point evaluated is
     offered to ``archive``."""
-    evaluations, restarts = 0, -1
-    while True:
-        solution = box_least_squares(lambda points: residual_rows(structure, space, points, weight, split, archive),
-                                     start, max_evaluations=max_evaluations)
-        evaluations, restarts, start = evaluations + int(solution.nfev), restarts + 1, solution.x
-        if solution.status != 0 or restarts == continuations:
-            break
+    solution, evaluations, restarts = continued_least_squares(
+        lambda points: residual_rows(structure, space, points, weight, split, archive), start,
+        max_evaluations=max_evaluations, continuations=continuations)
     design, zeta0 = physical(space, solution.x)
     return LocalFit(weight, solution.x, design[0], float(zeta0[0]), float(2.0 * solution.cost), int(solution.status),
                     str(solution.message), evaluations, bool(solution.status > 0), restarts)
