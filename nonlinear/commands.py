@@ -119,9 +119,9 @@ def run(arguments: argparse.Namespace) -> None:
     for level, q in enumerate(amplitudes):
         f_epmc, f_qsma = mode.frequency[level] / (2 * np.pi), qsma.frequency[level] / (2 * np.pi)
         z_epmc, z_qsma = mode.damping[level], qsma.damping[level]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            print(f"{q:14.4e} {q / slip:8.3g} {f_epmc:12.6f} {f_qsma:12.6f} {100 * (f_qsma / f_epmc - 1):8.4f} "
-                  f"{z_epmc:10.3e} {z_qsma:10.3e} {100 * (z_qsma / z_epmc - 1):9.3f}")
+        damping_change = f"{100 * (z_qsma / z_epmc - 1):9.3f}" if abs(z_epmc) > 1e-12 else f"{'-':>9}"
+        print(f"{q:14.4e} {q / slip:8.3g} {f_epmc:12.6f} {f_qsma:12.6f} {100 * (f_qsma / f_epmc - 1):8.4f} "
+              f"{z_epmc:10.3e} {z_qsma:10.3e} {damping_change}")
     for method, kept in reached.items():
         if not kept.all():
             print(f"{method}: {int((~kept).sum())} level(s) not reached: {json.dumps(amplitudes[~kept].tolist())}")
