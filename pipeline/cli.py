@@ -114,7 +114,8 @@ def run(arguments) -> int:
         if INTERRUPTED.is_set():
             return interrupted(arguments.command)
         if isinstance(error, (ValueError, OSError)):  # bad input, or a file or folder that cannot be read or written
-            print(f"surrogacy {arguments.command}: error: {error}", file=sys.stderr)
+            message = " ".join(line.strip() for line in str(error).splitlines())  # one line, whatever a library says
+            print(f"surrogacy {arguments.command}: error: {message}", file=sys.stderr)
             return 2
         raise  # a bug: traceback and exit 1
     return 0

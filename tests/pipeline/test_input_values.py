@@ -135,3 +135,20 @@ def test_unreadable_ring_downs_are_named(tmp_path, capsys, name, content, messag
     assert surrogacy(["freevib", str(path), "--mode-hz", "80", "--out", str(out)]) == 2
     error = capsys.readouterr().err
     assert str(path) in error and message in error and not out.exists()
+
+
+def test_an_error_a_library_words_over_several_lines_is_printed_as_one(tmp_path, capsys):
+    """pandas words a garbled fronts file's parse error over two lines; the command prints it as one, with the
+    file named, and exits 2."""
+    from argparse import Namespace
+
+    from calibration.workflow import check_fronts
+    from pipeline.cli import run
+
+    fronts = tmp_path / "fronts_jenkins.csv"
+    fronts.write_bytes(bytes(range(256)) * 8)
+    with pytest.raises(ValueError, match="\n"):  # the library's own wording spans lines
+        check_fronts(fronts, "jenkins", 1, ["ASB C1"], 10)
+    assert run(Namespace(command="fit", run=lambda arguments: check_fronts(fronts, "jenkins", 1, ["ASB C1"], 10))) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"surrogacy fit: error: {fronts}: not a readable fronts CSV (") and error.count("\n") == 1
