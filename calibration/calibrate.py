@@ -66,6 +66,10 @@ SCAN_GAIN = 1e-6
 """Relative fall of chi^2 a scan must find to be polished from."""
 CONTINUATIONS = 9
 """Restarts of the best compromise's fit from where its evaluation budget (400 each) stopped it."""
+METHOD = {"weights": WEIGHTS, "starts": STARTS, "population": POPULATION, "zeta0_seeds": ZETA0_SEEDS,
+          "multistart_points": MULTISTART_POINTS, "multistarts": MULTISTARTS, "scan_points": SCAN_POINTS,
+          "scan_sweeps": SCAN_SWEEPS, "scan_gain": SCAN_GAIN, "continuations": CONTINUATIONS}
+"""The settings a calibration's result depends on besides its inputs (part of a record's key)."""
 
 
 class Calibration(NamedTuple):

@@ -97,7 +97,8 @@ def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit 
 class FrontArchive:
     """The non-dominated set, in the two L-infinity errors, of every point a calibration evaluates: unit points
     (k, d + 1), their errors (k, 2) (e_f Hz, e_zeta -) and the phase that evaluated each (``source``, set by the
-    caller before each phase). Each batch offered is merged and the dominated rows dropped
+    caller before each phase). A point offered whose errors an archived point matches or beats in both (or that
+    has a NaN error) is not added; the others are merged and the rows they dominate dropped
     (``study.pareto.non_dominated``), so the archive stays the front of everything evaluated so far."""
 
     def __init__(self, dimension: int):
@@ -107,13 +108,15 @@ class FrontArchive:
         self.source = ""
 
     def offer(self, unit, errors) -> None:
-        """Merge unit points (n, d + 1) and their errors (n, 2) (NaN rows never enter)."""
+        """Merge unit points (n, d + 1) and their errors (n, 2)."""
         unit, errors = np.atleast_2d(np.asarray(unit, dtype=float)), np.atleast_2d(errors)
-        merged_unit, merged_errors = np.vstack([self.unit, unit]), np.vstack([self.errors, errors])
-        sources = self.sources + [self.source] * len(unit)
+        covered = np.all(self.errors[None, :, :] <= errors[:, None, :], axis=2).any(axis=1)
+        fresh = np.flatnonzero(~covered & ~np.isnan(errors).any(axis=1))
+        if not fresh.size:
+            return
+        merged_unit, merged_errors = np.vstack([self.unit, unit[fresh]]), np.vstack([self.errors, errors[fresh]])
+        sources = self.sources + [self.source] * fresh.size
         keep = np.flatnonzero(non_dominated(merged_errors))
-        _, first = np.unique(merged_unit[keep], axis=0, return_index=True)  # a point evaluated twice once
-        keep = keep[np.sort(first)]
         self.unit, self.errors = merged_unit[keep], merged_errors[keep]
         self.sources = [sources[i] for i in keep]
 

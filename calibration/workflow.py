@@ -12,7 +12,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from calibration.bounds import bounds_table, write_bounds
-from calibration.calibrate import MAX_GENERATIONS, calibrate, chi_squared
+from calibration.calibrate import MAX_GENERATIONS, METHOD, calibrate, chi_squared
 from calibration.files import (calibration_record, plot_fits, read_calibration, spread_table, write_fronts,
                                write_markdown, write_spread)
 from calibration.objectives import fit_space
@@ -32,13 +32,14 @@ VERSIONS = package_versions("numpy", "scipy", "numba", "pymoo")
 def calibration_key(paths: Paths, model: str, structure: Structure, seed: int, max_generations: int,
                     fitted_seeds) -> str:
     """What a calibration's result depends on: the study's fronts file, the measurement's levels, the seed, the
-    generation cap, the seeds from the contained model's calibration and the versions (SHA-256 of their JSON)."""
+    generation cap, the seeds from the contained model's calibration, the method's settings
+    (``calibration.calibrate.METHOD``) and the versions (SHA-256 of their JSON)."""
     measurement = structure.measurement
     return sha256_json({"fronts": sha256_file(paths.analysis / f"fronts_{model}.csv"),
                         "measurement": {"amplitude": measurement.amplitude.tolist(),
                                         "frequency_hz": measurement.frequency_hz.tolist(),
                                         "damping": measurement.damping.tolist()},
-                        "seed": seed, "max_generations": max_generations, "versions": VERSIONS,
+                        "seed": seed, "max_generations": max_generations, "method": METHOD, "versions": VERSIONS,
                         "fitted_seeds": np.asarray(fitted_seeds).tolist()})
 
 
@@ -170,9 +171,6 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                          f"structures {list(explored.names)})")
     if max_generations < 1:
         raise ValueError(f"option --max-generations = {max_generations}: expected at least 1")
-    if replicates and parameters["sample"].seed in replicates:
-        raise ValueError(f"option --replicates: a study of seed {parameters['sample'].seed}, the seed of {study}; "
-                         "expected studies of other seeds")
     case = DEFAULT_DAMPING_CASE[parameters["study"].dataset]  # the study's zeta_0, paired with its seeds
     chosen = [(model, explored.names.index(name)) for model in models for name in structures]
     for model in models:
@@ -242,17 +240,23 @@ def replicate_records(folder: Path, records: list[dict]) -> list[dict]:
     return [read(record) for record in records]
 
 
-def calibrate_replicates(studies, out: Path, models=None, structures=None, seed: int = 0,
+def calibrate_replicates(studies, primary: Path, out: Path, models=None, structures=None, seed: int = 0,
                          max_generations: int = MAX_GENERATIONS) -> tuple[dict[int, Path], list[str]]:
-    """Calibrate each study folder of ``studies`` (the same inputs at other sample seeds) as ``calibrate_study``
-    does, into ``out``/replicates/seed-<its seed>; returns study seed -> folder and their defects, each line
-    prefixed with the seed. Raises ValueError for two studies of one seed."""
-    folders, defects = {}, []
+    """Calibrate each study folder of ``studies`` (the inputs of the study ``primary`` at other sample seeds) as
+    ``calibrate_study`` does, into ``out``/replicates/seed-<its seed>; returns study seed -> folder and their
+    defects, each line prefixed with the seed. Raises ValueError, before any calibration, for a study of the
+    primary's seed or of another replicate's."""
+    if not studies:
+        return {}, []
+    seeds = {read_study(primary)[1]["sample"].seed: primary}
     for study in studies:
         study_seed = read_study(study)[1]["sample"].seed
-        if study_seed in folders:
-            raise ValueError(f"option --replicates: {study}: a second study of seed {study_seed}; expected studies "
-                             "of distinct seeds")
+        if study_seed in seeds:
+            raise ValueError(f"option --replicates: {study}: seed {study_seed}, the seed of {seeds[study_seed]}; "
+                             "expected studies of seeds distinct from each other and from --study's")
+        seeds[study_seed] = study
+    folders, defects = {}, []
+    for study_seed, study in list(seeds.items())[1:]:
         folders[study_seed], found = calibrate_study(study, out / "replicates" / f"seed-{study_seed}", models,
                                                      structures, seed, max_generations)
         defects += [f"seed {study_seed}: {line}" for line in found]
