@@ -100,6 +100,21 @@ def test_the_truth_is_an_exact_fit_and_a_start_away_from_it_returns_to_its_backb
     assert fit.zeta0 == pytest.approx(ZETA0, rel=1e-8)
 
 
+def test_a_fit_stopped_by_its_budget_is_not_converged_and_continued_reaches_the_unlimited_fit(cd1):
+    """A fit of 5 evaluations from 3 % away stops on its budget (least_squares status 0) and says so; restarted
+    from where it stopped up to 100 times it ends on its tolerances, at the chi^2 of one run without a budget to
+    speak of (the truth: below 1e-12)."""
+    virtual, truth = cd1
+    space = fit_space(MODEL, 1, virtual.measurement)
+    split = modal_split(virtual.space)
+    start = np.clip(truth + np.random.default_rng(1).normal(0.0, 0.03, truth.size), 0.0, 1.0)
+    stopped = local_fit(virtual, space, start, 0.5, split, max_evaluations=5)
+    assert stopped.status == 0 and not stopped.converged and stopped.restarts == 0 and stopped.evaluations == 5
+    continued = local_fit(virtual, space, start, 0.5, split, max_evaluations=5, continuations=100)
+    assert continued.converged and 0 < continued.restarts < 100 and continued.evaluations > 5
+    assert continued.chi_squared < 1e-12 and continued.zeta0 == pytest.approx(ZETA0, rel=1e-6)
+
+
 def test_central_differences_agree_with_a_step_four_times_smaller_where_the_backbone_is_smooth(cd1):
     """The Jacobian's truncation and QSMA's noise: where the one-sided differences agree within a tenth of the
     column's largest entry (no kink within the step),
@@ -152,8 +167,9 @@ def test_the_calibration_recovers_the_virtual_joint_from_a_sample_s_front(cd1):
     """The whole calibration seeded as a study seeds it: the front of 4,000 Table 3 designs (zeta_0 = 1e-3, five
     times the truth's), none of them near the truth. The best compromise reproduces the truth's backbone (chi^2 per
     level below 1e-12 of the floors; measured 8e-20) and zeta_0 to 1e-8 (measured 8e-11). (Seeded with 20 random
-    designs instead, 150 to 400 generations did not reach the truth's basin: chi^2 1,700 to 3,700; the global
-    phase relies on the sample.)"""
+    designs instead, 150 to 400 generations did not reach the truth's basin: chi^2 1,700 to 3,700; the multistart
+    is what does not rely on the sample: see the next test.) The calibrated front weakly dominates every design a
+    local fit ended on."""
     virtual, truth = cd1
     space = fit_space(MODEL, 1, virtual.measurement)
     sample = np.random.default_rng(3).random((4000, truth.size - 1))
@@ -161,8 +177,30 @@ def test_the_calibration_recovers_the_virtual_joint_from_a_sample_s_front(cd1):
         virtual, space, np.column_stack([sample, np.full(len(sample), unit_zeta0(space, 1e-3))])))
     result = calibrate(virtual, MODEL, 1, sample[non_dominated(errors)], 1e-3, seed=2, max_generations=150)
     assert result.best.chi_squared / (2 * N_LEVELS) < 1e-12
+    # the front is the non-dominated set of everything evaluated: no point of it dominates another, and every
+    # local fit's optimum (the best compromise among them) is weakly dominated by a point of it
+    front = result.front_errors
+    assert non_dominated(front).all()
+    optima = linf_errors(virtual.measurement, model_curves(virtual, space, np.array([fit.unit for fit in result.fits])))
+    assert all(np.any(np.all(front <= errors, axis=1)) for errors in optima)
     assert result.best.zeta0 == pytest.approx(ZETA0, rel=1e-8)
     assert result.best_errors["frequency_max_relative"] < 1e-12 and result.best_errors["damping_max_relative"] < 1e-9
+
+
+def test_the_multistart_alone_recovers_the_virtual_joint(cd1):
+    """The deterministic multistart, without any study's sample (a fixed Sobol sequence over the whole box, the
+    best points polished and scanned): its best fit reproduces the truth's backbone (chi^2 per level below 1e-12
+    of the floors) and zeta_0 to 1e-6, and a second run is the same to the bit."""
+    from calibration.calibrate import multistart
+    from calibration.objectives import FrontArchive
+
+    virtual, truth = cd1
+    space = fit_space(MODEL, 1, virtual.measurement)
+    split = modal_split(virtual.space)
+    runs = [multistart(virtual, space, split, FrontArchive(truth.size)) for _ in range(2)]
+    best = min(runs[0], key=lambda fit: fit.chi_squared)
+    assert best.chi_squared / (2 * N_LEVELS) < 1e-12 and best.zeta0 == pytest.approx(ZETA0, rel=1e-6)
+    assert [fit.chi_squared for fit in runs[0]] == [fit.chi_squared for fit in runs[1]]
 
 
 def test_the_calibration_recovers_a_virtual_stuck_core(cd1_core):
@@ -212,6 +250,20 @@ def test_fit_dominates_the_study_s_fronts_and_a_rerun_repeats_nothing(small_stud
             assert front[:, 0].min() <= study["frequency_error_hz"] and front[:, 1].min() <= study["damping_error"]
         assert non_dominated(front).all() and record["hypervolume"]["calibrated"] >= record["hypervolume"]["study"]
         assert record["best"]["parameters"]["zeta_0"] > 0 and record["global"]["generations"] <= 21
+    import pandas as pd
+
+    fronts = pd.read_csv(out / "front_jenkins.csv")
+    for name in ("ASB C1", "ASB CD1"):  # each structure's front, then its best compromise, in the CSV
+        record = json.loads((out / "jenkins" / f"{name.replace(' ', '_')}.json").read_text())
+        rows = fronts[fronts["structure"] == name]
+        assert list(rows["source"]) == [*record["front"]["source"], "best compromise"]
+        best = rows.iloc[-1]
+        for parameter, value in record["best"]["parameters"].items():
+            assert best[parameter] == pytest.approx(value, rel=1e-12)
+        assert best["frequency_error_hz"] == record["best"]["errors"]["frequency_linf_hz"]
+        assert best["damping_error"] == record["best"]["errors"]["damping_linf"]
+        np.testing.assert_allclose(rows[["frequency_error_hz", "damping_error"]].to_numpy()[:-1],
+                                   record["front"]["errors"], rtol=1e-12)
     stamps = {path: path.stat().st_mtime_ns for path in out.glob("jenkins/*.json")}
     table = (out / "calibration.md").read_text()
     assert "| jenkins | ASB C1 |" in table and "| jenkins | ASB CD1 |" in table
@@ -425,6 +477,39 @@ def test_fit_calibrates_again_a_record_whose_key_matches_but_whose_best_compromi
     path.write_text(json.dumps({key: value for key, value in record.items() if key != "best"}))
     assert surrogacy(arguments) == 0
     assert json.loads(path.read_text()) == record
+
+
+def test_fit_with_a_replicate_study_reports_the_spread_of_each_best_compromise_over_the_seeds(small_study, tmp_path,
+                                                                                            capsys):
+    """--replicates: a second study of the same inputs at seed 7 is calibrated into replicates/seed-7, and
+    spread.csv holds each seed's best compromise as its own calibration record states it, with the spread
+    (max - min) / min of the reduced chi^2 recomputed here; calibration.md shows it. A replicate of the primary
+    study's seed is refused naming the option and the seed, before anything is calibrated or written."""
+    import pandas as pd
+
+    other = tmp_path / "seed7"
+    assert surrogacy(["study", "--data", str(DATA), "--reference", str(SHARED / "reference"), "--set",
+                      "study.dataset=asb", "--set", 'study.models=["jenkins"]', "--set", "sample.n_designs=1000",
+                      "--set", "sample.chunk_size=500", "--set", "sample.seed=7", "--out", str(other)]) == 0
+    out = tmp_path / "fit"
+    options = ["--structures", "ASB C1", "--max-generations", "2", "--out", str(out)]
+    assert surrogacy(["fit", "--study", str(small_study), "--replicates", str(other), *options]) == 0
+    spread = pd.read_csv(out / "spread.csv")
+    assert sorted(spread["seed"]) == [7, 2024] and (spread["structure"] == "ASB C1").all()
+    for row in spread.itertuples():
+        folder = out if row.seed == 2024 else out / "replicates" / "seed-7"
+        best = json.loads((folder / "jenkins" / "ASB_C1.json").read_text())["best"]
+        assert (row.chi_squared, row.reduced_chi_squared, row.converged) == (
+            best["chi_squared"], best["reduced_chi_squared"], best["converged"])
+    reduced = spread["reduced_chi_squared"]
+    assert spread["spread"].iloc[0] == pytest.approx(reduced.max() / reduced.min() - 1, rel=1e-12)
+    assert "| jenkins | ASB C1 | " in (out / "calibration.md").read_text().split("Spread over study seeds 2024, 7")[1]
+    capsys.readouterr()
+    assert surrogacy(["fit", "--study", str(small_study), "--replicates", str(small_study), "--structures",
+                      "ASB C1", "--max-generations", "2", "--out", str(tmp_path / "same")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and f"option --replicates: {small_study}: seed 2024, the seed of {small_study}" in error[0]
+    assert not (tmp_path / "same").exists()
 
 
 def test_confidence_refuses_exclusive_options_and_a_folder_as_its_csv_before_reading_the_study(
