@@ -17,6 +17,7 @@ from experiment.backbone import (BackboneSettingError, check_nyquist, checked_se
 from experiment.backbone_files import freevib_stem, plot_backbone, write_backbone, write_freevib_table
 from experiment.hilbert import freevib
 from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
+from experiment.ringdown import selected_channels
 from experiment.ringdown_files import read_mode_shapes
 from experiment.signal_checks import ringdown_findings
 from pipeline.files import check_output_folder, sha256_file, write_json
@@ -77,7 +78,8 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
-    findings = ringdown_findings(hits, backbone, band)
+    used = [selected_channels(hit, arguments.channels) for hit in hits] if arguments.channels else hits
+    findings = ringdown_findings(used, backbone, band)  # the channels the backbone is made of
     labelled = mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}, findings)
     write_backbone(labelled, out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")

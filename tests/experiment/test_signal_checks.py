@@ -8,7 +8,7 @@
 - the challenge set (``../shared/data/ringdown-challenge``, another generator; skipped where absent): P1, clean,
   gives no second mode; P6's orthogonal mode 4 % above with 15 % of the amplitude is found with its sizes;
 - flat and dead channels beside good ones are named in a caveat and give no other finding; a second mode beside a
-  dead channel is still found;
+  dead channel is still found; freevib --channels checks only the channels it is given;
 - clipping, a record that starts in motion, a record that ends before the decay: each found, and only it;
 - the findings travel in the backbone CSV and are read back; a malformed findings line is refused.
 """
@@ -214,3 +214,24 @@ def test_a_weak_channel_with_its_pretrigger_is_not_called_late():
     late = replace(weak, time=weak.time[cut:], signals=weak.signals[:, cut:])
     found = {entry["name"]: entry for entry in record_findings([late], REFERENCE_FREQUENCY_HZ, band)}
     assert "1: strong" in found["no_pretrigger"]["evidence"]["channels"]
+
+
+def test_freevib_checks_the_channels_it_is_given(tmp_path):
+    """A clipped copy of the sensor beside it: surrogacy freevib on both names the clipping; with --channels sensor
+    the checks read the channel the backbone is made of and find nothing (they read every channel of the file)."""
+    from experiment.ringdown_files import write_ringdown_csv
+    from pipeline.cli import main as surrogacy
+
+    clean = undeclared_ringdown(pretrigger_s=0.05)
+    clipped = [replace(hit, signals=np.vstack([hit.signals, np.clip(hit.signals, -0.7 * np.max(hit.signals),
+                                                                     0.7 * np.max(hit.signals))]),
+                       channels=(*hit.channels, "clipped")) for hit in clean]
+    path = tmp_path / "ring.csv"
+    write_ringdown_csv(clipped, path, provenance="virtual")
+    found = {}
+    for name, channels in (("both", []), ("sensor", ["--channels", "sensor"])):
+        assert surrogacy(["freevib", str(path), "--mode-hz", str(MODE_HZ), *channels, "--out",
+                          str(tmp_path / name)]) == 0
+        findings = read_backbone(next((tmp_path / name).glob("*_backbone.csv"))).findings
+        found[name] = [(entry["name"], entry["outside_library"]) for entry in findings["found"]]
+    assert [name for name, _ in found["both"]] == ["clipping"] and found["sensor"] == []
