@@ -43,6 +43,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from nonlinear.hysteresis_kernel import slider_periods
 from nonlinear.sliders import Sliders, slider_response
 
 MAX_PERIODS = 12  # periods of the time loop before a hysteresis that does not repeat is reported
@@ -133,13 +134,29 @@ class Hysteresis(NamedTuple):
     state: SliderState
 
 
-@np.errstate(invalid="ignore")  # the padding sliders (k = 0, never sliding) give 0/0 in unused branches
 def periodic_hysteresis(system: JointSystem, displacement: np.ndarray, state: SliderState,
                         max_periods: int = MAX_PERIODS) -> Hysteresis:
     """Step every element's sliders through the periodic displacement (n_t, N) (m), period after period from
     ``state``, until the state at a period's end equals that at its start (positions to PERIODIC_TOLERANCE of the
     largest motion, directions exactly); that period gives the deficit and its Jacobian (``hysteresis_jacobian``).
-    """
+    Compiled (``nonlinear.hysteresis_kernel``); ``periodic_hysteresis_reference`` is the same in numpy."""
+    sliders = system.sliders
+    tolerance = PERIODIC_TOLERANCE * max(float(np.abs(displacement).max()), np.finfo(float).tiny)
+    force, jacobian, periods, periodic, position, direction = slider_periods(
+        np.ascontiguousarray(displacement, dtype=float), state.position, state.direction, sliders.stiffness,
+        sliders.strength, np.ascontiguousarray(np.broadcast_to(sliders.theta, (len(displacement), 1))[:, 0],
+                                               dtype=float), system.stiffness, max_periods, tolerance)
+    deficit = system.stiffness[:, None] * displacement - force
+    return Hysteresis(deficit, jacobian, periods, periodic, SliderState(position, direction))
+
+
+@np.errstate(invalid="ignore")  # the padding sliders (k = 0, never sliding) give 0/0 in unused branches
+def periodic_hysteresis_reference(system: JointSystem, displacement: np.ndarray, state: SliderState,
+                        max_periods: int = MAX_PERIODS) -> Hysteresis:
+    """Step every element's sliders through the periodic displacement (n_t, N) (m), period after period from
+    ``state``, until the state at a period's end equals that at its start (positions to PERIODIC_TOLERANCE of the
+    largest motion, directions exactly); that period gives the deficit and its Jacobian (``hysteresis_jacobian``).
+    The readable oracle of ``periodic_hysteresis``: one ``nonlinear.sliders.slider_response`` step per sample."""
     sliders = system.sliders
     n_elements, samples = displacement.shape
     tolerance = PERIODIC_TOLERANCE * max(float(np.abs(displacement).max()), np.finfo(float).tiny)
@@ -204,7 +221,7 @@ def slip_deficit_harmonics(system: JointSystem, motion: np.ndarray, basis: tuple
     to_time, to_harmonics = basis
     hysteresis = periodic_hysteresis(system, (to_time @ motion).T, state)
     harmonics = to_harmonics @ hysteresis.deficit.T
-    jacobian = np.einsum("hn,enm,mk->ehk", to_harmonics, hysteresis.jacobian, to_time)
+    jacobian = to_harmonics @ hysteresis.jacobian @ to_time
     return SlipDeficit(harmonics, jacobian, hysteresis.periodic)
 
 

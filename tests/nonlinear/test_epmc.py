@@ -2,7 +2,6 @@
 describing-function backbone, the damping balances the loop's dissipation, and the harmonics converge."""
 
 import numpy as np
-import pytest
 import scipy.linalg
 
 from nonlinear.condensation import joint_space, stuck_modes
@@ -113,12 +112,11 @@ def test_stuck_beam_gives_its_linear_mode(beam_roms):
     np.testing.assert_allclose(mode.frequency[0] ** 2, eigenvalues[target], rtol=1e-9)
 
 
-@pytest.mark.slow
 def test_epmc_and_qsma_agree_in_microslip_on_the_beam(beam_roms):
     """The BRB with four-parameter Iwan joints (thousands of sliders per element) at slip ratios 2e-3 to 0.13:
     EPMC and QSMA are two routes to the same weakly nonlinear mode, so they agree where the mode shape barely
     changes: frequency within 2e-4 and damping within 1e-3 (measured 1e-5 to 7.5e-5 and 1e-4 to 3.5e-4, both
-    growing with the slip). About 50 s."""
+    growing with the slip). About 5 s."""
     space = joint_space(beam_superelement(beam_roms / "BRB.npz"))
     design = np.array([300.0, 1e7, -0.5, 0.1, 1e9] * 3)
     amplitude = np.geomspace(5e-6, 3e-4, 4)

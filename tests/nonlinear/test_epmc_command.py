@@ -11,7 +11,7 @@ JENKINS_DESIGN = "300,1e7,1e9,300,1e7,1e9,300,1e7,1e9"  # F_S, K_T, K_z of the B
 def test_epmc_writes_both_backbones_at_the_same_amplitudes(beam_roms, tmp_path, capsys):
     """Stuck levels (below one slip amplitude, Jenkins) are the linear mode in both files to 1e-12 with zero
     damping (EPMC's to the round-off of its Newton solve, 1e-15); past slip both soften and damp, EPMC and QSMA within 0.5 % in frequency and 5 % in damping on this
-    design (the harmonic count is given, so no convergence check runs); about 15 s."""
+    design (the harmonic count is given, so no convergence check runs)."""
     out = tmp_path / "epmc"
     status = surrogacy(["epmc", "--rom", str(beam_roms / "BRB.npz"), "--model", "jenkins", "--design",
                         JENKINS_DESIGN, "--from", "0.3", "--to", "8", "--levels", "4", "--harmonics", "3",
