@@ -606,8 +606,8 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
                                                                  expected):
     """``surrogacy study --steps analyse`` after a chunk was deleted, cut short, overwritten by a copy of chunk 0 or
     rewritten as valid Parquet with its first row only, or after a measurement was edited (frequencies x 1.05):
-    exit 2, one line naming the file, what differs and what to run; no file changed, no analysis written.
-    ``--steps explore`` then recomputes the chunk as it was (a few seconds each)."""
+    exit 2, one line naming the file, what differs and what to run; no file changed, no analysis written, with
+    ``--restart-stale`` too. ``--steps explore`` then recomputes the chunk as it was (a few seconds each)."""
     from pipeline.cli import main as surrogacy
 
     folder = tmp_path / "study"
@@ -629,6 +629,8 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"{folder / named}: {expected}" in lines[0] and "--steps explore analyse" in lines[0]
     assert file_contents(folder) == before and not (folder / "analysis").exists()
+    assert surrogacy([*asb_study_arguments(folder, "analyse"), "--restart-stale"]) == 2  # analyse recomputes nothing
+    assert f"{folder / named}: {expected}" in capsys.readouterr().err and file_contents(folder) == before
     if change != "edited measurement":
         assert surrogacy(asb_study_arguments(folder, "explore")) == 0
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
