@@ -177,21 +177,6 @@ def tangential_slip_deficit(elements: PatchElements, displacement) -> np.ndarray
     return slip_laws.slip_deficit(displacement / law.phi_max, law.r, law.s, law.chi, law.theta)
 
 
-def tangential_slip_deficit_tangent(elements: PatchElements, displacement) -> np.ndarray:
-    """Derivative of the slip deficit (N/m), between 0 (stuck) and K_T (macroslip); above K_T where a
-    stiction backbone softens."""
-    law = scaled_law(elements)
-    return slip_laws.slip_deficit_slope(displacement / law.phi_max, law.r, law.s, law.chi, law.theta) / law.phi_max
-
-
-def tangential_slip_deficit_potential(elements: PatchElements, displacement) -> np.ndarray:
-    """Integral of the slip deficit from 0 to the displacement (J); zero for stuck patches. The static QSMA
-    problem minimises a quadratic form minus the sum of these (convex for Jenkins and four-parameter Iwan)."""
-    law = scaled_law(elements)
-    return law.phi_max * slip_laws.slip_deficit_potential(displacement / law.phi_max, law.r, law.s, law.chi,
-                                                          law.theta)
-
-
 def tangential_dissipation(elements: PatchElements, amplitude) -> np.ndarray:
     """Masing cycle dissipation D = 4 phi_max (x g - 2 G) (J) of the tangential elements at amplitude (m), x the
     scaled amplitude (paper Eqs. 15, 19, 22; the QSMA kernel's formula), from the scaled slip law

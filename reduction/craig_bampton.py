@@ -103,25 +103,6 @@ def half_rigid_modes(coordinates: np.ndarray, halves: np.ndarray) -> np.ndarray:
     return modes
 
 
-def virtual_rigid_motion(references: np.ndarray) -> np.ndarray:
-    """Virtual-node motion of rigid motions, (6 n_nodes, 6): column j is (t + theta x c_p, theta) at each reference
-    point c_p (n_nodes, 3) m, for the unit rigid motion j of ``fem.elasticity.rigid_body_modes`` about the origin."""
-    motion = np.zeros((len(references), DOFS_PER_PATCH, DOFS_PER_PATCH))
-    motion[:, :3, :] = rigid_body_modes(references, centre=np.zeros(3)).reshape(len(references), 3, DOFS_PER_PATCH)
-    motion[:, 3:, 3:] = np.eye(3)
-    return motion.reshape(-1, DOFS_PER_PATCH)
-
-
-def rigid_reduced_coordinates(references: np.ndarray, n_reduced: int) -> np.ndarray:
-    """Reduced coordinates (n_reduced, 6) of the rigid motions of the whole beam about the origin: both sides'
-    virtual nodes at their references (n_patches, 3) m move as ``virtual_rigid_motion``, modal coordinates at zero
-    (the constraint modes reproduce rigid motions exactly)."""
-    coordinates = np.zeros((n_reduced, DOFS_PER_PATCH))
-    virtual = virtual_rigid_motion(references)
-    coordinates[:2 * len(virtual)] = np.vstack([virtual, virtual])
-    return coordinates
-
-
 def constrained_solver(stiffness: sp.spmatrix, constraints: sp.spmatrix, rigid_modes: np.ndarray,
                        supported: np.ndarray, method: str | None = None
                        ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:

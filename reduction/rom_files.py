@@ -46,11 +46,10 @@ from geometry.beam_mesh import interface_partners, read_beam_mesh
 from pipeline.cache import is_current, sidecar_record, stage_versions, upstream_file
 from pipeline.files import atomic_paths, write_json, write_mat
 
-from .craig_bampton import (N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, rigid_reduced_coordinates,
-                            virtual_dof_labels)
+from .craig_bampton import N_FIXED_INTERFACE_MODES, reduced_matrix, rigid_body_properties, virtual_dof_labels
 from .render import render_mode
 from .sensors import BODY_FRACTIONS, SENSOR_DIRECTION, accelerometer_points, point_recovery
-from .superelement import Superelement, stuck_joint_modes, superelement_arrays
+from .superelement import Superelement, rigid_reduced_coordinates, stuck_joint_modes, superelement_arrays
 from .whole_joint import bolt_string_stiffness, preload_vector, reduce_beam, whole_joint_superelement
 
 # 2: stiffness is K; K_A and the bolt string term beside it. 3: sidecar layout of pipeline.cache.

@@ -17,6 +17,7 @@ import scipy.io
 import scipy.linalg
 
 from fem.bolts import BOLT_PRELOAD
+from fem.elasticity import rigid_body_modes
 
 DOFS_PER_PATCH = 6  # x, y, normal translations, then rotations about x, y, normal
 ASB_CONFIGURATIONS = ("C1", "C2", "C3", "C4", "C4a", "CD1")  # the ASB's reduced models and measured backbones
@@ -260,12 +261,30 @@ def beam_superelement(path: Path, prestress: bool = True) -> Superelement:
                              "stage); rerun `make rom`")
     if not prestress:
         return superelement
-    from .craig_bampton import rigid_reduced_coordinates  # craig_bampton imports this module
     with np.load(path, allow_pickle=False) as data:
         stiffness = data["stiffness_prestressed"] + data["bolt_stress_stiffness"]
         rigid = rigid_reduced_coordinates(data["virtual_node_coordinates"][:superelement.n_patches],
                                           len(stiffness))
     return replace(superelement, stiffness=balanced_stiffness(stiffness, superelement.mass, rigid))
+
+
+def virtual_rigid_motion(references: np.ndarray) -> np.ndarray:
+    """Virtual-node motion of rigid motions, (6 n_nodes, 6): column j is (t + theta x c_p, theta) at each reference
+    point c_p (n_nodes, 3) m, for the unit rigid motion j of ``fem.elasticity.rigid_body_modes`` about the origin."""
+    motion = np.zeros((len(references), DOFS_PER_PATCH, DOFS_PER_PATCH))
+    motion[:, :3, :] = rigid_body_modes(references, centre=np.zeros(3)).reshape(len(references), 3, DOFS_PER_PATCH)
+    motion[:, 3:, 3:] = np.eye(3)
+    return motion.reshape(-1, DOFS_PER_PATCH)
+
+
+def rigid_reduced_coordinates(references: np.ndarray, n_reduced: int) -> np.ndarray:
+    """Reduced coordinates (n_reduced, 6) of the rigid motions of the whole beam about the origin: both sides'
+    virtual nodes at their references (n_patches, 3) m move as ``virtual_rigid_motion``, modal coordinates at zero
+    (the constraint modes reproduce rigid motions exactly)."""
+    coordinates = np.zeros((n_reduced, DOFS_PER_PATCH))
+    virtual = virtual_rigid_motion(references)
+    coordinates[:2 * len(virtual)] = np.vstack([virtual, virtual])
+    return coordinates
 
 
 def balanced_stiffness(stiffness: np.ndarray, mass: np.ndarray, rigid: np.ndarray) -> np.ndarray:

@@ -2,11 +2,13 @@
 
 experiment/ (measured and simulated ring-downs, backbones) knows nothing of the joint model in nonlinear/;
 nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); a package imports
-only the packages before it in the data's flow; no library module imports a command module; no module but the
+only the packages before it in the data's flow, and no module of a package imports itself back through others; no
+library module imports a command module; no module but the
 friction-model registry decides on a model's name.
 """
 
 import ast
+import graphlib
 import importlib
 from pathlib import Path
 
@@ -150,3 +152,39 @@ def test_a_planted_branch_on_a_model_name_is_found(tmp_path):
     planted.write_text('law = {"jenkins": 1, "iwan4": 2}\nif model == "iwan5":\n    pass\n'
                        'stuck = model in ("iwan4_stuck", "other")\nname = "iwan4"\n')
     assert [place.split(":")[0] for place in model_name_branches(planted)] == ["1", "2", "4"]
+
+
+def module_graph(package: str) -> dict[str, set[str]]:
+    """Module stem -> the stems of the same package's modules it imports, absolute or relative, at module level
+    or inside a function (``from .a import b``, ``from package.a import b``, ``from package import a``)."""
+    stems = {path.stem for path in (ROOT / package).glob("*.py")}
+    graph = {}
+    for path in sorted((ROOT / package).glob("*.py")):
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.ImportFrom):
+                module = (node.module or "") if node.level else (node.module or "").removeprefix(package)
+                if node.level == 0 and not within(node.module or "", package):
+                    continue
+                parts = [part for part in module.split(".") if part]
+                found.update(parts[:1] if parts else [alias.name for alias in node.names])
+            elif isinstance(node, ast.Import):
+                found.update(alias.name.split(".")[1] for alias in node.names
+                             if within(alias.name, package) and alias.name != package)
+        graph[path.stem] = (found & stems) - {path.stem}
+    return graph
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_import_cycle_within_a_package(package):
+    graphlib.TopologicalSorter(module_graph(package)).prepare()
+
+
+def test_a_planted_import_cycle_is_found(tmp_path, monkeypatch):
+    planted = tmp_path / "reduction"
+    planted.mkdir()
+    (planted / "craig_bampton.py").write_text("from .superelement import DOFS_PER_PATCH\n")
+    (planted / "superelement.py").write_text("def f():\n    from reduction.craig_bampton import g\n")
+    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+    with pytest.raises(graphlib.CycleError):
+        graphlib.TopologicalSorter(module_graph("reduction")).prepare()

@@ -21,10 +21,9 @@ from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, MeshParameters
 from reduction.craig_bampton import (PatchLayoutError, boundary_constraints, half_rigid_modes,
-                                     relative_patch_motion, rigid_body_properties, rigid_reduced_coordinates,
-                                     virtual_rigid_motion)
+                                     relative_patch_motion, rigid_body_properties)
 from reduction.sensors import INSIDE, accelerometer_points, point_recovery, top_face_height
-from reduction.superelement import stuck_joint_modes
+from reduction.superelement import rigid_reduced_coordinates, stuck_joint_modes, virtual_rigid_motion
 from reduction.whole_joint import reduce_beam
 
 ARM = 0.01  # m: rotational springs k ARM^2, a patch-sized lever on the translational stiffness (test_fem_springs)

@@ -25,8 +25,8 @@ from geometry.properties import patch_areas, patch_second_moments
 from nonlinear.condensation import RIGID_FREQUENCY, joint_space, stuck_stiffness_matrix, stuck_modes
 from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
 from nonlinear.qsma_vectorised import UNSTABLE, qsma_designs
-from reduction.craig_bampton import rigid_reduced_coordinates
-from reduction.superelement import StructureError, beam_superelement, save_superelement, stuck_joint_modes
+from reduction.superelement import (StructureError, beam_superelement, rigid_reduced_coordinates, save_superelement,
+                                   stuck_joint_modes)
 
 NEGATIVE = -(2 * np.pi * RIGID_FREQUENCY) ** 2  # rad^2/s^2: below it a mode has negative stiffness
 STIFF_TANGENTIAL = 1e9  # N/m

@@ -25,9 +25,8 @@ from geometry.parameters import BEAMS
 from geometry.properties import beam_mass, patch_areas
 from nonlinear.joint import joint_row_stiffness
 from pipeline.cli import parser
-from reduction.craig_bampton import rigid_reduced_coordinates
 from reduction.sensors import accelerometer_points
-from reduction.superelement import beam_superelement, load_superelement
+from reduction.superelement import beam_superelement, load_superelement, rigid_reduced_coordinates
 
 SPRINGS = np.array([1e9] * 3 + [1e9 * 0.01 ** 2] * 3)  # N/m and N m/rad, as test_craig_bampton
 STIFF_TANGENTIAL = 1e9  # N/m
