@@ -169,10 +169,10 @@ class NonlinearMode(NamedTuple):
 
 def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int = SAMPLES, load=None,
                    step: float = 0.2) -> NonlinearMode:
-    """EPMC of ``system`` at the increasing modal amplitudes (n,) m kg^0.5: from the linear mode at the first
-    amplitude, a pseudo-arclength continuation in ln q (``nonlinear.harmonic_balance.pseudo_arclength``) to the
-    last, each amplitude then solved exactly by Newton's method at fixed q from the branch interpolated there.
-    Amplitudes beyond a branch that stopped (its corrector failed) are NaN and not converged."""
+    """EPMC of ``system`` at the increasing modal amplitudes (n,) m kg^0.5: Newton's method from the linear mode at
+    the first amplitude, then a pseudo-arclength continuation in ln q (``nonlinear.harmonic_balance
+    .pseudo_arclength``) with every further amplitude a stop of the branch, and a positive frequency asked of
+    each point. Amplitudes beyond a branch that stopped (its corrector failed) are NaN and not converged."""
     amplitudes = np.asarray(amplitudes, dtype=float)
     if amplitudes.ndim != 1 or amplitudes.size == 0 or np.any(amplitudes <= 0) or np.any(np.diff(amplitudes) <= 0):
         raise ValueError(f"amplitudes must be positive and increasing; got {amplitudes}")
@@ -181,25 +181,13 @@ def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int
     start, converged_start, _ = newton(equations, equations.linear_mode(amplitudes[0]), levels[0])
     if not converged_start:
         raise RuntimeError(f"EPMC did not converge at the first amplitude {amplitudes[0]:.6g} m kg^0.5")
-    branch = pseudo_arclength(equations, start, levels[0], levels[-1], step) if amplitudes.size > 1 else None
-    solutions, converged = [], []
-    for level in levels:
-        if branch is None:
-            guess = start
-        elif level > branch.parameters[-1]:  # beyond where the branch stopped
-            solutions.append(np.full(start.size, np.nan))
-            converged.append(False)
-            continue
-        else:
-            after = min(int(np.searchsorted(branch.parameters, level)), len(branch.parameters) - 1)
-            before = max(after - 1, 0)
-            span = branch.parameters[after] - branch.parameters[before]
-            weight = 0.0 if span == 0 else (level - branch.parameters[before]) / span
-            guess = (1 - weight) * branch.unknowns[before] + weight * branch.unknowns[after]
-        y, _, ok = newton(equations, guess, level)
-        periodic = equations.deficit(np.exp(level) * y[:equations.size].reshape(-1, equations.n_t)).periodic
-        solutions.append(y)
-        converged.append(ok and periodic)
+    branch = pseudo_arclength(equations, start, levels[0], levels[1:], step,
+                              admissible=lambda y: bool(y[equations.size] > 0.0))
+    solutions = [start] + [branch.unknowns[index] for index in branch.at_stops]
+    solutions += [np.full(start.size, np.nan)] * (amplitudes.size - len(solutions))  # beyond where it stopped
+    converged = [bool(np.all(np.isfinite(y))) and equations.deficit(
+        np.exp(level) * y[:equations.size].reshape(-1, equations.n_t)).periodic
+        for y, level in zip(solutions, levels)]
     solutions = np.array(solutions)
     omega = equations.omega_0 * solutions[:, equations.size]
     xi = equations.omega_0 * solutions[:, equations.size + 1]
@@ -208,8 +196,7 @@ def nonlinear_mode(system: JointSystem, amplitudes, harmonics: int, samples: int
                       else np.full((harmonic_count(harmonics), system.eigenvalues.size), np.nan)
                       for y, level in zip(solutions, levels)])
     return NonlinearMode(amplitudes, omega, xi / (2.0 * omega), joint, modal, harmonics, samples,
-                         np.array(converged), equations.omega_0,
-                         1 if branch is None else len(branch.parameters))
+                         np.array(converged), equations.omega_0, len(branch.parameters))
 
 
 class HarmonicConvergence(NamedTuple):

@@ -311,11 +311,13 @@ def element_jacobian(jacobian: np.ndarray) -> np.ndarray:
 
 class Continuation(NamedTuple):
     """Points of a solution branch: parameters (n_points,), unknowns (n_points, n_unknowns), the Newton
-    iterations each took, and whether the branch reached the end (else it stopped where the corrector failed)."""
+    iterations each took, the index of the point at each stop reached (its length is the number reached), and
+    whether the branch reached the last stop (else it stopped where the corrector failed)."""
 
     parameters: np.ndarray
     unknowns: np.ndarray
     iterations: np.ndarray
+    at_stops: np.ndarray
     reached: bool
 
 
@@ -335,19 +337,23 @@ def newton(residual: Residual, y: np.ndarray, parameter: float, tolerance: float
     return y, max_iterations, False
 
 
-def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, end: float, step: float,
-                     min_step: float = 1e-4, max_step: float | None = None, tolerance: float = 1e-10,
-                     max_iterations: int = 12, max_points: int = 2000) -> Continuation:
+def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, stops, step: float,
+                     admissible: Callable[[np.ndarray], bool] = lambda y: True, min_step: float = 1e-4,
+                     max_step: float | None = None, tolerance: float = 1e-10, max_iterations: int = 12,
+                     max_points: int = 2000) -> Continuation:
     """Pseudo-arclength continuation of residual(y, parameter) = 0 from (y0, start), which must be a solution,
-    until the parameter passes ``end`` (increasing). Predictor along the unit tangent t of the branch
+    through the increasing parameters ``stops`` (all above start). Predictor along the unit tangent t of the branch
     ([dR/dy dR/dp] t = 0, oriented as the previous one), corrector by Newton's method on R = 0 and
-    t . ((y, p) - predicted) = 0; the step (in the scaled unknowns and parameter) grows by 1.5 after a corrector
-    of at most 3 iterations and halves after a failed one; the branch stops where the step falls below
-    ``min_step`` (``Continuation.reached`` False)."""
+    t . ((y, p) - predicted) = 0; a predictor that would pass the next stop is shortened to reach it, and its
+    corrector holds the parameter there instead, so that every stop is a point of the branch. The step (in the
+    scaled unknowns and parameter) grows by 1.5 after a corrector of at most 3 iterations and halves after a
+    failed one, or one whose point is not ``admissible``; the branch ends where the step falls below ``min_step``
+    (``Continuation.reached`` False)."""
+    stops = [float(stop) for stop in stops]
     max_step = 10.0 * step if max_step is None else max_step
-    points, parameters, iterations = [np.asarray(y0, dtype=float)], [float(start)], [0]
+    points, parameters, iterations, at_stops = [np.asarray(y0, dtype=float)], [float(start)], [0], []
     y, parameter, previous = points[0], float(start), None
-    while parameter < end and len(points) < max_points:
+    while len(at_stops) < len(stops) and len(points) < max_points:
         _, jacobian, derivative = residual(y, parameter)
         augmented = np.vstack([np.column_stack([jacobian, derivative]),
                                np.append(np.zeros(y.size), 1.0) if previous is None else previous])
@@ -355,26 +361,38 @@ def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, end: floa
         tangent /= np.linalg.norm(tangent)
         if (previous is None and tangent[-1] < 0) or (previous is not None and tangent @ previous < 0):
             tangent = -tangent
+        stop = stops[len(at_stops)]
         while True:
-            predicted = np.append(y, parameter) + step * tangent
+            reaches = tangent[-1] > 0 and parameter + step * tangent[-1] >= stop
+            length = (stop - parameter) / tangent[-1] if reaches else step
+            predicted = np.append(y, parameter) + length * tangent
+            constraint = np.append(np.zeros(y.size), 1.0) if reaches else tangent
             trial, converged, count = predicted.copy(), False, 0
             for count in range(1, max_iterations + 1):
                 value, jacobian, derivative = residual(trial[:-1], trial[-1])
-                system = np.vstack([np.column_stack([jacobian, derivative]), tangent])
-                correction = np.linalg.solve(system, -np.append(value, tangent @ (trial - predicted)))
+                system = np.vstack([np.column_stack([jacobian, derivative]), constraint])
+                try:
+                    correction = np.linalg.solve(system, -np.append(value, constraint @ (trial - predicted)))
+                except np.linalg.LinAlgError:
+                    break
                 trial = trial + correction
                 if np.abs(correction).max() <= tolerance and np.abs(value).max() <= 1e3 * tolerance:
-                    converged = bool(np.abs(residual(trial[:-1], trial[-1])[0]).max() <= tolerance)
+                    converged = bool(np.abs(residual(trial[:-1], trial[-1])[0]).max() <= tolerance
+                                     and admissible(trial[:-1]))
                     break
             if converged:
                 break
-            step /= 2.0
+            step = min(step, length) / 2.0
             if step < min_step:
-                return Continuation(np.array(parameters), np.array(points), np.array(iterations), False)
+                return Continuation(np.array(parameters), np.array(points), np.array(iterations),
+                                    np.array(at_stops, dtype=int), False)
         y, parameter, previous = trial[:-1], float(trial[-1]), tangent
         points.append(y)
         parameters.append(parameter)
         iterations.append(count)
+        if reaches:
+            at_stops.append(len(points) - 1)
         if count <= 3:
             step = min(1.5 * step, max_step)
-    return Continuation(np.array(parameters), np.array(points), np.array(iterations), parameter >= end)
+    return Continuation(np.array(parameters), np.array(points), np.array(iterations), np.array(at_stops, dtype=int),
+                        len(at_stops) == len(stops))

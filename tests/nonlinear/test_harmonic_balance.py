@@ -141,10 +141,12 @@ def test_static_step_is_the_closed_form_of_a_preloaded_jenkins():
 
 def test_pseudo_arclength_follows_a_curved_branch():
     """The circle x^2 + p^2 = 1 from (x, p) = (-0.6, -0.8) with increasing p to p = 0.8, through x = -1 where
-    x turns: every point on the circle, p increasing."""
+    x turns: every point on the circle, p increasing, each stop a point of the branch exactly."""
     def residual(y, p):
         return np.array([y[0] ** 2 + p ** 2 - 1.0]), np.array([[2 * y[0]]]), np.array([2 * p])
 
-    branch = pseudo_arclength(residual, np.array([-0.6]), -0.8, 0.8, 0.05)
+    stops = [-0.5, 0.0, 0.3, 0.8]
+    branch = pseudo_arclength(residual, np.array([-0.6]), -0.8, stops, 0.05)
     np.testing.assert_allclose(branch.unknowns[:, 0] ** 2 + branch.parameters ** 2, 1.0, atol=1e-10)
-    assert branch.parameters[-1] >= 0.8 and np.all(np.diff(branch.parameters) > 0)
+    assert branch.reached and np.all(np.diff(branch.parameters) > 0)
+    np.testing.assert_array_equal(branch.parameters[branch.at_stops], stops)
