@@ -29,6 +29,7 @@ import pandas as pd
 from discrepancy.files import verdict_summary
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
+from nonlinear.friction_models import MODEL_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
 from study.figures import plt, save
 
@@ -237,9 +238,9 @@ def study_not_reported(report: Path) -> str:
 
 def calibrated_models(folder: Path) -> list[str]:
     """The friction models a calibration folder (``surrogacy fit --out``) holds anything of: a folder of
-    calibration records (``<model>/<structure>.json``), a front (``front_<model>.csv``) or a figure
-    (``fits_<model>.png``)."""
-    models = {path.parent.name for path in folder.glob("*/*.json")}
+    calibration records (``<model>/<structure>.json``, a model of the registry), a front (``front_<model>.csv``)
+    or a figure (``fits_<model>.png``)."""
+    models = {path.parent.name for path in folder.glob("*/*.json") if path.parent.name in MODEL_NAMES}
     models |= {path.stem.removeprefix("front_") for path in folder.glob("front_*.csv")}
     return sorted(models | {path.stem.removeprefix("fits_") for path in folder.glob("fits_*.png")})
 
@@ -257,7 +258,7 @@ def calibration_section(results: Path, out: Path) -> list[str]:
             body = table.read_text().splitlines()[1:]  # without its own title
             lines += [f"Calibration of {name} ({_relative(table, out)}):", *body, ""]
         else:
-            records = sorted(folder.glob("*/*.json"))
+            records = [path for model in models for path in sorted((folder / model).glob("*.json"))]
             lines += [f"_Calibration of {name}: {table} absent; "
                       + (f"its {len(records)} calibration record(s) are there ({', '.join(models)}): the "
                          "calibration ran, its table was deleted or not written (rerun `surrogacy fit`, which "
