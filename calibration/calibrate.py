@@ -171,7 +171,8 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
         fits += [local_fit(structure, space, starts[start], weight, split, archive=archive)
                  for start in np.argsort(chi_squared_w)[:STARTS]]
         if len(fitted_seeds):  # besides the search's own starts, not instead of them
-            fitted_chi_squared = np.sum(residual_rows(structure, space, fitted_seeds, weight, split) ** 2, axis=1)
+            fitted_chi_squared = np.sum(residual_rows(structure, space, fitted_seeds, weight, split, archive) ** 2,
+                                        axis=1)
             fits.append(local_fit(structure, space, fitted_seeds[np.argmin(fitted_chi_squared)], weight, split,
                                   archive=archive))
     archive.source = "polished w=0.5"
