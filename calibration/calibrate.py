@@ -4,7 +4,8 @@ polishes along its front, a deterministic multistart, then the best compromise w
 
 Global phase. NSGA-II (``study.pareto.nsga2_front``) over the unit box of ``calibration.objectives`` (the joint's
 Table 3 parameters and zeta_0) on the two L-infinity errors, seeded with the designs a study found (its sample's
-and its NSGA-II front, zeta_0 at the study's value and spread over its range) and run until the front stops
+and its NSGA-II front, zeta_0 at the study's value, at the value its damping rule gave each design, and spread over
+its range) and run until the front stops
 moving: pymoo's ``DefaultMultiObjectiveTermination`` (its default tolerances: the ideal, nadir and front move
 by less than 0.25 % over 30 generations), at most ``MAX_GENERATIONS`` (a run that reaches the cap says so).
 
@@ -44,6 +45,7 @@ from calibration.local_fit import LocalFit, Uncertainty, local_fit, residual_row
 from calibration.objectives import (FitSpace, FrontArchive, fit_space, linf_errors, model_curves, plain_errors,
                                    unit_zeta0)
 from nonlinear.condensation import modal_split
+from study.errors import structure_damping
 from study.pareto import nsga2_front
 from study.structures import Structure
 
@@ -68,7 +70,8 @@ CONTINUATIONS = 9
 """Restarts of the best compromise's fit from where its evaluation budget (400 each) stopped it."""
 METHOD = {"weights": WEIGHTS, "starts": STARTS, "population": POPULATION, "zeta0_seeds": ZETA0_SEEDS,
           "multistart_points": MULTISTART_POINTS, "multistarts": MULTISTARTS, "scan_points": SCAN_POINTS,
-          "scan_sweeps": SCAN_SWEEPS, "scan_gain": SCAN_GAIN, "continuations": CONTINUATIONS}
+          "scan_sweeps": SCAN_SWEEPS, "scan_gain": SCAN_GAIN, "continuations": CONTINUATIONS,
+          "seeds_at_the_rule_s_zeta0": True}
 """The settings a calibration's result depends on besides its inputs (part of a record's key)."""
 
 
@@ -95,13 +98,30 @@ class Calibration(NamedTuple):
     global_generations: int
 
 
-def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.random.Generator) -> np.ndarray:
-    """Unit seeds (n (1 + ZETA0_SEEDS), d + 1): each study design with the study's zeta_0 and with ZETA0_SEEDS
-    values drawn over zeta_0's range."""
+def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.random.Generator, rule_zeta0=None
+                ) -> np.ndarray:
+    """Unit seeds (n (1 + ZETA0_SEEDS (+ 1)), d + 1): each study design with the study's zeta_0, with ZETA0_SEEDS
+    values drawn over zeta_0's range and, where ``rule_zeta0`` (n,) is given, with the zeta_0 the study's damping
+    rule gives that design (``rule_zeta0``): the study's own evaluation of it, so that the calibrated front weakly
+    dominates the study's (to zeta_0's floor, 1e-6, where the rule gives 0)."""
     designs_unit = np.atleast_2d(designs_unit)
-    zeta0 = np.column_stack([np.full(len(designs_unit), unit_zeta0(space, study_zeta0)),
-                             rng.random((len(designs_unit), ZETA0_SEEDS))])
+    columns = [np.full(len(designs_unit), unit_zeta0(space, study_zeta0)),
+               rng.random((len(designs_unit), ZETA0_SEEDS))]
+    if rule_zeta0 is not None:
+        columns.append(unit_zeta0(space, np.asarray(rule_zeta0, dtype=float)))
+    zeta0 = np.column_stack(columns)
     return np.column_stack([np.repeat(designs_unit, zeta0.shape[1], axis=0), zeta0.ravel()])
+
+
+def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0: float, rule: str, split
+               ) -> np.ndarray:
+    """zeta_0 (n,) that the study's damping rule (``study.errors.structure_damping``) gives each of its designs
+    (n, d unit) on ``structure`` from the case's value ``study_zeta0``: the joint's own damping at the lowest
+    level comes from QSMA (zeta_0 at its floor, taken off again); the case's value where QSMA does not converge."""
+    designs_unit = np.atleast_2d(designs_unit)
+    curves = model_curves(structure, space, np.column_stack([designs_unit, np.zeros(len(designs_unit))]), split)
+    zeta0 = structure_damping(curves.damping - space.lower[-1], [study_zeta0], rule)[:, 0]
+    return np.where(np.isfinite(zeta0), zeta0, study_zeta0)
 
 
 def chi_squared(structure: Structure, space: FitSpace, unit, split, archive: FrontArchive | None = None
@@ -144,12 +164,14 @@ def multistart(structure: Structure, space: FitSpace, split, archive: FrontArchi
 
 
 def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study_zeta0: float, seed: int = 0,
-              max_generations: int = MAX_GENERATIONS, fitted_seeds=None) -> Calibration:
+              max_generations: int = MAX_GENERATIONS, fitted_seeds=None, damping_rule: str = "added"
+              ) -> Calibration:
     """Calibrate ``model`` on ``structure`` (module docstring). seeds_unit: (n, d) the study's designs in Table 3
     unit coordinates; study_zeta0: the study's linear damping for the structure; seed: NSGA-II's random seed
     (the same seed gives the same calibration); max_generations: the global phase's cap; fitted_seeds: (k, d + 1)
     points of the fit's box (design and zeta_0), e.g. the calibrated front of the model this one contains: each
-    weight is also polished from the one of lowest chi^2, so that the larger model fits at least as well."""
+    weight is also polished from the one of lowest chi^2, so that the larger model fits at least as well;
+    damping_rule: the study's (``study.errors.DAMPING_RULES``), by which it gave each design its zeta_0."""
     space = fit_space(model, n_groups, structure.measurement)
     split = modal_split(structure.space)
     measurement = structure.measurement
@@ -158,7 +180,9 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
     def objective(unit):
         return linf_errors(measurement, model_curves(structure, space, unit, split, archive))
 
-    seeds = seed_points(space, seeds_unit, study_zeta0, np.random.default_rng(seed))
+    by_rule = (None if damping_rule == "added"
+               else rule_zeta0(structure, space, seeds_unit, study_zeta0, damping_rule, split))
+    seeds = seed_points(space, seeds_unit, study_zeta0, np.random.default_rng(seed), by_rule)
     fitted_seeds = np.empty((0, len(space.names))) if fitted_seeds is None else np.atleast_2d(fitted_seeds)
     termination = DefaultMultiObjectiveTermination(n_max_gen=max_generations)
     archive.source = "global"

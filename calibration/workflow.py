@@ -192,7 +192,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
             if record is None:
                 result = calibrate(structure, model, explored.n_groups,
                                    to_unit(front.designs, *parameter_limits(model, explored.n_groups)),
-                                   explored.damping_cases[case][index], seed + index, max_generations, fitted)
+                                   explored.damping_cases[case][index], seed + index, max_generations, fitted,
+                                   explored.damping_rule)
                 sources = {name: front.errors[[label.startswith(name) for label in front.labels]]
                            for name in ("sample", "nsga2")}
                 record = calibration_record(result, key, {k: v for k, v in sources.items() if len(v)})

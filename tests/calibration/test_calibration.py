@@ -517,7 +517,8 @@ def test_fit_with_a_replicate_study_reports_the_spread_of_each_best_compromise_o
             best["chi_squared"], best["reduced_chi_squared"], best["converged"])
     reduced = spread["reduced_chi_squared"]
     assert spread["spread"].iloc[0] == pytest.approx(reduced.max() / reduced.min() - 1, rel=1e-12)
-    assert "| jenkins | ASB C1 | " in (out / "calibration.md").read_text().split("Spread over study seeds 2024, 7")[1]
+    table = (out / "calibration.md").read_text()
+    assert "| jenkins | ASB C1 | " in table.split("Spread over study seeds 2024, 7")[1]
     capsys.readouterr()
     assert surrogacy(["fit", "--study", str(small_study), "--replicates", str(small_study), "--structures",
                       "ASB C1", "--max-generations", "2", "--out", str(tmp_path / "same")]) == 2
