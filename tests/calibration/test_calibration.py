@@ -115,6 +115,31 @@ def test_a_fit_stopped_by_its_budget_is_not_converged_and_continued_reaches_the_
     assert continued.chi_squared < 1e-12 and continued.zeta0 == pytest.approx(ZETA0, rel=1e-6)
 
 
+def test_a_study_design_seeded_at_its_rule_s_zeta0_has_the_errors_the_study_gave_it(cd1):
+    """The study's rule outside_joint gives each design zeta_0 = max(zeta_c - zeta_J,1, 0); a design paired with
+    the zeta_0 ``rule_zeta0`` computes has, as the calibration evaluates it, the L-infinity errors the study's own
+    evaluation gives it (``study.errors.design_errors``): the frequency error to the bit, the damping error to
+    zeta_0's floor of 1e-6 where the rule gives 0 (200 Table 3 designs; zeta_c the lowest level's damping, the
+    ASB's measured case, inside zeta_0's box)."""
+    from calibration.calibrate import rule_zeta0
+    from study.errors import design_errors
+
+    virtual, _ = cd1
+    space = fit_space(MODEL, 1, virtual.measurement)
+    split = modal_split(virtual.space)
+    designs = random_designs(MODEL, 200, 1, np.random.default_rng(5))
+    unit = to_unit(designs, *parameter_limits(MODEL, 1))
+    case = virtual.measurement.damping[0]
+    zeta0 = rule_zeta0(virtual, space, unit, case, "outside_joint", split)
+    study = design_errors(virtual, MODEL, designs, [case], split, rule="outside_joint")
+    ours = linf_errors(virtual.measurement, model_curves(virtual, space, np.column_stack([unit, unit_zeta0(space,
+                                                                                                          zeta0)])))
+    both = study.converged
+    assert both.mean() > 0.9 and (zeta0[both] == 0).any() and (zeta0[both] > 0).any()
+    np.testing.assert_array_equal(ours[both, 0], study.frequency_error_hz[both])
+    np.testing.assert_allclose(ours[both, 1], study.damping_error[both, 0], rtol=0, atol=1.0001e-6)
+
+
 def test_central_differences_agree_with_a_step_four_times_smaller_where_the_backbone_is_smooth(cd1):
     """The Jacobian's truncation and QSMA's noise: where the one-sided differences agree within a tenth of the
     column's largest entry (no kink within the step),
