@@ -23,7 +23,7 @@ QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
 Harmonic balance and EPMC (:mod:`nonlinear.harmonic_balance`, :mod:`nonlinear.hysteresis_kernel`, :mod:`nonlinear.epmc`)
     JointSystem, slip_deficit_harmonics, pseudo_arclength   the joint space's harmonic balance with AFT of the sliders
     joint_system, nonlinear_mode, converged_harmonics        EPMC: the amplitude-dependent nonlinear mode
-    compare_with_qsma                                        EPMC beside QSMA at the same amplitudes (surrogacy epmc)
+    compare_with_qsma                                        EPMC beside QSMA at the same amplitudes
 Transient (:mod:`nonlinear.transient`)
     ring_down                   Newmark free decay; its sensors are an ``experiment.ringdown.RingDown``
     Hammer, hammer_impulse, sensor_modes

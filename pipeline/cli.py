@@ -21,9 +21,8 @@ import time
 from pathlib import Path
 
 STAGE_COMMANDS = ("pipeline.commands", "geometry.commands", "fem.commands", "reduction.commands",
-                  "nonlinear.commands", "experiment.commands", "study.commands", "calibration.commands",
-                  "discrepancy.commands",
-                  "report.commands")
+                  "experiment.commands", "virtual_experiment.commands", "study.commands", "calibration.commands",
+                  "discrepancy.commands", "report.commands")
 
 
 def parser() -> argparse.ArgumentParser:

@@ -7,4 +7,7 @@ Reference joint (:mod:`virtual_experiment.reference_joint`)
 Hammer test (:mod:`virtual_experiment.hammer_test`)
     HammerTest, hammer_hits, hit_pool    hits simulated by transient time stepping, one worker process per core
     virtual_experiment(s)                hits processed exactly like a measurement into a backbone, and written
+Command (:mod:`virtual_experiment.commands`)
+    surrogacy epmc                       one design's nonlinear mode by harmonic balance (``nonlinear.epmc``) beside
+                                         its QSMA backbone: two virtual backbone CSVs
 """
