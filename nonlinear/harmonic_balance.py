@@ -337,6 +337,20 @@ def newton(residual: Residual, y: np.ndarray, parameter: float, tolerance: float
     return y, max_iterations, False
 
 
+def backtracked(residual: Residual, point: np.ndarray, correction: np.ndarray, merit: float, halvings: int = 4):
+    """A Newton correction of (y, parameter), halved up to ``halvings`` times while the residual's norm exceeds
+    ``merit`` (the friction forces are piecewise linear: a full step can jump to another set of sliding sliders
+    and cycle): (new point, residual there with its derivatives, correction taken)."""
+    for _ in range(halvings):
+        evaluated = residual(point[:-1] + correction[:-1], point[-1] + correction[-1])
+        if np.linalg.norm(evaluated[0]) <= merit:
+            break
+        correction = correction / 2.0
+    else:
+        evaluated = residual(point[:-1] + correction[:-1], point[-1] + correction[-1])
+    return point + correction, evaluated, correction
+
+
 def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, stops, step: float,
                      admissible: Callable[[np.ndarray], bool] = lambda y: True, min_step: float = 1e-4,
                      max_step: float | None = None, tolerance: float = 1e-10, max_iterations: int = 12,
@@ -368,17 +382,17 @@ def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, stops, st
             predicted = np.append(y, parameter) + length * tangent
             constraint = np.append(np.zeros(y.size), 1.0) if reaches else tangent
             trial, converged, count = predicted.copy(), False, 0
+            value, jacobian, derivative = residual(trial[:-1], trial[-1])
             for count in range(1, max_iterations + 1):
-                value, jacobian, derivative = residual(trial[:-1], trial[-1])
                 system = np.vstack([np.column_stack([jacobian, derivative]), constraint])
                 try:
                     correction = np.linalg.solve(system, -np.append(value, constraint @ (trial - predicted)))
                 except np.linalg.LinAlgError:
                     break
-                trial = trial + correction
-                if np.abs(correction).max() <= tolerance and np.abs(value).max() <= 1e3 * tolerance:
-                    converged = bool(np.abs(residual(trial[:-1], trial[-1])[0]).max() <= tolerance
-                                     and admissible(trial[:-1]))
+                trial, (value, jacobian, derivative), correction = backtracked(residual, trial, correction,
+                                                                                np.linalg.norm(value))
+                if np.abs(correction).max() <= tolerance and np.abs(value).max() <= tolerance:
+                    converged = admissible(trial[:-1])
                     break
             if converged:
                 break
