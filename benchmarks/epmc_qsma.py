@@ -2,7 +2,8 @@
 balance, by regime, on a beam's superelement.
 
 Run as ``python -m benchmarks.epmc_qsma [--beam BRB] [--models jenkins iwan4 ...] [--designs N] [--seed S]
-[--out FILE.csv]``. Designs are drawn uniformly in Table 3's box (``nonlinear.joint.random_designs``); each is
+[--out FILE.csv]``. Designs are drawn uniformly in Table 3's box (``nonlinear.joint.random_designs``); those
+whose stuck target mode has a negative stiffness (prestressed halves on too soft a joint) are left out; each is
 evaluated at ``LEVELS`` modal amplitudes from 0.01 to 2 times its slip amplitude (``nonlinear.epmc.slip_amplitude``:
 where its first element reaches macroslip in the stuck mode), by QSMA (``qsma_reference``) and by EPMC
 (``nonlinear_mode``) at a harmonic count chosen per model by ``converged_harmonics`` on its first designs (the
@@ -30,8 +31,8 @@ import pandas as pd  # noqa: E402
 
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.epmc import converged_harmonics, joint_system, nonlinear_mode, slip_amplitude  # noqa: E402
-from nonlinear.joint import random_designs  # noqa: E402
-from nonlinear.qsma import qsma_reference  # noqa: E402
+from nonlinear.joint import patch_elements, random_designs, stuck_stiffness  # noqa: E402
+from nonlinear.qsma import qsma_reference, stuck_target_mode  # noqa: E402
 from reduction.superelement import beam_superelement  # noqa: E402
 
 LEVELS = np.geomspace(0.01, 2.0, 8)  # amplitudes in slip amplitudes
@@ -119,7 +120,9 @@ def main() -> None:
     for model in arguments.models:
         designs = random_designs(model, arguments.designs, n_groups, np.random.default_rng(arguments.seed))
         slips = np.array([slip_amplitude(space, model, design) for design in designs])
-        designs = designs[np.isfinite(slips)]
+        stable = np.array([stuck_target_mode(space, stuck_stiffness(patch_elements(
+            model, design, superelement.patch_groups))[0]).eigenvalue > 0.0 for design in designs])
+        designs = designs[np.isfinite(slips) & stable]
         started = time.process_time()
         harmonics = (model_harmonics(space, model, designs[:CHECKED_DESIGNS]) if arguments.harmonics is None
                      else arguments.harmonics)
@@ -133,7 +136,7 @@ def main() -> None:
         seconds = time.process_time() - started
         levels = pd.concat([frame for frame in frames if frame.model.iloc[0] == model])
         print(f"{arguments.beam} {model}: {len(designs)} designs ({arguments.designs - len(designs)} without a "
-              f"slipping element), {harmonics} harmonics (check {checked:.0f} s), {seconds:.0f} s CPU; levels: "
+              f"slipping element or unstable stuck), {harmonics} harmonics (check {checked:.0f} s), {seconds:.0f} s CPU; levels: "
               f"QSMA flagged {int((~levels.qsma_converged).sum())}, EPMC not converged "
               f"{int((~levels.epmc_converged).sum())} of {len(levels)}", flush=True)
     levels = pd.concat(frames, ignore_index=True)

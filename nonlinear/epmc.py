@@ -46,11 +46,15 @@ def joint_system(space: JointSpace, model: str, design, stuck_group: int | None 
     (QSMA's tracked mode, refined by Rayleigh quotient iteration, and the dense solve's other modes), the
     tangential friction elements that can slip (a stuck patch group is a linear spring, part of the stuck
     structure) with their registry sliders (``FrictionModel.sliders``: Jenkins, Iwan, a core spring as one
-    slider that never slips)."""
+    slider that never slips). Raises ValueError where the stuck target mode has a negative stiffness."""
     superelement = space.superelement
     elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
     stuck = stuck_target_mode(space, stuck_stiffness(elements)[0])
+    if not stuck.eigenvalue > 0.0:
+        raise ValueError(f"the stuck target mode of this {model} design has a negative stiffness "
+                         f"({stuck.eigenvalue:.6g} rad^2/s^2): the joint is too soft to carry the preload's "
+                         "softening, and the structure has no vibration about its equilibrium")
     eigenvalues, shapes = stuck.eigenvalues.copy(), stuck.shapes.copy()
     eigenvalues[stuck.target], shapes[:, stuck.target] = stuck.eigenvalue, stuck.shape
     slipping = np.flatnonzero(~tangential.stuck)

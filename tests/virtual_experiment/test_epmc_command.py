@@ -55,3 +55,14 @@ def test_epmc_refuses_a_missing_superelement(tmp_path, capsys):
     assert status == 2
     assert f"option --rom = {tmp_path / 'absent.npz'}: no such file" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_epmc_refuses_a_design_whose_stuck_mode_is_unstable(beam_roms, tmp_path, capsys):
+    """Joint springs of 100 N/m on the prestressed BRB: the stuck target mode has a negative stiffness, so there
+    is no vibration to follow; exit 2 saying so, nothing written."""
+    out = tmp_path / "epmc"
+    status = surrogacy(["epmc", "--rom", str(beam_roms / "BRB.npz"), "--model", "jenkins", "--design",
+                        "300,1e2,1e2,300,1e2,1e2,300,1e2,1e2", "--out", str(out)])
+    assert status == 2
+    assert "stuck target mode of this jenkins design has a negative stiffness" in capsys.readouterr().err
+    assert not out.exists()
