@@ -135,14 +135,13 @@ def main() -> None:
             frames.append(frame)
         seconds = time.process_time() - started
         levels = pd.concat([frame for frame in frames if frame.model.iloc[0] == model])
+        arguments.out.parent.mkdir(parents=True, exist_ok=True)
+        pd.concat(frames, ignore_index=True).to_csv(arguments.out, index=False)  # each model's levels kept at once
         print(f"{arguments.beam} {model}: {len(designs)} designs ({arguments.designs - len(designs)} without a "
               f"slipping element or unstable stuck), {harmonics} harmonics (check {checked:.0f} s), {seconds:.0f} s CPU; levels: "
               f"QSMA flagged {int((~levels.qsma_converged).sum())}, EPMC not converged "
               f"{int((~levels.epmc_converged).sum())} of {len(levels)}", flush=True)
-    levels = pd.concat(frames, ignore_index=True)
-    arguments.out.parent.mkdir(parents=True, exist_ok=True)
-    levels.to_csv(arguments.out, index=False)
-    print(markdown(regime_table(levels)))
+    print(markdown(regime_table(pd.concat(frames, ignore_index=True))))
 
 
 if __name__ == "__main__":
