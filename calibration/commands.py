@@ -18,7 +18,8 @@ def run(arguments: argparse.Namespace) -> None:
     """Calibrate the study's models on its structures (and the replicate studies'); each (model, structure) once,
     skipped on a rerun; a nested model worse than one it contains is named on stderr."""
     options = (arguments.models, arguments.structures, arguments.seed, arguments.max_generations)
-    replicates, defects = calibrate_replicates(arguments.replicates or (), arguments.out, *options)
+    replicates, defects = calibrate_replicates(arguments.replicates or (), arguments.study, arguments.out,
+                                               *options)
     out, found = calibrate_study(arguments.study, arguments.out, *options, replicates=replicates)
     for line in defects + found:
         print(f"defect: {line}", file=sys.stderr)
