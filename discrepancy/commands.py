@@ -36,7 +36,7 @@ import numpy as np
 
 from discrepancy.files import verdict_summary, write_verdict
 from discrepancy.fitted_model import check_record, evaluate, model_record
-from discrepancy.loop import NOMINAL_OFFSETS, discrepancy_loop, with_findings
+from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.nominal import NominalError, checked_nominal, low_amplitude_nominal
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
@@ -102,12 +102,6 @@ def nominal_record(measurement, frequency_hz: float | None, damping: float | Non
             "nominal_source": source}
 
 
-def estimated_offsets(frequency_hz: float | None, damping: float | None) -> tuple:
-    """The loop's offset effects whose part of the nominal is estimated from the measurement (not given): the
-    stiffness change for f_0, the linear damping for zeta_0 (``discrepancy.loop.fit``)."""
-    return tuple(effect for effect, value in zip(NOMINAL_OFFSETS, (frequency_hz, damping)) if value is None)
-
-
 def run(arguments: argparse.Namespace) -> None:
     """Run the loop on one measured backbone (FILE, one-mode model) or on a study's structure (its superelement
     and the study's fits) and write its report."""
@@ -134,7 +128,8 @@ def run(arguments: argparse.Namespace) -> None:
         record = {"source": str(arguments.file), "provenance": measured.provenance, **nominal,
                   "dropped_points": measured.dropped}
         loop = partial(discrepancy_loop, measurement, nominal["nominal_frequency_hz"], nominal["nominal_damping"],
-                       estimated_nominal=estimated_offsets(arguments.nominal_frequency_hz, arguments.nominal_damping))
+                       nominal_uncertainty=(nominal["nominal_frequency_standard_error_hz"],
+                                            nominal["nominal_damping_standard_error"]))
         findings = measured.findings
     with stage_folder(arguments.out) as out:
         verdict = with_findings(loop(), findings.get("found", []))

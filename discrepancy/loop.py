@@ -5,10 +5,7 @@ find which missing effect explains the residual, add it, refit, and report the e
 Model. The one-mode joint model of ``nonlinear.modal_joint`` (a linear mode plus a Jenkins element, the
 macroslip reference) with the structure's nominal low-amplitude frequency f_0 and linear damping zeta_0 fixed
 (from the structure's model and its borrowed damping, as the paper did), and the joint's stiffness share kappa and
-slip force F_S fitted. A nominal estimated from the measurement itself (``discrepancy.nominal``) is fitted with
-every model instead (its frequency shift and zeta_0 count as two parameters of each), and the two offset effects
-below, which it contains, are then not in the library: without a nominal from elsewhere an offset of the whole
-backbone is the nominal. Each effect of the library adds a documented term and its parameters (``EFFECTS``); the
+slip force F_S fitted. Each effect of the library adds a documented term and its parameters (``EFFECTS``); the
 first two belong to the joint's friction law (the law a joint is characterised by: the verdict names them as the
 joint law), the others lie outside the joint (what the structure's model lacks besides the joint):
 
@@ -111,9 +108,6 @@ EFFECTS = {
 }
 """Effect -> its parameters and where it acts (module docstring)."""
 OUTSIDE_JOINT = tuple(name for name, effect in EFFECTS.items() if not effect.in_joint)
-NOMINAL_OFFSETS = ("stiffness_change", "linear_damping")
-"""The effects that offset the nominal at every amplitude (f_0, zeta_0): where a part of the nominal is estimated
-from the measurement its offset effect is that part itself (``fit``'s ``estimated_nominal``)."""
 BASE = (("kappa", "unit", 0.3), ("slip_force", "log", None))
 
 
@@ -256,7 +250,7 @@ def best_least_squares(residual, starts, held: dict):
 
 
 def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
-        starts: list[dict], estimated_nominal: tuple = ()) -> Fit:
+        starts: list[dict], nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
     entries take the library's start values); the best fit. Each effect parameter with a limit of its law
     (``PHYSICAL_LIMITS``) is then refitted held there, one after the other from the optimum, and stays held where
@@ -264,28 +258,26 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     50:50 mixture of chi^2_0 and chi^2_1 that a parameter on the boundary of its range follows): a constrained
     optimum with one parameter fewer.
 
-    ``estimated_nominal``: the offset effects (``NOMINAL_OFFSETS``: stiffness_change for f_0, linear_damping for
-    zeta_0) whose part of the nominal was estimated from this same measurement (``discrepancy.nominal``). The points
-    are that part's only evidence: its variable (the frequency shift s, the linear damping zeta_0') is fitted with
-    every model and counted as its parameter (a prior from the same points would count them twice), and the offset
-    effect is the nominal itself: ``effects`` must not hold it."""
-    both = set(effects) & set(estimated_nominal)
-    if both:
-        raise ValueError(f"{sorted(both)}: an offset effect is the nominal itself where the nominal is estimated")
-    specification = model_variables(effects) + [variable for effect in estimated_nominal
-                                                for variable in EFFECTS[effect].parameters]
+    A nominal estimated from the measurement itself (``nominal_uncertainty``: its standard errors, Hz and -; 0 for
+    a nominal given) is not exact: its frequency shift s and linear damping zeta_0' are fitted with a Gaussian
+    prior residual each, s f_0 / sigma_f and (zeta_0' - zeta_0) / sigma_zeta (``nominal_priors``), and count as no
+    parameter, unless an effect frees them (stiffness_change, linear_damping), which then pays its parameter and
+    loses the prior: an offset within the nominal's uncertainty earns nothing."""
+    priors = nominal_priors(effects, nominal_frequency_hz, nominal_damping, nominal_uncertainty)
+    specification = model_variables(effects) + [variable for variable, _ in priors]
     defaults = {"zeta_0": max(nominal_damping, ZETA_START), "slip_force": None}
     n = 2 * len(measurement.amplitude)
 
     def residual(vector):
         parameters = _to_parameters(vector, specification)
-        return weighted_misfit(measurement, *model_backbone(parameters, measurement.amplitude,
-                                                            nominal_frequency_hz, nominal_damping,
-                                                            measurement.amplitude[-1]))
+        misfit = weighted_misfit(measurement, *model_backbone(parameters, measurement.amplitude,
+                                                              nominal_frequency_hz, nominal_damping,
+                                                              measurement.amplitude[-1]))
+        return np.concatenate([misfit, [prior(parameters) for _, prior in priors]])
 
     vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
                           specification) for start in starts]
-    effect_indices = range(len(BASE), len(model_variables(effects)))
+    effect_indices = range(len(BASE), len(specification) - len(priors))
     chi_squared, vector, jacobian = best_least_squares(residual, vectors, {})
     held, values = {}, {}
     for index in (index for index in effect_indices if specification[index][0] in PHYSICAL_LIMITS):
@@ -304,9 +296,26 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     held_names = set(held)
     undetermined = determinacy(jacobian, vector, specification,
                                [i for i in effect_indices if specification[i][0] not in held_names])
-    k = len(specification) - len(held)
+    k = len(specification) - len(priors) - len(held)
     return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
                held, parameter_covariance(jacobian, chi_squared, n - k))
+
+
+def nominal_priors(effects, nominal_frequency_hz: float, nominal_damping: float,
+                   nominal_uncertainty: tuple[float, float]) -> list:
+    """The nominal's variables fitted under a prior (``fit``): ((name, kind, start), prior residual of the
+    parameters) for the frequency shift and the linear damping where the nominal's standard error is positive and
+    no effect of ``effects`` frees the parameter."""
+    freed = {name for effect in effects for name, _, _ in EFFECTS[effect].parameters}
+    error_frequency, error_damping = nominal_uncertainty
+    priors = []
+    if error_frequency > 0 and "frequency_shift" not in freed:
+        priors.append((("frequency_shift", "shift", 0.0),
+                       lambda p: p["frequency_shift"] * nominal_frequency_hz / error_frequency))
+    if error_damping > 0 and "zeta_0" not in freed:
+        priors.append((("zeta_0", "log", max(nominal_damping, ZETA_START)),
+                       lambda p: (p["zeta_0"] - nominal_damping) / error_damping))
+    return priors
 
 
 def model_variables(effects) -> list:
@@ -425,20 +434,18 @@ def errors(measurement: Measurement, model: Fit) -> dict:
 
 
 def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float,
-                     library=tuple(EFFECTS), estimated_nominal: tuple = ()) -> Verdict:
+                     library=tuple(EFFECTS), nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Verdict:
     """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
     then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
-    forward steps can take a look-alike first when two effects are in the data). ``estimated_nominal``: the offset
-    effects (``NOMINAL_OFFSETS``) whose part of the nominal was estimated from this measurement
-    (``discrepancy.nominal``): that part is fitted with every model and its offset effect leaves the library
-    (``fit``)."""
+    forward steps can take a look-alike first when two effects are in the data). ``nominal_uncertainty``: the
+    standard errors (Hz, -) of a nominal estimated from the measurement itself (``discrepancy.nominal``; 0 for a
+    nominal given), fitted under their prior (``fit``)."""
     starts = base_starts(measurement, nominal_frequency_hz)
-    library = tuple(effect for effect in library if effect not in estimated_nominal)
 
     def fitted(effects, previous=None):
         return fit(measurement, tuple(effects), nominal_frequency_hz, nominal_damping,
                    ([dict(previous.parameters)] if previous is not None else []) + [dict(s) for s in starts],
-                   tuple(estimated_nominal))
+                   nominal_uncertainty)
 
     return select_effects(measurement, fitted, library)
 

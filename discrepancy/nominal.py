@@ -168,17 +168,5 @@ def nominal_statement(record: dict) -> list[str]:
               ("nominal_frequency_standard_error_hz", "nominal_damping_standard_error")]
     source = ("given (--nominal-frequency-hz, --nominal-damping)" if record["nominal_source"] == "given"
               else record["nominal_source"])
-    lines = [f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g}{errors[0]} Hz, zeta_0 = "
-             f"{record['nominal_damping']:.4g}{errors[1]}; {source}."]
-    parameters = record.get("final_model", {}).get("parameters", {})
-    fitted = [text for text, present in
-              ((f"f_0 = {record['nominal_frequency_hz'] * (1 + parameters.get('frequency_shift', 0.0)):.8g} Hz",
-                record.get("nominal_frequency_standard_error_hz")),
-               (f"zeta_0 = {parameters.get('zeta_0', record['nominal_damping']):.4g}",
-                record.get("nominal_damping_standard_error"))) if present]
-    if fitted:
-        lines.append(f"The estimated part of the nominal is fitted with every model, the answer's {' and '.join(fitted)}: "
-                     "an offset of the whole backbone (a stiffness or mass change, a linear damping outside the joint) "
-                     "is that nominal and cannot be named without a nominal from elsewhere (--nominal-frequency-hz, "
-                     "--nominal-damping).")
-    return lines + [""]
+    return [f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g}{errors[0]} Hz, zeta_0 = "
+            f"{record['nominal_damping']:.4g}{errors[1]}; {source}.", ""]

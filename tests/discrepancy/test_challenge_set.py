@@ -58,7 +58,7 @@ def backbones(tmp_path_factory):
 
 def sizes(verdict: dict, ratio: float) -> dict:
     """The key's parameters as the loop's final model gives them (module docstring); the frequency shift and
-    linear damping only where their effect was named (an estimated nominal fits them with every model)."""
+    linear damping only where their effect was named (an estimated nominal fits them under its prior)."""
     model = verdict["final_model"]
     parameters, scale = model["parameters"], model["amplitude_scale"]
     found = {}
