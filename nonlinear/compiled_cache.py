@@ -12,6 +12,7 @@ when the package is imported (``nonlinear/__init__.py``), before any kernel is c
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import os
 import sys
@@ -54,3 +55,20 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
     temporary.write_text(current)
     os.replace(temporary, stamp)
     return removed
+
+
+def kernels_cached(folder: Path = Path(__file__).parent) -> bool:
+    """Whether numba's on-disk cache (``NUMBA_CACHE_DIR`` where set, else ``folder/__pycache__``) holds compiled
+    code, an index file ``.nbi``, of every kernel module: where it does not, the first QSMA call compiles them
+    (minutes and a few GB on two cores, once)."""
+    cache = Path(numba.config.CACHE_DIR or folder / "__pycache__")
+    return cache.is_dir() and all(next(cache.rglob(f"{module}.*.nbi"), None) is not None for module in KERNEL_MODULES)
+
+
+@functools.cache
+def announce_compiling() -> None:
+    """Say once per process, on stderr, that the kernels are being compiled where ``kernels_cached`` finds them
+    not cached (called before the first kernel call: a cold compile is minutes without another word)."""
+    if not kernels_cached():
+        print("compiling the QSMA kernels, first use only (minutes on two cores; numba keeps them on disk) ...",
+              file=sys.stderr, flush=True)

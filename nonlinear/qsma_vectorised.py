@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from nonlinear import qsma_kernel
+from nonlinear.compiled_cache import announce_compiling
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, StuckModeCache, joint_mechanisms
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, PAST_JUMP, QSMAResult
@@ -52,6 +53,7 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     """
     if (amplitudes is None) == (forces is None):
         raise ValueError("give either amplitudes (amplitude control) or forces (force control)")
+    announce_compiling()
     elements = patch_elements(model, designs, space.superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
     rows = tangential_rows(space.superelement.n_patches)

@@ -4,8 +4,11 @@ kernel, and the kernels inline functions of the other kernel files."""
 import shutil
 from pathlib import Path
 
+import numba
+
 import nonlinear
-from nonlinear.compiled_cache import KERNEL_MODULES, STAMP, drop_stale_kernels
+from nonlinear.compiled_cache import (KERNEL_MODULES, STAMP, announce_compiling, drop_stale_kernels,
+                                     kernels_cached)
 
 SOURCES = Path(nonlinear.__file__).parent
 
@@ -28,3 +31,24 @@ def test_a_change_to_any_kernel_file_drops_every_kernel_s_compiled_code(tmp_path
         source.write("\n# edited\n")
     assert sorted(drop_stale_kernels(tmp_path)) == sorted(compiled)
     assert not any(path.exists() for path in compiled) and other.exists()
+
+
+def test_the_kernels_are_cached_only_where_every_kernel_has_its_index(tmp_path, monkeypatch):
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")  # numba's own place: the package's __pycache__
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    assert not kernels_cached(tmp_path)
+    for module in KERNEL_MODULES[:-1]:
+        (cache / f"{module}.kernel-10.py311.nbi").write_bytes(b"index")
+    assert not kernels_cached(tmp_path)  # one kernel still to compile
+    (cache / f"{KERNEL_MODULES[-1]}.kernel-10.py311.nbi").write_bytes(b"index")
+    assert kernels_cached(tmp_path)
+
+
+def test_a_cold_cache_is_announced_once(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))  # an empty cache: every kernel to compile
+    announce_compiling.cache_clear()
+    announce_compiling()
+    announce_compiling()
+    assert capsys.readouterr().err.count("compiling the QSMA kernels, first use only") == 1
+    announce_compiling.cache_clear()
