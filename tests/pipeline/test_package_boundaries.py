@@ -98,12 +98,18 @@ def test_the_library_imports_no_command_module(package):
     assert not offending, offending
 
 
-def test_a_planted_command_import_is_found(tmp_path, monkeypatch):
-    planted = tmp_path / "study"
-    planted.mkdir()
-    (planted / "exploration.py").write_text("from study.commands import defaults\nfrom study import workflow\n")
-    (planted / "commands.py").write_text("from study import workflow\n")
+def plant(tmp_path, monkeypatch, package: str, modules: dict) -> None:
+    """A package ``package`` of ``modules`` (file name -> source) under ``tmp_path``, made the checks' ROOT."""
+    (tmp_path / package).mkdir()
+    for name, source in modules.items():
+        (tmp_path / package / name).write_text(source)
     monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+
+
+def test_a_planted_command_import_is_found(tmp_path, monkeypatch):
+    plant(tmp_path, monkeypatch, "study",
+          {"exploration.py": "from study.commands import defaults\nfrom study import workflow\n",
+           "commands.py": "from study import workflow\n"})
     assert command_imports("study") == {"exploration.py": ["study.commands", "study.commands.defaults"]}
 
 
@@ -181,10 +187,8 @@ def test_no_import_cycle_within_a_package(package):
 
 
 def test_a_planted_import_cycle_is_found(tmp_path, monkeypatch):
-    planted = tmp_path / "reduction"
-    planted.mkdir()
-    (planted / "craig_bampton.py").write_text("from .superelement import DOFS_PER_PATCH\n")
-    (planted / "superelement.py").write_text("def f():\n    from reduction.craig_bampton import g\n")
-    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+    plant(tmp_path, monkeypatch, "reduction",
+          {"craig_bampton.py": "from .superelement import DOFS_PER_PATCH\n",
+           "superelement.py": "def f():\n    from reduction.craig_bampton import g\n"})
     with pytest.raises(graphlib.CycleError):
         graphlib.TopologicalSorter(module_graph("reduction")).prepare()
