@@ -6,10 +6,8 @@
 - ``config``: ``resolve`` and ``configuration`` (defaults, ``--config`` TOML, ``--set``), ``add_config_arguments``,
   ``ConfigError``.
 - ``render``: ``tetrahedral_grid``, ``triangle_surface`` (off-screen PyVista).
-- ``cli``: the ``surrogacy`` console script, ``main``; it collects every package's ``commands`` module.
 - ``published``: the paper's numbers the stages need, cited (Tables 1, 3, 5, 6, the BRB deck's dimensions), and
   ``paper_tables`` (a user's own tables in their place).
 - ``public_data``: the public measured files (``REGISTRY``: pinned URL, name, SHA-256, size) and ``fetch``.
-- ``demo``: the demo's plan (``plan``: every stage's arguments, or why it is skipped) and runner (``run_steps``);
-  ``commands``: ``surrogacy demo``, ``surrogacy data fetch``.
+- ``commands``: ``surrogacy data fetch``.
 """

@@ -405,7 +405,7 @@ def git_commit() -> str:
 
 RUN_RECORD = {"command": list, "finished": str, "wall_s": (int, float), "peak_memory_mb": (int, float),
               "status": int}
-"""The fields of a run log's line (``pipeline.cli.log_run``) and their JSON types."""
+"""The fields of a run log's line (``cli.console.log_run``) and their JSON types."""
 
 
 def run_record(line: str) -> dict | str:

@@ -13,7 +13,7 @@ import pytest  # noqa: E402
 from geometry.beam_mesh import BeamMesh, read_beam_mesh  # noqa: E402
 from geometry.beams import make_beam  # noqa: E402
 from geometry.parameters import BEAM_NAMES, BEAMS, MeshParameters  # noqa: E402
-from pipeline.cli import main as surrogacy  # noqa: E402
+from cli.console import main as surrogacy  # noqa: E402
 from locations import ASB_MODELS  # noqa: E402
 from reduction.superelement import read_asb_superelement  # noqa: E402
 

@@ -20,7 +20,7 @@ from locations import SHARED
 from nonlinear.condensation import modal_split
 from nonlinear.joint import parameter_limits, random_designs, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 from study.pareto import non_dominated
 from study.structures import N_LEVELS, asb_superelement, measured_levels, qsma_measurement, structure
 

@@ -26,7 +26,7 @@ import json
 import pytest
 
 from locations import CHALLENGE, challenge_ringdown
-from pipeline.cli import main
+from cli.console import main
 
 KEY = CHALLENGE / "key.json"
 NOMINAL = ("--nominal-frequency-hz", "169.86148", "--nominal-damping", "1.666e-3")

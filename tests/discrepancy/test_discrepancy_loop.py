@@ -96,7 +96,7 @@ def test_command_reports_the_effect_and_the_errors_before_and_after(tmp_path, ca
     errors before and after, the JSON the same numbers; nothing else is left in the folder."""
     import json
 
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     path = tmp_path / "measured.csv"
     write_undeclared_backbone(path, ("linear_damping",), seed=2)
@@ -116,7 +116,7 @@ def test_command_reports_the_effect_and_the_errors_before_and_after(tmp_path, ca
 def test_command_refuses_a_ring_down_naming_the_step_that_processes_it(tmp_path, capsys, suffix):
     """A ring-down (CSV, or a .mat struct as Chen's HammerImpact.mat) given to the loop: one line naming the file,
     its format and the backbone formats, and the freevib command that turns it into a backbone CSV."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     path = tmp_path / f"measured{suffix}"
     if suffix == ".csv":
@@ -159,7 +159,7 @@ def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
     damping and microslip are named; nothing is added to the reference joint alone."""
     import json
 
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from discrepancy.virtual_data import write_undeclared_ringdown
 
     path = tmp_path / "ring.csv"
@@ -238,7 +238,7 @@ def test_content_outside_the_backbone_makes_the_verdict_unexplained(tmp_path, co
     a negative damping that the loop refuses, naming the finding: one hit here.)"""
     import json
 
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from discrepancy.virtual_data import write_undeclared_ringdown
 
     path = tmp_path / "ring.csv"
@@ -264,7 +264,7 @@ def test_a_point_with_negative_damping_is_left_out_not_the_backbone(tmp_path, ca
     """Three hits with a second mode at 20 %: its beating puts the damping of the backbone's lowest point below
     zero; freevib leaves that point out with its cause (printed and in the file's dropped line), keeps the second
     mode's finding, and the loop's levels read the backbone without refusing it."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from discrepancy.commands import backbone_levels
     from discrepancy.virtual_data import write_undeclared_ringdown
 

@@ -14,7 +14,7 @@ import json
 import pytest
 
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_backbone
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 
 
 @pytest.mark.parametrize("option, value, expected", [

@@ -16,7 +16,7 @@ import pytest
 
 from discrepancy.fitted_model import evaluate, model_record
 from discrepancy.loop import EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone
-from pipeline.cli import main
+from cli.console import main
 from study.structures import Measurement
 
 F0, ZETA0 = 169.86, 1.666e-3

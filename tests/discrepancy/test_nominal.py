@@ -70,7 +70,7 @@ def test_challenge_ringdown_with_mass_loading_gives_the_loaded_nominal(tmp_path)
     """P2 of the challenge set: the reference joint (stuck 169.86148 Hz, zeta_0 1.666e-3) with the mass 1.5 %
     up; its nominal is 169.86148 / sqrt(1.015) Hz and 1.666e-3 (the lowest level alone reads 1 Hz off)."""
     from experiment.backbone_files import read_backbone
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from study.structures import measured_levels
 
     ringdown = challenge_ringdown("P2", tmp_path)

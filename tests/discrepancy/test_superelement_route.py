@@ -155,7 +155,7 @@ def test_reference_model_is_required(brb):
 @pytest.fixture(scope="module")
 def small_asb_study(tmp_path_factory):
     """A small study of the ASB on its measured backbones (Jenkins and Iwan), through the study's command."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from locations import ASB_MODELS
 
     data = ASB_MODELS.parent
@@ -175,7 +175,7 @@ def test_command_on_a_study_structure(small_asb_study, tmp_path, capsys):
     parameters by QSMA), and every step's errors are in the report."""
     import json
 
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from discrepancy.superelement_route import from_study
 
     out = tmp_path / "C1"
@@ -212,7 +212,7 @@ def test_command_on_a_study_structure(small_asb_study, tmp_path, capsys):
     (["--structure", "ASB C1", "extra.csv"], "give either FILE"),
 ])
 def test_command_refuses_bad_study_requests(small_asb_study, tmp_path, capsys, arguments, message):
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     out = tmp_path / "out"
     assert surrogacy(["discrepancy", "--study", str(small_asb_study), *arguments, "--out", str(out)]) == 2

@@ -108,7 +108,7 @@ def test_each_format_states_its_provenance_or_says_unknown(files, tmp_path):
 def test_freevib_carries_the_file_s_provenance_and_refuses_a_contradiction(tmp_path, capsys):
     """The backbone freevib writes says what the ring-down says; --provenance declares it where the file does not
     say, and is refused (exit 2, one line) where the file says otherwise."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     hits = linear_hits([1.0, 0.7])
     write_ringdown_csv(hits, tmp_path / "virtual.csv", provenance="virtual")

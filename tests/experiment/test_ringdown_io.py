@@ -19,7 +19,7 @@ from experiment.ringdown import RingDown, RingDownError
 from experiment.measured_files import MeasuredFileError, read_ringdown
 from experiment.ringdown_files import (STANDARD_GRAVITY, write_ringdown_csv, write_ringdown_mat,
                                        write_ringdown_uff58)
-from pipeline.cli import main
+from cli.console import main
 
 SAMPLE_RATE = 2000.0  # Hz
 FREQUENCY_HZ, DAMPING_RATIO = 50.0, 2e-3

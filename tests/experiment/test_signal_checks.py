@@ -220,7 +220,7 @@ def test_freevib_checks_the_channels_it_is_given(tmp_path):
     """A clipped copy of the sensor beside it: surrogacy freevib on both names the clipping; with --channels sensor
     the checks read the channel the backbone is made of and find nothing (they read every channel of the file)."""
     from experiment.ringdown_files import write_ringdown_csv
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     clean = undeclared_ringdown(pretrigger_s=0.05)
     clipped = [replace(hit, signals=np.vstack([hit.signals, np.clip(hit.signals, -0.7 * np.max(hit.signals),

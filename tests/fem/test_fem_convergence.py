@@ -7,7 +7,7 @@ import pytest
 
 from fem.convergence import FACTORS, TOLERANCE, changes_to_finer, converged_index, scaled_sizes
 from geometry.parameters import MeshParameters
-from pipeline.cli import parser
+from cli.console import parser
 
 
 def run_study(folder, factors) -> list[dict]:

@@ -11,7 +11,7 @@ from fem.prestress import prestressed_beam
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS
-from pipeline.cli import parser
+from cli.console import parser
 
 
 @pytest.fixture(scope="module")

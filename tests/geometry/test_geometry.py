@@ -12,7 +12,7 @@ from geometry import properties
 from geometry.beam_mesh import interface_partners, read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, BRB, GeometryError, MeshParameters
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 
 BEAM_NAMES = sorted(BEAMS)
 SIDES = ("lower", "upper")

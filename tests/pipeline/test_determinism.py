@@ -21,7 +21,7 @@ OUTPUTS = {"beams": {"BRB.msh", "BRB.vtu", "BRB.png", "BRB.json"},
            "rom": {"BRB.npz", "BRB.mat", "BRB.json", "BRB_first_bending.png"}}
 CHAIN = """
 import sys
-from pipeline.cli import main
+from cli.console import main
 out = sys.argv[1]
 coarse = sys.argv[2:]
 assert main(["beams", "--beam", "BRB", "--out", f"{out}/beams", *coarse]) == 0

@@ -5,7 +5,7 @@ never a traceback, a hang or a silently wrong result."""
 import numpy as np
 import pytest
 
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 
 CASES = [
     (["beams", "--beam", "BRB", "--no-render", "--set", "mesh.size=abc"], "field 'size' = 'abc': expected float"),
@@ -143,7 +143,7 @@ def test_an_error_a_library_words_over_several_lines_is_printed_as_one(tmp_path,
     from argparse import Namespace
 
     from calibration.workflow import check_fronts
-    from pipeline.cli import run
+    from cli.console import run
 
     fronts = tmp_path / "fronts_jenkins.csv"
     fronts.write_bytes(bytes(range(256)) * 8)

@@ -2,9 +2,9 @@
 
 experiment/ (measured and simulated ring-downs, backbones) knows nothing of the joint model in nonlinear/;
 nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); a package imports
-only the packages before it in the data's flow, and no module of a package imports itself back through others; no
-library module imports a command module; no module but the
-friction-model registry decides on a model's name.
+only the packages before it in the data's flow, and no module of a package imports itself back through others; the
+command line (cli/) comes after every stage and no module imports it; no library module imports a command module; no
+module but the friction-model registry decides on a model's name.
 """
 
 import ast
@@ -22,10 +22,11 @@ FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experi
                 "experiment.measured_files")
 """Modules that read or write files of measured data."""
 PACKAGES = ("pipeline", "geometry", "fem", "reduction", "experiment", "nonlinear", "virtual_experiment", "study",
-            "calibration", "discrepancy", "report")
-"""The project's packages, in the order the data flows (a package imports only packages before it)."""
-
-
+            "calibration", "discrepancy", "report", "cli")
+"""The project's packages, in the order the data flows (a package imports only packages before it), the command line
+(cli/, the console script and the demo, which drive every stage) last."""
+LIBRARY = PACKAGES[:-1]
+"""The packages that hold the library, each with its stage's command line in its ``commands`` module."""
 
 
 def imported_modules(package: str) -> dict[str, set[str]]:
@@ -83,16 +84,15 @@ def test_every_module_imports(package):
 
 
 def command_imports(package: str) -> dict[str, list[str]]:
-    """Module file name -> the command modules (``<package>.commands``, the command line) it imports, for every
-    library module of a package (every module but ``commands`` and ``pipeline.cli``)."""
-    return {module: sorted(name for name in names if name.split(".")[-1] == "commands" or within(name, "pipeline.cli")
+    """Module file name -> the command modules (``<package>.commands`` and the command line, ``cli``) it imports,
+    for every library module of a package (every module but ``commands``)."""
+    return {module: sorted(name for name in names if name.split(".")[-1] == "commands" or within(name, "cli")
                            or any(name == f"{other}.commands" or name.startswith(f"{other}.commands.")
                                   for other in PACKAGES))
-            for module, names in imported_modules(package).items()
-            if module != "commands.py" and not (package == "pipeline" and module in ("cli.py", "demo.py"))}
+            for module, names in imported_modules(package).items() if module != "commands.py"}
 
 
-@pytest.mark.parametrize("package", PACKAGES)
+@pytest.mark.parametrize("package", LIBRARY)
 def test_the_library_imports_no_command_module(package):
     offending = {module: names for module, names in command_imports(package).items() if names}
     assert not offending, offending
@@ -109,21 +109,33 @@ def plant(tmp_path, monkeypatch, package: str, modules: dict) -> None:
 def test_a_planted_command_import_is_found(tmp_path, monkeypatch):
     plant(tmp_path, monkeypatch, "study",
           {"exploration.py": "from study.commands import defaults\nfrom study import workflow\n",
+           "analysis.py": "import cli.console\n",
            "commands.py": "from study import workflow\n"})
-    assert command_imports("study") == {"exploration.py": ["study.commands", "study.commands.defaults"]}
+    assert command_imports("study") == {"analysis.py": ["cli.console"],
+                                        "exploration.py": ["study.commands", "study.commands.defaults"]}
+
+
+def upward_imports(package: str) -> dict[str, list[str]]:
+    """Module file name -> the modules of later packages (``PACKAGES``) it imports, for the modules that import
+    any."""
+    later = PACKAGES[PACKAGES.index(package) + 1:]
+    offending = {module: sorted(name for name in names if name.split(".")[0] in later)
+                 for module, names in imported_modules(package).items()}
+    return {module: names for module, names in offending.items() if names}
 
 
 @pytest.mark.parametrize("package", PACKAGES)
 def test_packages_import_only_the_packages_before_them(package):
-    earlier = PACKAGES[:PACKAGES.index(package) + 1]
-    offending = {module: sorted(name for name in names if name.split(".")[0] in PACKAGES
-                                and name.split(".")[0] not in earlier)
-                 for module, names in imported_modules(package).items()}
-    offending = {module: names for module, names in offending.items() if names}
-    if package == "pipeline":  # the console script and the demo drive every stage
-        offending.pop("cli.py", None)
-        offending.pop("demo.py", None)
+    offending = upward_imports(package)
     assert not offending, offending
+
+
+def test_a_planted_upward_import_is_found(tmp_path, monkeypatch):
+    plant(tmp_path, monkeypatch, "pipeline",
+          {"commands.py": "from cli import demo\nfrom pipeline import public_data\n",
+           "config.py": "from study.datasets import DEFAULT_MODELS\n"})
+    assert upward_imports("pipeline") == {"commands.py": ["cli", "cli.demo"],
+                                          "config.py": ["study.datasets", "study.datasets.DEFAULT_MODELS"]}
 
 
 def model_name_branches(path: Path, names=MODEL_NAMES) -> list[str]:

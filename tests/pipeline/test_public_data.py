@@ -12,7 +12,7 @@ from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 import pytest
 
 from locations import SHARED
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 from pipeline.public_data import REGISTRY, PublicFile, fetch
 
 SHARED_DATA = SHARED / "data"

@@ -87,7 +87,7 @@ ASB_JOINT_COUNTS = [[88, 75, 81, 11, 48, 2], [75, 218, 77, 81, 76, 2], [81, 77, 
 
 
 def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from study.analysis import model_errors
     from study.datasets import structure_names
     from study.errors import accepted

@@ -10,7 +10,7 @@ import shutil
 import numpy as np
 import pytest
 
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 from pipeline.files import PARTIAL
 
 COARSE = ["--set", "mesh.size=0.0127", "--set", "mesh.lap_size=0.0064", "--set", "mesh.hole_size=0.0032"]

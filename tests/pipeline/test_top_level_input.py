@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from locations import ASB_MODELS, REPOSITORY
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 
 
 

@@ -24,7 +24,7 @@ from geometry.beams import make_beam
 from geometry.parameters import BEAMS
 from geometry.properties import beam_mass, patch_areas
 from nonlinear.joint import joint_row_stiffness
-from pipeline.cli import parser
+from cli.console import parser
 from reduction.sensors import accelerometer_points
 from reduction.superelement import beam_superelement, load_superelement, rigid_reduced_coordinates
 

@@ -10,7 +10,7 @@ import re
 import pytest
 
 from geometry.parameters import BEAM_NAMES
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 from discrepancy.virtual_data import write_undeclared_ringdown
 from locations import ASB_MODELS
 

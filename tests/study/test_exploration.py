@@ -575,7 +575,7 @@ def asb_study_arguments(out: Path, *steps: str) -> list[str]:
 @pytest.fixture(scope="module")
 def asb_cli_study(exploration, tmp_path_factory) -> Path:
     """A tiny ASB study's measurements and exploration, written by the ``surrogacy study`` command."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path_factory.mktemp("asb_cli") / "study"
     assert surrogacy(asb_study_arguments(folder, "measurements", "explore")) == 0
@@ -608,7 +608,7 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
     rewritten as valid Parquet with its first row only, or after a measurement was edited (frequencies x 1.05):
     exit 2, one line naming the file, what differs and what to run; no file changed, no analysis written, with
     ``--restart-stale`` too. ``--steps explore`` then recomputes the chunk as it was (a few seconds each)."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
@@ -639,7 +639,7 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
 def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_path, capsys):
     """A beams study into an ASB study's folder: exit 2 at once, one line naming the file that records the ASB
     dataset, and the folder untouched (no virtual experiment run, no measurement file added)."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
@@ -659,7 +659,7 @@ def test_study_refused_for_another_studys_chunks_changes_no_file(asb_cli_study, 
     """Every step again into a study's folder with another seed or sample size: exit 2, one line naming the first
     chunk as written by another study, and every file byte for byte as it was (study.json keeps the study's own
     configuration, so the report's provenance stays true)."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
@@ -677,7 +677,7 @@ def test_study_refused_for_another_studys_chunks_changes_no_file(asb_cli_study, 
 def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_path, capsys, monkeypatch):
     """The disk fills up while a chunk is written (pyarrow's OSError names no file): exit 2, one line naming the
     chunk and the errno, no temporary left, and the next run computes the chunk."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
@@ -702,7 +702,7 @@ def test_full_disk_while_a_chunk_is_written_names_the_chunk(asb_cli_study, tmp_p
 def test_negative_damping_in_a_measurement_is_refused_by_the_study(asb_cli_study, tmp_path, capsys):
     """A measurement file with a negative damping ratio (it was accepted): the explore step ends with exit 2 and
     one line naming the file and the field, and writes no chunk."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)

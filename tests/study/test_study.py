@@ -203,7 +203,7 @@ def test_study_command_refuses_bad_configuration_and_missing_measurements(tmp_pa
     """The ``surrogacy study`` command: an unknown friction model or a non-positive bound is refused naming the
     source, section and field before anything is written; a structure without its measurement file is refused
     naming the file, and no design chunk is written."""
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
 
     out = tmp_path / "study"
     assert surrogacy(["study", "--out", str(out), "--set", 'study.models=["coulomb"]']) == 2

@@ -190,7 +190,7 @@ def test_confidence_command_writes_the_estimate_and_resumes(tmp_path, capsys):
     of another seed in the same place are refused naming the file; two surrogates give their rows one after the
     other, the first the same as alone."""
     from locations import SHARED
-    from pipeline.cli import main as surrogacy
+    from cli.console import main as surrogacy
     from study.workflow import read_study
 
     data = SHARED / "data"

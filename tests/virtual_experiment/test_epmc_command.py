@@ -3,7 +3,7 @@
 import numpy as np
 
 from experiment.backbone_files import read_backbone
-from pipeline.cli import main as surrogacy
+from cli.console import main as surrogacy
 
 JENKINS_DESIGN = "300,1e7,1e9,300,1e7,1e9,300,1e7,1e9"  # F_S, K_T, K_z of the BRB's three patch groups
 

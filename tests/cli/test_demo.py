@@ -8,8 +8,8 @@ import time
 import pytest
 
 from locations import REPOSITORY
-from pipeline import demo
-from pipeline.cli import main as surrogacy
+from cli import demo
+from cli.console import main as surrogacy
 
 
 def options(tmp_path, **changes) -> demo.DemoOptions:

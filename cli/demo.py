@@ -146,7 +146,7 @@ def confidence_step(results: Path, dataset: str, skipped: str | None = None) -> 
 def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:
     """The command line of one run: this interpreter's ``surrogacy`` console script, the run log first."""
     log = ["--run-log", str(run_log)] if run_log is not None else []
-    return [sys.executable, "-m", "pipeline.cli", *log, *run]
+    return [sys.executable, "-m", "cli.console", *log, *run]
 
 
 def run_steps(steps: list[Step], options: DemoOptions) -> None:

@@ -22,13 +22,13 @@ import time
 
 import pytest
 
-from pipeline.cli import main as surrogacy
-from pipeline.cli import run, stage_signals
+from cli.console import main as surrogacy
+from cli.console import run, stage_signals
 from pipeline.files import LOCK, OutputFolderError, atomic_path
 from stage_runs import COARSE, digests, partial_files, run_to_end, start, wait_for
 
 BEAMS = ["BRB", "LBRB"]
-INTERRUPTED = "interrupted; finished results are kept, rerun to go on"  # pipeline.cli's line for Ctrl-C
+INTERRUPTED = "interrupted; finished results are kept, rerun to go on"  # the console script's line for Ctrl-C
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,7 @@
 """The ``surrogacy`` console script: one subcommand per pipeline stage.
 
 Each stage package keeps its own subcommands in a ``commands`` module with a ``register(subparsers)``
-function; this file only collects them. ``surrogacy <stage> --help`` documents each one.
+function; this file only collects them, with the demo's (``cli.commands``). ``surrogacy <stage> --help`` documents each one.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import threading
 import time
 from pathlib import Path
 
-STAGE_COMMANDS = ("pipeline.commands", "geometry.commands", "fem.commands", "reduction.commands",
+STAGE_COMMANDS = ("cli.commands", "pipeline.commands", "geometry.commands", "fem.commands", "reduction.commands",
                   "experiment.commands", "virtual_experiment.commands", "study.commands", "calibration.commands",
                   "discrepancy.commands", "report.commands")
 
