@@ -36,7 +36,7 @@ DEMO := $(SURROGACY) demo --data $(ASB_DATA) $(if $(REFERENCE),--reference $(REF
 STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb fit-beams confidence-asb \
   confidence-beams report
 
-.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence calibrate bench clean system-packages data
+.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence tune-frequencies bench clean system-packages data
 
 demo: $(STAMP)
 	$(DEMO)
@@ -72,9 +72,9 @@ study-full:
 fe-convergence: $(STAMP)
 	$(SURROGACY) fe-convergence --beam BRB --out results/fe-convergence
 
-# Joint springs of the BRB and the LBRB/SBRB geometry from the measured frequency ratios (about 3 minutes).
-calibrate: $(STAMP)
-	$(SURROGACY) calibrate --out results/calibration
+# Joint springs of the BRB and the LBRB/SBRB geometry tuned to the measured first-bending frequencies (about 3 minutes).
+tune-frequencies: $(STAMP)
+	$(SURROGACY) tune-frequencies --out results/frequency-tuning
 
 bench: $(STAMP)
 	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks

@@ -12,7 +12,8 @@
 - ``springs``: ``patch_couplings``, ``joint_stiffness``, linear joint springs between patches.
 - ``prestress``: ``prestressed_beam`` -> ``PrestressedBeam``, the whole stage for one beam in memory.
 - ``render``: ``render_fe`` (contact pressure, first bending).
-- ``convergence``, ``calibration``, ``calculix``: mesh convergence, geometry calibration, a CalculiX cross-check.
+- ``convergence``, ``frequency_tuning``, ``calculix``: mesh convergence, the joint springs and the LBRB/SBRB geometry
+  tuned to the measured frequencies, a CalculiX cross-check.
 - ``fe_files``: ``make_fe`` (one beam's result files, cached), ``read_csr``, ``beam_inputs``, ``FeInputError``.
-- ``commands``: ``surrogacy fe``, ``fe-convergence``, ``calibrate``.
+- ``commands``: ``surrogacy fe``, ``fe-convergence``, ``tune-frequencies``.
 """

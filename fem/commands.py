@@ -1,5 +1,5 @@
-"""``surrogacy fe``, ``fe-convergence`` and ``calibrate``: the finite-element stage and its two studies. Each
-parses its options, calls the library (:mod:`fem.fe_files`, :mod:`fem.convergence`, :mod:`fem.calibration`)
+"""``surrogacy fe``, ``fe-convergence`` and ``tune-frequencies``: the finite-element stage and its two studies. Each
+parses its options, calls the library (:mod:`fem.fe_files`, :mod:`fem.convergence`, :mod:`fem.frequency_tuning`)
 and prints what it wrote."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from geometry.parameters import BEAMS, MeshParameters
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import check_output_folder, stage_folder, write_json
 
-from . import calibration, convergence, fe_files
+from . import convergence, fe_files, frequency_tuning
 from .bolts import Bolt
 from .elasticity import Material
 
@@ -41,7 +41,7 @@ def run_fe(arguments: argparse.Namespace) -> None:
 
 
 def register(subparsers) -> None:
-    """Add the ``fe`` subcommand and the FE studies (``fe-convergence``, ``calibrate``)."""
+    """Add the ``fe`` subcommand and the FE studies (``fe-convergence``, ``tune-frequencies``)."""
     command = subparsers.add_parser(
         "fe", help="preload with contact, stress stiffness and tied modes of each beam: build/fe/<beam>.npz",
         description=fe_files.__doc__)
@@ -57,7 +57,7 @@ def register(subparsers) -> None:
     add_config_arguments(command, "[material] and [bolt]", "material.density=7850 or bolt.preload=12000")
     command.set_defaults(run=run_fe)
     register_convergence(subparsers)
-    register_calibration(subparsers)
+    register_tuning(subparsers)
 
 
 def run_convergence(arguments: argparse.Namespace) -> None:
@@ -100,14 +100,14 @@ def register_convergence(subparsers) -> None:
     command.set_defaults(run=run_convergence)
 
 
-def calibration_sizes(arguments: argparse.Namespace) -> MeshParameters:
-    """The calibration meshes' sizes, after refusing, before any mesh is made, options that cannot give a
-    calibration: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
+def tuning_sizes(arguments: argparse.Namespace) -> MeshParameters:
+    """The tuning meshes' sizes, after refusing, before any mesh is made, options that cannot give a
+    tuning: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
     memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
     step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
     of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
     sizes = convergence.check_mesh_factor("--mesh-factor", arguments.mesh_factor, BEAMS.values(), MeshParameters())
-    low, high = (10 ** bound for bound in calibration.LOG_STIFFNESS_BRACKET)
+    low, high = (10 ** bound for bound in frequency_tuning.LOG_STIFFNESS_BRACKET)
     if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
         raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "
                          f"to {high:g} N/m")
@@ -116,25 +116,26 @@ def calibration_sizes(arguments: argparse.Namespace) -> MeshParameters:
 
 
 
-def run_calibration(arguments: argparse.Namespace) -> None:
-    sizes = calibration_sizes(arguments)
-    record = calibration.calibrate(sizes, stiffness=arguments.stiffness, progress=True)
-    path = Path(arguments.out) / "calibration.json"
+def run_tuning(arguments: argparse.Namespace) -> None:
+    sizes = tuning_sizes(arguments)
+    record = frequency_tuning.tune_frequencies(sizes, stiffness=arguments.stiffness, progress=True)
+    path = Path(arguments.out) / "frequency_tuning.json"
     write_json(path, record)
     tqdm.write(f"{path}: LBRB.body_length = {record['LBRB']['body_length']:.6g} m, "
                f"SBRB.spring_height = {record['SBRB']['spring_height']:.6g} m")
 
 
 
-def register_calibration(subparsers) -> None:
-    """Add the ``calibrate`` subcommand."""
+def register_tuning(subparsers) -> None:
+    """Add the ``tune-frequencies`` subcommand."""
     command = subparsers.add_parser(
-        "calibrate", help="joint springs of the BRB and LBRB/SBRB geometry from the measured frequency ratios",
-        description=calibration.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    command.add_argument("--mesh-factor", type=float, default=calibration.MESH_FACTOR,
+        "tune-frequencies", help="joint springs of the BRB and LBRB/SBRB geometry tuned to the measured first-bending "
+                                 "frequencies (Table 1)",
+        description=frequency_tuning.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    command.add_argument("--mesh-factor", type=float, default=frequency_tuning.MESH_FACTOR,
                          help="scale factor on the default element sizes (geometry.parameters.MeshParameters)")
     command.add_argument("--stiffness", type=float, default=None,
                          help="BRB patch stiffness k, N/m, found before on the same mesh: skip step 1")
-    command.add_argument("--out", type=Path, default=Path("results/calibration"), help="output folder")
-    command.set_defaults(run=run_calibration)
+    command.add_argument("--out", type=Path, default=Path("results/frequency-tuning"), help="output folder")
+    command.set_defaults(run=run_tuning)
 

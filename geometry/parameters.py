@@ -13,8 +13,8 @@ Beams:
   end of the lap. A thinned section is the simplest spring-like structure that is still one machined part and
   that changes the mode shape in the joint region (paper Fig. 8b) without touching the lap.
 
-No drawings of the LBRB and SBRB are public. Their defaults below are calibrated by the finite-element stage
-(``surrogacy calibrate``, ``fem/calibration.py``) on the default mesh: linear springs between the patch virtual
+No drawings of the LBRB and SBRB are public. Their defaults below are tuned by the finite-element stage
+(``surrogacy tune-frequencies``, ``fem/frequency_tuning.py``) on the default mesh: linear springs between the patch virtual
 nodes, set so that the BRB's first out-of-plane bending is the measured 169.48 Hz, give with the same springs the
 measured ratios 80.82/169.48 for a body length of 0.4856 m (LBRB) and 91.96/169.48 for a 25.4 mm long flexure of
 4.874 mm height centred 0.15 m from the lap (SBRB), both within 1e-4. (First estimates from a free-free

@@ -56,10 +56,10 @@ OPTION_CASES = [  # (arguments before --out, message); RING_DOWN stands for the 
     (["fe", "--beam", "BRB", "--beams", "no_beams", "--modes", "3"], "option --modes = 3: expected at least 7"),
     (["rom", "--beam", "BRB", "--beams", "no_beams", "--fe", "no_fe", "--modes", "0"],
      "option --modes = 0: expected at least 1"),
-    (["calibrate", "--mesh-factor", "0"], "option --mesh-factor = 0.0: expected a positive scale factor"),
-    (["calibrate", "--mesh-factor", "0.01"], "option --mesh-factor = 0.01: parameter 'size' = 6.35e-05: expected "
+    (["tune-frequencies", "--mesh-factor", "0"], "option --mesh-factor = 0.0: expected a positive scale factor"),
+    (["tune-frequencies", "--mesh-factor", "0.01"], "option --mesh-factor = 0.01: parameter 'size' = 6.35e-05: expected "
                                              "an element size giving at most 5,000,000 tetrahedra"),
-    (["calibrate", "--stiffness", "-1"], "option --stiffness = -1.0: expected a patch stiffness from 1e+06"),
+    (["tune-frequencies", "--stiffness", "-1"], "option --stiffness = -1.0: expected a patch stiffness from 1e+06"),
     (["freevib", "RING_DOWN", "--mode-hz", "-5"], "option --mode-hz = -5.0: expected a positive natural frequency"),
     (["freevib", "RING_DOWN", "--mode-hz", "nan"], "option --mode-hz = nan"),
     (["freevib", "RING_DOWN", "--mode-hz", "80", "--band", "100", "60"], "option --band = [100.0, 60.0]: expected "
@@ -93,7 +93,7 @@ def test_bad_option_is_named_as_typed_and_writes_nothing(tmp_path, capsys, ring_
                                        ["fe", "--beam", "BRB", "--beams", "no_beams"],
                                        ["rom", "--beam", "BRB", "--beams", "no_beams", "--fe", "no_fe"],
                                        ["freevib", "RING_DOWN", "--mode-hz", "80"],
-                                       ["calibrate"], ["fe-convergence"]], ids=lambda arguments: arguments[0])
+                                       ["tune-frequencies"], ["fe-convergence"]], ids=lambda arguments: arguments[0])
 @pytest.mark.parametrize("below", [False, True], ids=["file", "below a file"])
 def test_out_that_is_a_file_is_refused_at_the_door(tmp_path, capsys, ring_down, arguments, below):
     """--out naming a file (or a path below one) is refused before any input is read, also by calibrate and

@@ -1,5 +1,5 @@
-"""Calibration of the LBRB and SBRB geometry to the measured first-bending ratios (docs/design.md section 2; paper
-Table 1).
+"""Frequency tuning: the joint springs and the LBRB and SBRB geometry tuned to the measured first-bending
+frequencies (docs/design.md section 2; paper Table 1).
 
 No drawings of the LBRB and SBRB are public. Their free parameters (``LBRB.body_length``, ``SBRB.spring_height``)
 are found so that, with the same joint as the BRB, their first out-of-plane bending frequencies relative to the
@@ -46,13 +46,13 @@ from .springs import joint_stiffness, patch_couplings
 
 #: Measured low-amplitude first-bending frequencies, Hz (paper Table 1, ``pipeline.published.TABLE1``).
 MEASURED_HZ = {beam: row.frequency_hz for beam, row in TABLE1.items()}
-#: The geometry parameter calibrated for each modified beam.
-CALIBRATED_FIELD = {"LBRB": "body_length", "SBRB": "spring_height"}
+#: The geometry parameter tuned for each modified beam.
+TUNED_FIELD = {"LBRB": "body_length", "SBRB": "spring_height"}
 ARM = 0.01  # m: rotational springs k a^2, a patch-sized lever on the translational stiffness k
 LOG_STIFFNESS_BRACKET = (6.0, 12.0)  # log10 of k in N/m: from a loose joint to near the stiff-spring limit
-MESH_FACTOR = 1.0  # calibration mesh: this factor on the default element sizes (see fem.convergence)
+MESH_FACTOR = 1.0  # tuning mesh: this factor on the default element sizes (see fem.convergence)
 STIFFNESS_TOLERANCE = 1e-5  # relative, on log10 k of the BRB's springs
-FREQUENCY_TOLERANCE = 1e-4  # relative, on the calibrated LBRB and SBRB first bending (the ratios must hold to 1e-2)
+FREQUENCY_TOLERANCE = 1e-4  # relative, on the tuned LBRB and SBRB first bending (the ratios must hold to 1e-2)
 
 
 def joint_springs(translational: float, arm: float = ARM) -> np.ndarray:
@@ -87,7 +87,7 @@ def spring_first_bending(model: SpringBeam, springs: np.ndarray) -> float:
     return float(frequencies[first_bending(frequencies, shapes)])
 
 
-def calibrate_stiffness(model: SpringBeam, target_hz: float, arm: float = ARM) -> float:
+def tune_stiffness(model: SpringBeam, target_hz: float, arm: float = ARM) -> float:
     """Translational patch stiffness k, N/m, giving first bending ``target_hz`` (step 1; Brent on log10 k).
 
     Raises ValueError when the target lies outside the frequencies of ``LOG_STIFFNESS_BRACKET``.
@@ -116,16 +116,16 @@ def secant_root(function, x0: float, x1: float, tolerance: float, max_iterations
     return history
 
 
-def calibrate_geometry(beam: BeamParameters, field: str, target_hz: float, springs: np.ndarray,
+def tune_geometry(beam: BeamParameters, field: str, target_hz: float, springs: np.ndarray,
                        sizes: MeshParameters, material: Material = Material(), bolt: Bolt = Bolt(),
                        step: float = 0.01) -> list[tuple[float, float]]:
     """Find ``beam.<field>`` (m) whose first bending with ``springs`` is ``target_hz`` (steps 2-3).
 
     Secant iteration (``secant_root``) on f / target - 1 from the current value and ``(1 + step)`` times it,
     remeshing at every trial, to a relative frequency error below ``FREQUENCY_TOLERANCE``.
-    Returns the trials as (value m, first bending Hz), the last one the calibrated value.
+    Returns the trials as (value m, first bending Hz), the last one the tuned value.
     """
-    with tempfile.TemporaryDirectory(prefix="calibration-") as folder:
+    with tempfile.TemporaryDirectory(prefix="frequency-tuning-") as folder:
         def error(value: float) -> float:
             trial = beam.replace(**{field: float(value)})
             model = spring_beam(trial, sizes, Path(folder) / f"{value:.9g}", material, bolt)
@@ -136,22 +136,23 @@ def calibrate_geometry(beam: BeamParameters, field: str, target_hz: float, sprin
     return [(float(value), float(target_hz * (1 + relative))) for value, relative in history]
 
 
-def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt = Bolt(),
-              beams: dict[str, BeamParameters] = BEAMS, stiffness: float | None = None, progress: bool = False) -> dict:
+def tune_frequencies(sizes: MeshParameters, material: Material = Material(), bolt: Bolt = Bolt(),
+                     beams: dict[str, BeamParameters] = BEAMS, stiffness: float | None = None, progress: bool = False
+                     ) -> dict:
     """Steps 1-3 on meshes of ``sizes``, starting from the current ``beams``; returns the JSON-ready record.
 
     stiffness: the BRB's translational patch stiffness k, N/m, found before on the same mesh: step 1 is then
     skipped (its frequency is still computed and recorded).
 
     Record: mesh, material, bolt; springs (translational k N/m, lever a m, the (6,) spring vector); per beam the
-    first bending Hz, and for LBRB and SBRB the calibrated parameter (m), the ratio to the BRB, the measured
+    first bending Hz, and for LBRB and SBRB the tuned parameter (m), the ratio to the BRB, the measured
     ratio and the secant trials [(value m, Hz)]; seconds of wall time.
     """
     start = time.perf_counter()
     log = tqdm.write if progress else (lambda line: None)
-    with tempfile.TemporaryDirectory(prefix="calibration-") as folder:
+    with tempfile.TemporaryDirectory(prefix="frequency-tuning-") as folder:
         brb = spring_beam(beams["BRB"], sizes, Path(folder), material, bolt)
-        stiffness = calibrate_stiffness(brb, MEASURED_HZ["BRB"]) if stiffness is None else stiffness
+        stiffness = tune_stiffness(brb, MEASURED_HZ["BRB"]) if stiffness is None else stiffness
         springs = joint_springs(stiffness)
         brb_hz = spring_first_bending(brb, springs)
     log(f"BRB: k = {stiffness:.6g} N/m, first bending {brb_hz:.3f} Hz")
@@ -159,9 +160,9 @@ def calibrate(sizes: MeshParameters, material: Material = Material(), bolt: Bolt
               "bolt": dataclasses.asdict(bolt),
               "springs": {"translational_n_per_m": stiffness, "arm_m": ARM, "vector": springs.tolist()},
               "BRB": {"first_bending_hz": brb_hz, "measured_hz": MEASURED_HZ["BRB"]}}
-    for name, field in CALIBRATED_FIELD.items():
+    for name, field in TUNED_FIELD.items():
         measured_ratio = MEASURED_HZ[name] / MEASURED_HZ["BRB"]
-        trials = calibrate_geometry(beams[name], field, brb_hz * measured_ratio, springs, sizes, material, bolt)
+        trials = tune_geometry(beams[name], field, brb_hz * measured_ratio, springs, sizes, material, bolt)
         value, frequency = trials[-1]
         log(f"{name}: {field} = {value:.6g} m, first bending {frequency:.3f} Hz after {len(trials)} meshes")
         record[name] = {field: value, "first_bending_hz": frequency, "ratio_to_brb": frequency / brb_hz,
