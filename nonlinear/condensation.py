@@ -37,7 +37,7 @@ import scipy.linalg
 
 from nonlinear.joint import joint_row_stiffness, tangential_rows as tangential_joint_rows
 from nonlinear.stuck_modes import flexibility_basis, stuck_designs
-from reduction.superelement import Superelement, tied_modes
+from reduction.superelement import Superelement, tied_modal_eigenpairs
 
 RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
 # Above 0.5 only one mode can match the reference (the MACs of M-orthonormal modes against it sum to 1);
@@ -73,7 +73,7 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
     """Unjoined modes of ``superelement`` without the joint-free rigid-body modes, and the reference mode.
 
     reference_mode: (n,) shape in the superelement's coordinates to track; default the first elastic mode
-    of the structure with every joint motion tied (``reduction.superelement.tied_modes``).
+    of the structure with every joint motion tied (``reduction.superelement.tied_modal_eigenpairs``).
     Raises ValueError where a motion of negative stiffness leaves the joint unstrained: no joint design holds it.
     """
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
@@ -97,7 +97,7 @@ def joint_space(superelement: Superelement, reference_mode: np.ndarray | None = 
         eigenvalues = np.concatenate([low_eigenvalues, eigenvalues[~low]])
     joint_modes = joint @ modes
     if reference_mode is None:
-        reference = tied_modes(eigenvalues, joint_modes, rigid_frequency=rigid_frequency)[1][:, 0]
+        reference = tied_modal_eigenpairs(eigenvalues, joint_modes, rigid_frequency=rigid_frequency)[1][:, 0]
     else:
         reference = modes.T @ superelement.mass @ np.asarray(reference_mode, dtype=float)
     return JointSpace(eigenvalues, modes, joint_modes, reference / np.linalg.norm(reference), superelement)

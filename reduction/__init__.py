@@ -7,8 +7,9 @@
   ``preload_vector``.
 - ``sensors``: ``accelerometer_points``, ``point_recovery``.
 - ``superelement``: ``Superelement``, ``save_superelement``, ``load_superelement``, ``read_asb_superelement``,
-  ``ASB_CONFIGURATIONS``, ``tied_modes``, ``stuck_joint_modes``, ``rigid_reduced_coordinates``, ``beam_superelement`` (a beam's superelement as
-  the study uses it, prestressed by default), ``balanced_stiffness``, ``normal_rotation_rows`` (the joint's rows on
+  ``ASB_CONFIGURATIONS``, ``tied_modal_eigenpairs`` (rad^2/s^2, in modal coordinates; ``fem.modes.tied_modes`` is
+  the FE model's, in Hz), ``stuck_joint_modes``, ``rigid_reduced_coordinates``, ``beam_superelement`` (a beam's
+  superelement as the study uses it, prestressed by default), ``balanced_stiffness``, ``normal_rotation_rows`` (the joint's rows on
   the patch rotations, ``Superelement.joint_motion``), ``target_mode`` (the mode a measurement saw),
   ``StructureError``.
 - ``render``: ``render_mode``.

@@ -185,7 +185,7 @@ def read_asb_superelement(path: Path | str, coupling: str = "distributed", patch
     )
 
 
-def tied_modes(eigenvalues, joint_modes, n_modes: int = 1, rigid_frequency: float = 1.0) -> tuple:
+def tied_modal_eigenpairs(eigenvalues, joint_modes, n_modes: int = 1, rigid_frequency: float = 1.0) -> tuple:
     """The lowest flexible modes with every relative patch translation held at zero, in the unjoined modal
     coordinates: eigenvalues (n_modal,) rad^2/s^2 and joint_modes (3 n_patches, n_modal) m, the relative
     translations per unit modal coordinate. The stiffness is diagonal there, so the held problem (projected on
@@ -204,14 +204,14 @@ def stuck_joint_modes(superelement: Superelement, n_modes: int = 1,
                       rigid_frequency: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """The lowest flexible modes with the joint stuck: every relative patch motion the joint's springs act on
     (``Superelement.joint_motion``) held at zero, the upper bound of any joint design's low-amplitude frequencies
-    (``tied_modes`` on the unjoined modes).
+    (``tied_modal_eigenpairs`` on the unjoined modes).
 
     Returns (frequencies (n_modes,) Hz, shapes (n, n_modes) in the superelement's coordinates, mass-normalised);
     modes below ``rigid_frequency`` Hz (rigid motions the stuck joint leaves free) are skipped.
     """
     eigenvalues, modes = scipy.linalg.eigh(superelement.stiffness, superelement.mass)
-    tied_eigenvalues, shapes = tied_modes(eigenvalues, superelement.joint_motion @ modes, n_modes,
-                                          rigid_frequency)
+    tied_eigenvalues, shapes = tied_modal_eigenpairs(eigenvalues, superelement.joint_motion @ modes, n_modes,
+                                                     rigid_frequency)
     return np.sqrt(tied_eigenvalues) / (2 * np.pi), modes @ shapes
 
 
