@@ -16,9 +16,8 @@ from pathlib import Path
 
 from discrepancy.loop import discrepancy_loop, with_findings
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
-from experiment.backbone import checked_settings, mode_backbone, ringdown_backbone
 from experiment.measured_files import read_ringdown, stated_provenance
-from experiment.signal_checks import ringdown_findings
+from experiment.ringdown_analysis import analyse_ringdown
 from study.structures import measured_levels
 
 
@@ -37,15 +36,15 @@ def main(argv=None):
         print(f"virtual ring-down (microslip put in): {arguments.ringdown}")
     elif arguments.mode_hz is None:
         parser.error("a ring-down file needs --mode-hz")
-    hits = read_ringdown(arguments.ringdown)
-    backbone = ringdown_backbone(hits, arguments.mode_hz)
-    findings = ringdown_findings(hits, backbone, checked_settings(arguments.mode_hz))  # the default band
-    measured = mode_backbone(backbone, arguments.ringdown.stem, stated_provenance(arguments.ringdown))  # as it says
+    measured, _ = analyse_ringdown(read_ringdown(arguments.ringdown), arguments.mode_hz, arguments.ringdown.stem,
+                                   stated_provenance(arguments.ringdown))  # the provenance as the file states it
     measurement = measured_levels(measured, path=str(arguments.ringdown))
-    verdict = with_findings(discrepancy_loop(measurement,
-                                             arguments.nominal_frequency_hz or float(measurement.frequency_hz[0]),
-                                             arguments.nominal_damping or float(measurement.damping[0])),
-                            findings["found"])
+    nominal_frequency_hz = (arguments.nominal_frequency_hz if arguments.nominal_frequency_hz is not None
+                            else float(measurement.frequency_hz[0]))  # else the lowest level's
+    nominal_damping = (arguments.nominal_damping if arguments.nominal_damping is not None
+                       else float(measurement.damping[0]))
+    verdict = with_findings(discrepancy_loop(measurement, nominal_frequency_hz, nominal_damping),
+                            measured.findings["found"])
     for entry in verdict.findings:
         print(f"signal finding {entry['name']}: {entry['summary']}")
     for step in verdict.steps:

@@ -12,14 +12,12 @@ import argparse
 import inspect
 from pathlib import Path
 
-from experiment.backbone import (BackboneSettingError, check_nyquist, checked_settings, mode_backbone,
-                                 ringdown_backbone)
+from experiment.backbone import BackboneSettingError, check_nyquist, checked_settings, ringdown_backbone
 from experiment.backbone_files import freevib_stem, plot_backbone, write_backbone, write_freevib_table
 from experiment.hilbert import freevib
 from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
-from experiment.ringdown import selected_channels
+from experiment.ringdown_analysis import analyse_ringdown
 from experiment.ringdown_files import read_mode_shapes
-from experiment.signal_checks import ringdown_findings
 from pipeline.files import check_output_folder, sha256_file, write_json
 
 
@@ -67,20 +65,18 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     hits = read_ringdown(source)
     provenance = resolved_provenance(source, arguments.provenance)
     check_nyquist(hits, band, "--mode-hz / --band")
-    backbone = ringdown_backbone(
-        hits, arguments.mode_hz, band_hz=band,
-        mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
-        mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
-        grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
-        trim_periods=arguments.trim_periods, feldman=arguments.feldman, seed=arguments.seed)
-    out = Path(arguments.out)
-    stem = freevib_stem(source, arguments.mode_hz)
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
     source_sha256 = sha256_file(source)
-    used = [selected_channels(hit, arguments.channels) for hit in hits] if arguments.channels else hits
-    findings = ringdown_findings(used, backbone, band)  # the channels the backbone is made of
-    labelled = mode_backbone(backbone, source.stem, provenance, settings | {"source_sha256": source_sha256}, findings)
+    labelled, backbone = analyse_ringdown(
+        hits, arguments.mode_hz, source.stem, provenance, settings=settings | {"source_sha256": source_sha256},
+        band_hz=band, mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
+        mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
+        grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
+        trim_periods=arguments.trim_periods, feldman=arguments.feldman, seed=arguments.seed)
+    findings = labelled.findings
+    out = Path(arguments.out)
+    stem = freevib_stem(source, arguments.mode_hz)
     write_backbone(labelled, out / f"{stem}_backbone.csv")
     write_freevib_table(backbone, out / f"{stem}.csv")
     plot_backbone(backbone, out / f"{stem}.png")

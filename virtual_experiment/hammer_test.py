@@ -42,7 +42,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from experiment.backbone import MeasuredBackbone, ModeBackbone, mode_backbone, ringdown_backbone
+from experiment.backbone import MeasuredBackbone, ModeBackbone
+from experiment.ringdown_analysis import analyse_ringdown
 from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import write_ringdown_mat
@@ -211,18 +212,22 @@ class VirtualExperiment:
     configuration: dict = field(repr=False)
 
 
-def measured_backbone(space: JointSpace, design, records: HammerHits, model: str = MODEL) -> MeasuredBackbone:
-    """The hits processed as a measurement: :func:`experiment.backbone.ringdown_backbone` with the low-level mode
-    shapes of :func:`modal_test_shapes` (modal filter, band-pass 0.7-1.3 f, FreeVib, mean over hits)."""
+def analysed_hits(space: JointSpace, beam: str, design, records: HammerHits, model: str = MODEL
+                  ) -> tuple[ModeBackbone, MeasuredBackbone]:
+    """The hits processed as a measurement (:func:`experiment.ringdown_analysis.analyse_ringdown`, labelled
+    virtual) with the low-level mode shapes of :func:`modal_test_shapes` (modal filter, band-pass 0.7-1.3 f,
+    FreeVib, mean over hits); the signal checks are not run (the simulated hits start at the impact and pass
+    through no instrument)."""
     shapes, mode_frequency_hz = modal_test_shapes(space, design, model=model)
-    return ringdown_backbone(records.hits, mode_frequency_hz, mode_shapes=shapes, mode_index=0)
+    return analyse_ringdown(records.hits, mode_frequency_hz, beam, "virtual", check_signals=False,
+                            mode_shapes=shapes, mode_index=0)
 
 
 def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
                        test: HammerTest = HammerTest(), model: str = MODEL,
                        pool: Pool | None = None) -> VirtualExperiment:
     """Hammer test of the joint ``design`` in the beam of ``space`` (:func:`hammer_hits`), processed as a
-    measurement (:func:`measured_backbone`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
+    measurement (:func:`analysed_hits`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
     since the filter's shapes are mass-normalised.
 
     linear_damping: zeta_0 of the beam's other mechanisms (paper Table 1). frequency_hz: the beam's measured
@@ -231,7 +236,7 @@ def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: flo
     design = np.asarray(design, dtype=float)
     superelement = space.superelement
     records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model, pool)
-    measured = measured_backbone(space, design, records, model)
+    labelled, measured = analysed_hits(space, beam, design, records, model)
     stuck = stuck_frequency_hz(space, design, model)
     names = parameter_names(model, int(np.max(superelement.patch_groups)) + 1)
     configuration = {
@@ -255,7 +260,6 @@ def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: flo
         "runtime_s_per_hit": records.runtime_s.tolist(),
         "unconverged_steps": records.unconverged_steps.tolist(),
     }
-    labelled = mode_backbone(measured, beam, "virtual")
     backbone = replace(labelled, backbone=labelled.backbone.with_data(), amplitude_unit=ASB_MODAL_AMPLITUDE_UNIT,
                        source=f"virtual experiment: {model} reference joint in {superelement.name}, "
                               f"{test.n_hits} simulated hammer hits (seed {test.seed})")

@@ -10,7 +10,8 @@
 - flat and dead channels beside good ones are named in a caveat and give no other finding; a second mode beside a
   dead channel is still found; freevib --channels checks only the channels it is given;
 - clipping, a record that starts in motion, a record that ends before the decay: each found, and only it;
-- the findings travel in the backbone CSV and are read back; a malformed findings line is refused.
+- the findings travel in the backbone CSV and are read back (none where the checks are not asked for); a malformed
+  findings line is refused.
 """
 
 from dataclasses import replace
@@ -22,9 +23,9 @@ import scipy.stats
 from benchmarks.second_mode import (CHALLENGE_BACKBONE, GENERATORS, false_alarms, project_clean, project_hits,
                                     read_backbone_table)
 from discrepancy.virtual_data import REFERENCE_FREQUENCY_HZ, undeclared_ringdown
-from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.backbone_files import read_backbone, write_backbone
 from experiment.measured_files import read_ringdown
+from experiment.ringdown_analysis import analyse_ringdown
 from experiment.signal_checks import (FALSE_ALARM, FINDINGS, hit_residuals, record_findings, ringdown_findings,
                                       second_mode, second_mode_findings, second_mode_statistic)
 from locations import challenge_ringdown
@@ -36,8 +37,9 @@ HITS = {"hits": 5, "pretrigger_s": 0.05}
 
 
 def findings_of(hits):
-    """The checks on hits as ``surrogacy freevib`` runs them: backbone first, then its signals."""
-    return ringdown_findings(hits, ringdown_backbone(hits, MODE_HZ), BAND)
+    """The checks on hits as ``surrogacy freevib`` runs them (``analyse_ringdown``): backbone first, then its
+    signals."""
+    return analyse_ringdown(hits, MODE_HZ, "virtual beam", "virtual")[0].findings
 
 
 def named(findings, name):
@@ -105,10 +107,13 @@ def test_record_checks_name_clipping_a_missing_pretrigger_and_a_truncated_record
 
 def test_findings_travel_in_the_backbone_file(tmp_path):
     hits = undeclared_ringdown(second_mode=(1.03, 0.2), shapes=ORTHOGONAL, hits=1, pretrigger_s=0.05)
-    measured = ringdown_backbone(hits, MODE_HZ)
+    labelled, measured = analyse_ringdown(hits, MODE_HZ, "virtual beam", "virtual", settings={"mode_hz": MODE_HZ})
     findings = ringdown_findings(hits, measured, BAND)
+    assert labelled.findings == findings and [entry["name"] for entry in findings["found"]] == ["second_mode"]
+    unchecked, _ = analyse_ringdown(hits, MODE_HZ, "virtual beam", "virtual", check_signals=False)
+    assert unchecked.findings == {} and np.array_equal(unchecked.backbone.amplitude, labelled.backbone.amplitude)
     path = tmp_path / "backbone.csv"
-    write_backbone(mode_backbone(measured, "virtual beam", "virtual", {"mode_hz": MODE_HZ}, findings), path)
+    write_backbone(labelled, path)
     assert read_backbone(path).findings == findings and "drift" not in findings["checked"]  # one hit
     text = path.read_text().replace('"found": [', '"found": [{"name": "second_mode"}, ')
     path.write_text(text)
