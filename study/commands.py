@@ -26,19 +26,15 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import check_output_file, check_output_folder, stage_folder
 from study import workflow
+from study.confidence import read_bounds, surrogacy_confidence
 from study.datasets import DEFAULT_DAMPING_CASE
-from study.analysis import chunk_errors
-from study.errors import accepted
-from study.figures import plot_confidence_against_scale
 from study.parameters import defaults
-from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
-                                     write_subset_csv)
-from study.surrogacy import SurrogacyMatrix, joint_counts, matrix_from_counts
+from study.subset_simulation import Settings
+
 
 def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study."""
@@ -80,7 +76,7 @@ def register(subparsers) -> None:
 
 
 CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ at acceptance bounds where random designs rarely fall into a
-surrogate's acceptance region, by subset simulation (``study.subset_simulation``; docs/design.md section 7).
+surrogate's acceptance region, by subset simulation (``study.confidence``; docs/design.md section 7).
 
 Reads a study's folder (its study.json and measurements/; the exploration itself is not needed), samples the
 designs of one friction model that each surrogate (``--surrogate``, default every structure: the whole matrix)
@@ -92,55 +88,6 @@ spreads each batch of evaluations over a dask.distributed cluster, with the same
 whose misfit threshold stalls short of the region is made again with twice the designs per level (``--restarts``
 times at most); the CSV says how many each run used, and a surrogate still not reached gets a row saying why.
 """
-
-
-def read_bounds(path: Path, model: str, names: list[str], case: str) -> tuple[np.ndarray, np.ndarray]:
-    """Each structure's acceptance bounds (Hz, -), in ``names``' order, for ``model`` from a bounds CSV
-    (``surrogacy fit``'s bounds.csv, docs/formats.md), formed for the damping case ``case`` where the file says
-    (its ``damping_case`` column); ValueError naming the file and the field otherwise."""
-    try:
-        table = pd.read_csv(path)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"{path}: not a readable bounds CSV ({error})") from None
-    missing = [column for column in ("model", "structure", "frequency_bound_hz", "damping_bound")
-               if column not in table]
-    if missing:
-        raise ValueError(f"{path}: field {missing[0]!r}: missing (expected the columns of surrogacy fit's bounds.csv)")
-    rows = table[table["model"] == model]
-    twice = np.flatnonzero(rows["structure"].duplicated().to_numpy())
-    if twice.size:
-        structure = rows["structure"].iloc[twice[0]]
-        lines = [index + 2 for index in rows.index[rows["structure"] == structure]]  # the header is line 1
-        raise ValueError(f"{path}: line {lines[1]}, field 'structure': {structure!r} of model {model!r} given again "
-                         f"(first on line {lines[0]}); expected one row per model and structure")
-    rows = rows.set_index("structure")
-    if "damping_case" in rows and not (rows["damping_case"].astype(str) == case).all():
-        raise ValueError(f"{path}: field 'damping_case': bounds formed for {sorted(set(rows['damping_case']))}; "
-                         f"expected {case!r}, the damping case of this estimate")
-    absent = [name for name in names if name not in rows.index]
-    if absent:
-        raise ValueError(f"{path}: field 'structure': no row for model {model!r} and structure(s) {absent}")
-    frequency, damping = (rows.loc[names, column].to_numpy(float) for column in ("frequency_bound_hz", "damping_bound"))
-    if not (np.all(frequency > 0) and np.all(damping > 0)):
-        raise ValueError(f"{path}: fields frequency_bound_hz, damping_bound: expected positive values")
-    return frequency, damping
-
-
-BOUND_SCALES = np.geomspace(0.5, 8.0, 25)  # factors on the chosen bounds of the figure's sample curves
-
-
-def sample_confidence(folder: workflow.StudyFolder, model: str, case: str, frequency_bounds, damping_bounds,
-                      scales=(1.0,)):
-    """SC_IJ counted on the study's own sample (brute force) chunk by chunk at ``scales`` (a,) times the bounds
-    (each structure's own, (S,) Hz and -), where the exploration holds the model (``study.surrogacy
-    .matrix_from_counts``: the fields with a leading axis (a,)); None where it does not."""
-    if not (folder.paths.designs / model).is_dir():
-        return None
-    factor = np.asarray(scales, dtype=float)[:, None, None]  # (a, 1, 1) against a chunk's (n, S) errors
-    counts = sum(joint_counts(accepted(errors[case].frequency_error_hz, errors[case].damping_error,
-                                       factor * frequency_bounds, factor * damping_bounds))
-                 for errors in chunk_errors(folder.paths.designs, model, folder.exploration.names, [case]))
-    return matrix_from_counts(counts)
 
 
 def run_confidence(arguments: argparse.Namespace) -> None:
@@ -166,29 +113,11 @@ def run_confidence(arguments: argparse.Namespace) -> None:
                                             for value in (arguments.frequency_bound, arguments.damping_bound))
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
-    scales = np.append(1.0, BOUND_SCALES)
-    sweep = sample_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, scales)
-    sample = None if sweep is None else SurrogacyMatrix(*(field[0] for field in sweep))
-    tables = []
-    with workflow.cluster_client(arguments.scheduler) as client:
-        for surrogate in arguments.surrogate or exploration.names:
-            try:
-                result = study_subset_simulation(exploration, arguments.model, surrogate, case, frequency_bounds,
-                                                 damping_bounds, settings,
-                                                 out.with_name(out.name + ".levels") / surrogate, client)
-            except RegionNotReached as reason:
-                print(f"{surrogate}: not estimated: {reason}")
-                tables.append(subset_table(None, arguments.model, exploration.names, frequency_bounds,
-                                           damping_bounds, sample, exploration.names.index(surrogate), str(reason)))
-                continue
-            tables.append(subset_table(result, arguments.model, exploration.names, frequency_bounds, damping_bounds,
-                                       sample))
-    table = pd.concat(tables, ignore_index=True)
-    write_subset_csv(table, out)
-    if sweep is not None:
-        figure = out.with_suffix(".png")
-        plot_confidence_against_scale(figure, arguments.model, exploration.names, BOUND_SCALES,
-                                      SurrogacyMatrix(*(field[1:] for field in sweep)), table)
+    table, figure = surrogacy_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, settings,
+                                         out, arguments.surrogate, arguments.scheduler)
+    for row in table[table["runs"].isna()].drop_duplicates("surrogate").itertuples():  # the region not reached
+        print(f"{row.surrogate}: not estimated: {row.note}")
+    if figure is not None:
         print(f"wrote {figure}")
     print(table[["surrogate", "real", "confidence", "lower", "upper", "sample_confidence", "families",
                  "surrogate_probability", "designs_per_level", "evaluations"]].to_string(index=False))
