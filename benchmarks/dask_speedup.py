@@ -34,23 +34,24 @@ from benchmarks.study import DAMPING_CASES, LEVELS, ROM, beams  # noqa: E402
 from geometry.parameters import BEAM_NAMES  # noqa: E402
 from benchmarks.table import row, show  # noqa: E402
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
-from study.exploration import Exploration, Sample, explore, local_cluster  # noqa: E402
+from pipeline.runners import SERIAL, Dask, local_cluster  # noqa: E402
+from study.exploration import Exploration, Sample, explore  # noqa: E402
 
 SETUPS = (("serial, this process", None), ("LocalCluster, 1 worker", 1), ("LocalCluster, 2 workers", 2))
 
 
 @contextlib.contextmanager
-def _client(workers: int | None):
-    """None (serial), or a client of a LocalCluster of ``workers`` single-threaded worker processes, started as
-    the study starts it (``study.exploration.local_cluster``)."""
+def _runner(workers: int | None):
+    """``SERIAL``, or a ``Dask`` runner on a LocalCluster of ``workers`` single-threaded worker processes, started
+    as the study starts it (``pipeline.runners.local_cluster``)."""
     if workers is None:
-        yield None
+        yield SERIAL
         return
     from distributed import Client
 
     with (local_cluster(workers, dashboard_address=None, silence_logs=logging.ERROR) as cluster,
           Client(cluster) as client):
-        yield client
+        yield Dask(client)
 
 
 def _warm(exploration: Exploration, folder: str) -> None:
@@ -71,21 +72,21 @@ def timed_exploration(workers: int | None, n_designs: int, chunk: int,
     structures = beams()
     warm = Exploration(structures, MODEL_NAMES, Sample(seed=2, n_designs=50, chunk_size=50), DAMPING_CASES)
     runs = []
-    with tempfile.TemporaryDirectory() as folder, _client(workers) as client:
-        if client is None:
+    with tempfile.TemporaryDirectory() as folder, _runner(workers) as runner:
+        if workers is None:
             _warm(warm, folder)
         else:
-            client.run(_warm, warm, folder)
+            runner.client.run(_warm, warm, folder)
         for repeat in range(repeats):
             # a sample of its own each time: the same study submitted again on one client (same task and data
             # keys) was cancelled with "lost dependencies" here
             sample = Sample(seed=1 + repeat, n_designs=n_designs, chunk_size=chunk)
             exploration = Exploration(structures, MODEL_NAMES, sample, DAMPING_CASES)
             start = time.perf_counter()
-            run = explore(exploration, Path(folder) / f"run-{repeat}", client, progress=False)
+            run = explore(exploration, Path(folder) / f"run-{repeat}", runner, progress=False)
             runs.append((time.perf_counter() - start, run.idle_fraction))
         seconds, idle = min(runs)
-        return seconds, idle, max(client.run(_peak_mib).values()) if client else None
+        return seconds, idle, max(runner.client.run(_peak_mib).values()) if workers else None
 
 
 def rows(n_designs: int = 10_000, chunk: int = 2500, repeats: int = 2) -> Iterator[dict]:

@@ -12,6 +12,8 @@ from pathlib import Path
 
 from distributed import Client, LocalCluster
 
+from pipeline.runners import Dask
+
 sys.path.insert(0, str(Path(__file__).parent))
 from own_superelement_study import add_source_arguments, run_study, structures_from  # noqa: E402
 
@@ -27,7 +29,7 @@ def main(argv=None):
     else:
         client = Client(LocalCluster(n_workers=2, threads_per_worker=1, processes=True))
     with client:
-        return run_study(structures_from(arguments), arguments.designs, arguments.out, client)
+        return run_study(structures_from(arguments), arguments.designs, arguments.out, Dask(client))
 
 
 if __name__ == "__main__":

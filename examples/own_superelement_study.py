@@ -19,6 +19,7 @@ import numpy as np
 from experiment.backbone_files import read_asb_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.condensation import joint_space
+from pipeline.runners import SERIAL
 from reduction.superelement import beam_superelement
 from study.analysis import model_errors
 from study.errors import accepted
@@ -52,14 +53,14 @@ def virtual_beam_structures(rom: Path) -> list:
     return structures
 
 
-def run_study(structures: list, designs: int, out: Path, client=None):
-    """A study of ``designs`` iwan4 designs on the structures (serially, or on a dask ``client``), printing the mode
-    chosen on each and the surrogacy matrix."""
+def run_study(structures: list, designs: int, out: Path, runner=SERIAL):
+    """A study of ``designs`` iwan4 designs on the structures (in this process, or on the ``runner`` given:
+    ``pipeline.runners``), printing the mode chosen on each and the surrogacy matrix."""
     for structure_ in structures:
         print(structure_.mode_choice)
     damping = {"measured": [float(s.measurement.damping[0]) for s in structures]}
     exploration = Exploration(tuple(structures), (MODEL,), Sample(n_designs=designs, chunk_size=500), damping)
-    explore(exploration, out, client=client)
+    explore(exploration, out, runner)
     errors = model_errors(out, MODEL, exploration.names, "measured")
     matrix = surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error))
     print("accepted designs per structure:", dict(zip(exploration.names, matrix.accepted_counts.tolist())))

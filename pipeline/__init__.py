@@ -9,5 +9,7 @@
 - ``published``: the paper's numbers the stages need, cited (Tables 1, 3, 5, 6, the BRB deck's dimensions), and
   ``paper_tables`` (a user's own tables in their place).
 - ``public_data``: the public measured files (``REGISTRY``: pinned URL, name, SHA-256, size) and ``fetch``.
+- ``runners``: one way to run independent tasks, passed in by the caller: ``SERIAL``, ``process_pool``, ``Dask``
+  (a client's cluster), ``runner(scheduler)`` (what ``--scheduler`` names), ``local_cluster``.
 - ``commands``: ``surrogacy data fetch``.
 """

@@ -15,13 +15,14 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from pipeline.runners import runner
 from study.analysis import chunk_errors
 from study.errors import accepted
 from study.figures import plot_confidence_against_scale
 from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
                                      write_subset_csv)
 from study.surrogacy import SurrogacyMatrix, joint_counts, matrix_from_counts
-from study.workflow import StudyFolder, cluster_client
+from study.workflow import StudyFolder
 
 
 def read_bounds(path: Path, model: str, names: list[str], case: str) -> tuple[np.ndarray, np.ndarray]:
@@ -91,11 +92,11 @@ def surrogacy_confidence(folder: StudyFolder, model: str, case: str, frequency_b
     sample = None if sweep is None else SurrogacyMatrix(*(field[0] for field in sweep))
     levels = out.with_name(out.name + ".levels")
     tables = []
-    with cluster_client(scheduler) as client:
+    with runner(scheduler) as tasks:
         for surrogate in surrogates or names:
             try:
                 result = study_subset_simulation(folder.exploration, model, surrogate, case, frequency_bounds,
-                                                 damping_bounds, settings, levels / surrogate, client)
+                                                 damping_bounds, settings, levels / surrogate, tasks)
             except RegionNotReached as reason:
                 tables.append(subset_table(None, model, names, frequency_bounds, damping_bounds, sample,
                                            names.index(surrogate), str(reason)))

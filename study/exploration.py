@@ -8,10 +8,11 @@ any point leaves whole chunk files only, and a rerun evaluates exactly the files
 nothing repeated). A task returns only its timing (``ChunkTiming``); the process driving the study checks each
 written chunk's study key and keeps the count. Memory stays that of the chunks in flight.
 
-Chunks run in this process, or on a dask.distributed cluster (a LocalCluster, or a scheduler address whose
-workers see the results folder: the same machine, or a shared file system): the structures are scattered to the
-workers once, the chunks farmed out with ``IN_FLIGHT_PER_THREAD`` per worker thread in flight, and the files are
-the same floats as the serial run (a chunk's result depends on its seed and inputs only). The workers' idle
+Chunks run on the runner the caller passes (``pipeline.runners``): in this process, or on a dask.distributed
+cluster (a LocalCluster, or a scheduler address whose workers see the results folder: the same machine, or a shared
+file system): the structures are shared with the workers once, the chunks farmed out with
+``pipeline.runners.IN_FLIGHT_PER_SLOT`` per worker thread in flight, and the files are the same floats as the
+serial run (a chunk's result depends on its seed and inputs only). The workers' idle
 share (``Explored.idle_fraction``) says how well the cluster was kept busy.
 
 Row of a design (Parquet columns; S = structure name, Z = linear damping case):
@@ -30,7 +31,6 @@ discarded and recomputed by the exploration, named.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import socket
@@ -51,24 +51,16 @@ from nonlinear.friction_models import MODEL_NAMES
 from nonlinear.joint import parameter_limits, parameter_names, tangential_rows, to_unit
 from nonlinear.parameters import FrictionParameterError
 from pipeline.files import atomic_path, folder_lock, sha256_json, sweep_partial_files, write_json
+from pipeline.runners import SERIAL
 from study.designs import chunk_designs
 from study.errors import DAMPING_RULES, DesignErrors, design_errors
 from study.structures import Structure
 
-IN_FLIGHT_PER_THREAD = 2
 DESIGN_TOLERANCE = 1e-9
 """Largest difference between a chunk's stored parameters and those its seed regenerates, on Table 3's sampling
 scale as a share of each parameter's range (unit designs, ``nonlinear.joint.to_unit``): exp and log round to about
 1e-16 there on any numpy build, while a design of another chunk, seed or model differs by about the width of a stratum
 (1 / chunk_size) or more in almost every parameter."""
-WORKER_ENVIRONMENT = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-"""dask's nannies start each worker with glibc's MALLOC_TRIM_THRESHOLD_=65536 (memory handed back to the system
-eagerly), which costs the exploration 8-10 % of its CPU time (a chunk's temporary arrays are mapped and unmapped
-again at every allocation; measured alternately in one process with and without it): the local cluster's workers
-keep glibc's own threshold. Workers started with ``dask worker`` take it from their shell's MALLOC_TRIM_THRESHOLD_
-where set."""
-
-
 class StudyError(ValueError):
     """A study's inputs or its results folder are inconsistent; the message names the file or field."""
 
@@ -145,18 +137,6 @@ class Exploration:
                            for s in self.structures],
             "sample": self.sample.__dict__, "damping_cases": {k: list(v) for k, v in self.damping_cases.items()},
             "damping_rule": self.damping_rule})
-
-
-@contextlib.contextmanager
-def local_cluster(n_workers: int | None = None, **options):
-    """A dask.distributed LocalCluster of ``n_workers`` (default one per core) single-threaded worker processes
-    with ``WORKER_ENVIRONMENT``; ``options`` go to LocalCluster."""
-    import dask
-    from distributed import LocalCluster
-
-    with dask.config.set(WORKER_ENVIRONMENT), LocalCluster(n_workers=n_workers, threads_per_worker=1,
-                                                           processes=True, **options) as cluster:
-        yield cluster
 
 
 def chunk_path(folder: Path, model: str, chunk: int) -> Path:
@@ -429,10 +409,10 @@ def discard_damaged_chunks(exploration: Exploration, folder: Path) -> list[Path]
     return [path for path, _ in damaged]
 
 
-def explore(exploration: Exploration, folder: Path, client=None, progress: bool = True,
+def explore(exploration: Exploration, folder: Path, runner=SERIAL, progress: bool = True,
             restart_stale: bool = False) -> Explored:
-    """Evaluate every chunk not yet in ``folder``, in this process (client None) or on a dask.distributed
-    ``client`` whose workers write into ``folder``; returns the run (``Explored``: the chunk files of the whole
+    """Evaluate every chunk not yet in ``folder`` on ``runner`` (``pipeline.runners``: in this process, or on a
+    cluster whose workers write into ``folder``); returns the run (``Explored``: the chunk files of the whole
     study, the timings, the workers' idle share). Holds the folder's lock (a second run into it is
     refused with ``pipeline.files.FolderBusyError``) and first removes the temporary files a killed run left.
     A chunk another study wrote is refused (StudyError) before any file is changed, or with ``restart_stale``
@@ -447,22 +427,24 @@ def explore(exploration: Exploration, folder: Path, client=None, progress: bool 
         discard_damaged_chunks(exploration, folder)
         if restart_stale:
             discard_stale_chunks(exploration, folder)
-        return _explore(exploration, folder, client, progress)
+        return _explore(exploration, folder, runner, progress)
 
 
-def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> Explored:
+def _explore(exploration: Exploration, folder: Path, runner, progress: bool) -> Explored:
     done = finished_chunks(exploration, folder)
     _write_manifest(exploration, folder)
     pending = [(chunk, missing) for chunk in range(exploration.sample.n_chunks)
                if (missing := tuple(model for model in exploration.models if (model, chunk) not in done))]
     key = exploration.key()
     total = len(exploration.models) * exploration.sample.n_chunks
-    threads = 1 if client is None else max(1, sum(client.nthreads().values()))
+    threads = runner.slots
     timings = []
     start = time.perf_counter()
     with tqdm(total=total, initial=total - sum(len(models) for _, models in pending), unit="chunk",
               disable=not progress, desc=f"designs ({exploration.sample.chunk_size} per chunk and model)") as bar:
-        for timing in _run_tasks(exploration, folder, pending, client, threads):
+        shared = runner.share(exploration)
+        resolved = folder.resolve()  # workers may run in another working directory
+        for timing in runner.completed(evaluate_chunk, ((shared, resolved, *task) for task in pending)):
             for model in timing.models:
                 path = chunk_path(folder, model, timing.chunk)
                 if stored_key(path) != key:
@@ -474,33 +456,6 @@ def _explore(exploration: Exploration, folder: Path, client, progress: bool) -> 
     paths = [chunk_path(folder, model, chunk) for model in exploration.models
              for chunk in range(exploration.sample.n_chunks)]
     return Explored(paths, timings, time.perf_counter() - start, threads)
-
-
-def _run_tasks(exploration: Exploration, folder: Path, pending: list, client, threads: int):
-    """The ChunkTiming of every pending (chunk, models): serially, or on the cluster with IN_FLIGHT_PER_THREAD
-    tasks per worker thread in flight."""
-    if client is None:
-        for chunk, models in pending:
-            yield evaluate_chunk(exploration, folder, chunk, models)
-        return
-    from distributed import as_completed
-
-    shared = client.scatter(exploration, broadcast=True)
-    folder = Path(folder).resolve()  # workers may run in another working directory
-    tasks = iter(pending)
-    stream = as_completed()
-
-    def submit():
-        task = next(tasks, None)
-        if task is not None:
-            stream.add(client.submit(evaluate_chunk, shared, folder, *task, pure=False,
-                                     key=f"chunk-{task[0]}-{'-'.join(task[1])}-{exploration.key()[:8]}"))
-
-    for _ in range(IN_FLIGHT_PER_THREAD * threads):
-        submit()
-    for future in stream:
-        yield future.result()
-        submit()
 
 
 def _write_manifest(exploration: Exploration, folder: Path) -> None:

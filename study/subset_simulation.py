@@ -83,6 +83,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from nonlinear.joint import from_unit, parameter_limits
 from pipeline.files import atomic_path, sha256_json, write_json
+from pipeline.runners import SERIAL
 from study.errors import scaled_misfit
 from study.exploration import Exploration, process_splits, structure_errors
 from study.surrogacy import CONFIDENCE_LEVEL, INTERVAL_METHOD
@@ -474,26 +475,22 @@ def structure_bounds(exploration: Exploration, frequency_tolerance_hz, damping_t
 
 
 def study_misfit(exploration: Exploration, model: str, case: str, frequency_tolerance_hz,
-                 damping_tolerance, client=None) -> Misfit:
+                 damping_tolerance, runner=SERIAL) -> Misfit:
     """The ``Misfit`` of a study's structures (``scaled_errors``) with linear damping case ``case`` and
-    acceptance bounds (Hz, -) the same for every structure or one per structure (``structure_bounds``): in this
-    process (client None), or on a dask.distributed ``client``, each batch cut into one piece per worker thread
-    (a design's errors do not depend on the batch it is evaluated in, so the numbers are the serial ones)."""
+    acceptance bounds (Hz, -) the same for every structure or one per structure (``structure_bounds``), evaluated
+    on ``runner`` (``pipeline.runners``), each batch cut into one piece per slot (a design's errors do not depend on
+    the batch it is evaluated in, so the numbers are the serial ones)."""
     if case not in exploration.damping_cases:
         raise ValueError(f"damping case {case!r}: not a case of this study; expected one of "
                          f"{list(exploration.damping_cases)}")
     column = list(exploration.damping_cases).index(case)
     bounds = structure_bounds(exploration, frequency_tolerance_hz, damping_tolerance)
-    if client is None:
-        return lambda unit, structures: scaled_errors(exploration, model, column, bounds, unit, structures)
-    shared = client.scatter(exploration, broadcast=True)
-    pieces = max(1, sum(client.nthreads().values()))
+    shared = runner.share(exploration)
 
     def misfit(unit, structures):
-        parts = [part for part in np.array_split(unit, pieces) if len(part)]
-        futures = [client.submit(scaled_errors, shared, model, column, bounds, part, list(structures), pure=False)
-                   for part in parts]
-        return np.vstack(client.gather(futures))
+        parts = np.array_split(unit, max(1, min(runner.slots, len(unit))))  # none empty, one where unit is
+        return np.vstack(runner.map(scaled_errors, [(shared, model, column, bounds, part, list(structures))
+                                                    for part in parts]))
 
     return misfit
 
@@ -513,11 +510,10 @@ def scaled_errors(exploration: Exploration, model: str, column: int, bounds: np.
 
 def study_subset_simulation(exploration: Exploration, model: str, surrogate: str, case: str,
                             frequency_tolerance_hz, damping_tolerance, settings: Settings = Settings(),
-                            state_folder: Path | None = None, client=None) -> SubsetResult:
+                            state_folder: Path | None = None, runner=SERIAL) -> SubsetResult:
     """``subset_simulation`` of one friction model's designs with ``surrogate`` (a structure's name) as I, at the
     acceptance bounds frequency_tolerance_hz (Hz) and damping_tolerance (-), each one value or one per structure;
-    evaluations in this process or on a
-    dask.distributed ``client`` (``study_misfit``)."""
+    evaluations on ``runner`` (``study_misfit``)."""
     if surrogate not in exploration.names:
         raise ValueError(f"surrogate {surrogate!r}: not a structure of this study; expected one of {exploration.names}")
     if model not in exploration.models:
@@ -525,7 +521,7 @@ def study_subset_simulation(exploration: Exploration, model: str, surrogate: str
     problem = json.dumps({"study_key": exploration.key(), "model": model, "case": case,
                           "bounds": structure_bounds(exploration, frequency_tolerance_hz,
                                                      damping_tolerance).tolist()})
-    misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance, client)
+    misfit = study_misfit(exploration, model, case, frequency_tolerance_hz, damping_tolerance, runner)
     return subset_simulation(misfit, len(parameter_limits(model, exploration.n_groups)[0]), len(exploration.names),
                              exploration.names.index(surrogate), settings, state_folder=state_folder, problem=problem)
 

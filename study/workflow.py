@@ -15,7 +15,6 @@ Folder layout under the study's ``out``::
 from __future__ import annotations
 
 import json
-from contextlib import contextmanager
 from functools import cache
 from dataclasses import asdict
 from pathlib import Path
@@ -28,7 +27,9 @@ from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
 from pipeline.config import resolve
+from pipeline import runners
 from pipeline.files import atomic_path, sha256_file, write_json
+from pipeline.runners import SERIAL
 from pipeline.published import PaperTables, paper_tables
 from study import anova, figures, pareto, prestress, surrogacy
 from geometry.parameters import BEAM_NAMES
@@ -36,8 +37,7 @@ from study.analysis import anova_observations, design_rows, representative_desig
 from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
                             measurement_path, structure_names, write_asb_measurements)
 from study.errors import design_errors
-from study.exploration import (Explored, Exploration, StudyError, check_explored, explore, local_cluster,
-                               refuse_other_studies)
+from study.exploration import Explored, Exploration, StudyError, check_explored, explore, refuse_other_studies
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
@@ -196,7 +196,7 @@ def front_designs(paths: Paths, model: str, n_groups: int, structure: str) -> Fr
     return FrontDesigns(designs, labels, errors)
 
 
-def explore_designs(paths: Paths, parameters: dict, before_writing: Callable[[], None], client=None,
+def explore_designs(paths: Paths, parameters: dict, before_writing: Callable[[], None], runner=SERIAL,
                     restart_stale: bool = False) -> Explored:
     """Evaluate every design chunk not yet written (``study.exploration.explore``). Unless ``restart_stale``, a
     designs folder holding another study's chunks is refused (StudyError) before ``before_writing`` is called and
@@ -205,7 +205,7 @@ def explore_designs(paths: Paths, parameters: dict, before_writing: Callable[[],
     if not restart_stale:
         refuse_other_studies(explored, paths.designs)
     before_writing()
-    return explore(explored, paths.designs, client, restart_stale=restart_stale)
+    return explore(explored, paths.designs, runner, restart_stale=restart_stale)
 
 
 def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) -> None:
@@ -325,23 +325,6 @@ def report(paths: Paths, parameters: dict) -> Path:
     return write_report(paths, parameters)
 
 
-@contextmanager
-def cluster_client(scheduler: str | None):
-    """A dask.distributed client: None (serial), ``local`` (``study.exploration.local_cluster``: one
-    single-threaded worker process per core) or a scheduler address."""
-    if not scheduler:
-        yield None
-        return
-    from distributed import Client
-
-    if scheduler == "local":
-        with local_cluster() as cluster, Client(cluster) as client:
-            yield client
-    else:
-        with Client(scheduler) as client:
-            yield client
-
-
 def write_study_record(paths: Paths, parameters: dict) -> None:
     """``study.json``: the resolved configuration, seed, inputs and versions of the study in ``paths.out``."""
     write_json(paths.out / "study.json", {
@@ -364,8 +347,8 @@ def run_steps(paths: Paths, parameters: dict, steps, scheduler: str | None = Non
         if step == "measurements":
             yield step, measurements(paths, parameters, record)
         elif step == "explore":
-            with cluster_client(scheduler) as client:
-                yield step, explore_designs(paths, parameters, record, client, restart_stale)
+            with runners.runner(scheduler) as runner:
+                yield step, explore_designs(paths, parameters, record, runner, restart_stale)
         elif step == "analyse":
             yield step, analyse(paths, parameters, record)
         else:

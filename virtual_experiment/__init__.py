@@ -5,7 +5,8 @@ Reference joint (:mod:`virtual_experiment.reference_joint`)
     uniform_interface, reference_joint   one uniform interface tuned to the BRB's measured frequency (Table 1)
     outside_limits                       a design's entries outside Table 3's limits
 Hammer test (:mod:`virtual_experiment.hammer_test`)
-    HammerTest, hammer_hits, hit_pool    hits simulated by transient time stepping, one worker process per core
+    HammerTest, hammer_hits              hits simulated by transient time stepping, on the runner given
+                                         (``pipeline.runners``: one worker process per core for the beams)
     virtual_experiment(s)                hits processed exactly like a measurement into a backbone, and written
 Command (:mod:`virtual_experiment.commands`)
     surrogacy epmc                       one design's nonlinear mode by harmonic balance (``nonlinear.epmc``) beside

@@ -22,21 +22,17 @@ Time step. The transient (:func:`nonlinear.transient.ring_down`) integrates with
 rule, whose period error (omega dt)^2 / 12 is the virtual experiment's only systematic frequency error: 50 samples
 per period give 0.13 % (0.22 Hz on the BRB), measured so against QSMA. Its Newton loop updates 2,508 sliders per
 joint element every iteration, 1.7-3 ms per step: 6-11 s per hit, about a minute per beam in one process. The
-hits run side by side on one worker process per core (:func:`hit_pool`), with the same bits as in one process.
+hits run side by side on one worker process per core (``pipeline.runners.process_pool``), with the same bits as in
+one process.
 """
 
 from __future__ import annotations
 
 import csv
-import multiprocessing
-import os
 import platform
-import signal
 import time as clock
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import partial
-from multiprocessing.pool import Pool
 from pathlib import Path
 from typing import NamedTuple
 
@@ -54,6 +50,7 @@ from nonlinear.transient import Hammer, ring_down, sensor_modes
 from pipeline.cache import package_versions
 from pipeline.files import atomic_path, sha256_file, write_json
 from pipeline.published import TABLE1, TABLE3, LowAmplitude
+from pipeline.runners import SERIAL, process_pool
 from virtual_experiment.reference_joint import MODEL, beam_space, outside_limits, reference_joint, stuck_frequency_hz
 
 @dataclass(frozen=True)
@@ -143,38 +140,16 @@ def simulated_hit(space: JointSpace, model: str, design, linear_damping: float, 
     return decay, clock.perf_counter() - start
 
 
-def ignore_ctrl_c() -> None:
-    """Initialiser of the hits' worker processes: Ctrl-C is the parent's to handle (exit 130, no traceback)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-@contextmanager
-def hit_pool(workers: int | None = None):
-    """Worker processes for :func:`hammer_hits` (default: one per core). Spawned, not forked: the parent may hold
-    threads (dask, pytest-xdist) whose locks a fork would copy. Left early (Ctrl-C, an error), the workers are
-    terminated at once, their hits unfinished."""
-    pool = multiprocessing.get_context("spawn").Pool(workers or os.cpu_count(), initializer=ignore_ctrl_c)
-    try:
-        yield pool
-    except BaseException:
-        pool.terminate()
-        raise
-    else:
-        pool.close()
-    finally:
-        pool.join()
-
-
 def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
-                test: HammerTest = HammerTest(), model: str = MODEL, pool: Pool | None = None) -> HammerHits:
+                test: HammerTest = HammerTest(), model: str = MODEL, runner=SERIAL) -> HammerHits:
     """Simulate the hits of ``test`` on the joint ``design`` in the beam of ``space``.
 
     Each hit is a transient ring-down (:func:`simulated_hit`) from rest under a half-sine hammer pulse at the
     test's sensor, linear damping zeta_0 = ``linear_damping`` on every stuck mode, time step and length from the
     beam's measured ``frequency_hz`` (``test``); the sensors' displacements get independent Gaussian noise of
     ``test.noise`` times the largest displacement of the tracked mode at any sensor. The seeded Generator draws
-    the impulses first, then the noise hit by hit. ``pool`` (:func:`hit_pool`) simulates the hits side by side;
-    the records are the same bits as in one process.
+    the impulses first, then the noise hit by hit. ``runner`` (``pipeline.runners``; a
+    ``process_pool`` simulates the hits side by side) gives the same bits as one process.
     """
     design = np.asarray(design, dtype=float)
     rng = np.random.default_rng(test.seed)
@@ -184,7 +159,7 @@ def hammer_hits(space: JointSpace, beam: str, design, linear_damping: float, fre
     largest_sensor_shape = np.max(np.abs(shapes[:, target]))
     simulate = partial(simulated_hit, space, model, design, linear_damping, frequency_hz, test)
     hits, levels, runtime, unconverged = [], [], [], []
-    simulated = map(simulate, impulses) if pool is None else pool.imap(simulate, impulses)
+    simulated = runner.map(simulate, [(impulse,) for impulse in impulses])
     for number, (decay, seconds) in enumerate(simulated, start=1):
         runtime.append(seconds)
         unconverged.append(decay.unconverged_steps)
@@ -225,17 +200,17 @@ def analysed_hits(space: JointSpace, beam: str, design, records: HammerHits, mod
 
 def virtual_experiment(space: JointSpace, beam: str, design, linear_damping: float, frequency_hz: float,
                        test: HammerTest = HammerTest(), model: str = MODEL,
-                       pool: Pool | None = None) -> VirtualExperiment:
+                       runner=SERIAL) -> VirtualExperiment:
     """Hammer test of the joint ``design`` in the beam of ``space`` (:func:`hammer_hits`), processed as a
     measurement (:func:`analysed_hits`), labelled virtual; the amplitude is the modal amplitude q (m kg^0.5)
     since the filter's shapes are mass-normalised.
 
     linear_damping: zeta_0 of the beam's other mechanisms (paper Table 1). frequency_hz: the beam's measured
-    (Table 1) frequency, which sets the time step and the record length. pool: see :func:`hammer_hits`.
+    (Table 1) frequency, which sets the time step and the record length. runner: see :func:`hammer_hits`.
     """
     design = np.asarray(design, dtype=float)
     superelement = space.superelement
-    records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model, pool)
+    records = hammer_hits(space, beam, design, linear_damping, frequency_hz, test, model, runner)
     labelled, measured = analysed_hits(space, beam, design, records, model)
     stuck = stuck_frequency_hz(space, design, model)
     names = parameter_names(model, int(np.max(superelement.patch_groups)) + 1)
@@ -326,7 +301,7 @@ def virtual_experiments(rom_folder: Path, out_folder: Path, table1: dict[str, Lo
     against Table 3's limits (ValueError naming the parameters otherwise); each
     beam is tested with ``test`` and its Table 1 linear damping, then written by :func:`write_virtual_experiment`;
     ``low_amplitude.csv`` compares the virtual low-amplitude frequencies with Table 1. Returns its rows. The hits
-    run on one worker process per core (:func:`hit_pool`).
+    run on one worker process per core (``pipeline.runners.process_pool``).
     """
     rom_folder, out_folder = Path(rom_folder), Path(out_folder)
     spaces = {beam: beam_space(rom_folder / f"{beam}.npz", table1[beam].frequency_hz)
@@ -337,11 +312,11 @@ def virtual_experiments(rom_folder: Path, out_folder: Path, table1: dict[str, Lo
     if outside:
         raise ValueError(f"reference joint outside paper Table 3's limits: {'; '.join(outside)}")
     experiments = {}
-    with hit_pool() as pool:
+    with process_pool() as runner:
         for beam in beams:
             measurement = table1[beam]
             experiments[beam] = virtual_experiment(spaces[beam], beam, design, measurement.damping,
-                                                   measurement.frequency_hz, test, pool=pool)
+                                                   measurement.frequency_hz, test, runner=runner)
             write_virtual_experiment(out_folder, experiments[beam], rom_folder / f"{beam}.npz", ring_downs)
     rows = low_amplitude_table(experiments, table1)
     write_low_amplitude_table(rows, out_folder / "low_amplitude.csv")

@@ -35,6 +35,7 @@ import study.exploration as exploration_module
 from experiment.backbone_files import read_asb_backbone
 from locations import ASB_MODELS, REPOSITORY
 from nonlinear.joint import parameter_names
+from pipeline import runners
 from study.exploration import (ChunkTiming, Explored, Exploration, Sample, StudyError, check_explored, chunk_path,
                                chunk_tables, explore, finished_chunks, manifest, read_exploration, write_chunk)
 from study.structures import asb_superelement, structure
@@ -259,10 +260,10 @@ def test_a_chunk_reported_but_not_in_the_folder_is_refused(exploration, tmp_path
 
 @pytest.fixture
 def local_cluster():
-    """Two workers started as the study starts them (``study.exploration.local_cluster``)."""
+    """Two workers started as the study starts them (``pipeline.runners.local_cluster``)."""
     from distributed import Client
 
-    with (exploration_module.local_cluster(2, dashboard_address=None, silence_logs=logging.ERROR) as cluster,
+    with (runners.local_cluster(2, dashboard_address=None, silence_logs=logging.ERROR) as cluster,
           Client(cluster) as client):
         yield client
 
@@ -323,7 +324,7 @@ def test_cluster_writes_the_serial_rows(exploration, serial_folder, tmp_path, re
     and the chunks were evaluated on the workers."""
     client = request.getfixturevalue(cluster)
     folder = tmp_path / "study"
-    run = explore(exploration, folder, client=client, progress=False)
+    run = explore(exploration, folder, runners.Dask(client), progress=False)
     assert_same_study(folder, serial_folder, exploration)
     assert sorted((model, timing.chunk) for timing in run.timings for model in timing.models) == sorted(
         all_chunks(exploration))
@@ -342,7 +343,7 @@ def test_same_study_twice_on_one_client(exploration, serial_folder, tmp_path, lo
     both runs write the serial rows."""
     for run in ("first", "second"):
         folder = tmp_path / run
-        explore(exploration, folder, client=local_cluster, progress=False)
+        explore(exploration, folder, runners.Dask(local_cluster), progress=False)
         assert_same_study(folder, serial_folder, exploration)
 
 

@@ -13,6 +13,7 @@ import pytest
 from scipy import stats
 from statsmodels.stats.proportion import proportion_confint
 
+from pipeline.runners import Dask
 from study.designs import design_chunk
 from study.errors import accepted, scaled_misfit
 from study.exploration import structure_errors
@@ -234,7 +235,7 @@ def test_cluster_gives_the_serial_numbers(asb):
     serial = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings)
     with (LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                        silence_logs=logging.ERROR) as cluster, Client(cluster) as client):
-        distributed = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings, client=client)
+        distributed = study_subset_simulation(asb, "iwan4", "C1", "low", *bounds, settings, runner=Dask(client))
     for field, value in serial._asdict().items():
         np.testing.assert_array_equal(getattr(distributed, field), value, err_msg=field)
     assert np.all(serial.levels >= 3)

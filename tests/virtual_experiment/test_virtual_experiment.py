@@ -23,9 +23,10 @@ from locations import REPOSITORY
 from nonlinear.joint import parameter_names
 from nonlinear.qsma_vectorised import qsma_designs
 from pipeline.files import sha256_file
+from pipeline.runners import process_pool
 from reduction.superelement import stuck_joint_modes
 from geometry.parameters import BEAM_NAMES
-from virtual_experiment.hammer_test import (HammerTest, hammer_hits, hit_pool, low_amplitude_table,
+from virtual_experiment.hammer_test import (HammerTest, hammer_hits, low_amplitude_table,
                                             virtual_experiment, virtual_experiments, write_virtual_experiment)
 from pipeline.published import TABLE1
 from virtual_experiment.reference_joint import beam_space, outside_limits, reference_joint, stuck_frequency_hz
@@ -160,8 +161,8 @@ def test_hits_on_worker_processes_are_the_same_bits_as_in_one_process(brb, table
     test = HammerTest(n_hits=2, impulse_range=3.0, periods=20, samples_per_period=20)
     arguments = (space, "BRB", design, table1["BRB"].damping, table1["BRB"].frequency_hz, test)
     serial = hammer_hits(*arguments)
-    with hit_pool(2) as pool:
-        parallel = hammer_hits(*arguments, pool=pool)
+    with process_pool(2) as runner:
+        parallel = hammer_hits(*arguments, runner=runner)
     for one, other in zip(serial.hits, parallel.hits, strict=True):
         assert one.hit == other.hit
         np.testing.assert_array_equal(one.signals, other.signals)
