@@ -4,7 +4,7 @@ experiment/ (measured and simulated ring-downs, backbones) knows nothing of the 
 nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); a package imports
 only the packages before it in the data's flow, and no module of a package imports itself back through others; the
 command line (cli/) comes after every stage and no module imports it; no library module imports a command module; no
-module but the friction-model registry decides on a model's name.
+module but the friction-model registry decides on a model's name; no module but the runners starts workers.
 """
 
 import ast
@@ -204,3 +204,30 @@ def test_a_planted_import_cycle_is_found(tmp_path, monkeypatch):
            "superelement.py": "def f():\n    from reduction.craig_bampton import g\n"})
     with pytest.raises(graphlib.CycleError):
         graphlib.TopologicalSorter(module_graph("reduction")).prepare()
+
+
+PARALLEL_BACKENDS = ("distributed", "dask", "multiprocessing", "concurrent.futures")
+"""What starts workers: only the runners (``pipeline.runners``) use it; the library is passed a runner."""
+
+
+def parallel_imports(package: str) -> dict[str, list[str]]:
+    """Module file name -> the parallel back ends (``PARALLEL_BACKENDS``) it imports, for the modules of a package
+    other than ``pipeline/runners.py`` that import any."""
+    offending = {module: sorted(name for name in names if any(within(name, backend) for backend in PARALLEL_BACKENDS))
+                 for module, names in imported_modules(package).items()
+                 if not (package == "pipeline" and module == "runners.py")}
+    return {module: names for module, names in offending.items() if names}
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_only_the_runners_start_workers(package):
+    offending = parallel_imports(package)
+    assert not offending, offending
+
+
+def test_a_planted_pool_is_found(tmp_path, monkeypatch):
+    plant(tmp_path, monkeypatch, "virtual_experiment",
+          {"hammer_test.py": "import multiprocessing\nfrom pipeline.runners import SERIAL\n",
+           "commands.py": "def run():\n    from distributed import Client\n"})
+    assert parallel_imports("virtual_experiment") == {"commands.py": ["distributed", "distributed.Client"],
+                                                      "hammer_test.py": ["multiprocessing"]}
