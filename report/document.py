@@ -34,6 +34,10 @@ from pipeline.files import atomic_path, check_output_file, check_output_folder, 
 from study.figures import plt, save
 
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
+MEASURED_DATA = {"asb": "the measured ASB backbones and reduced models", "freevib": "the measured Chen 2022 ring-down"}
+"""The public measured data each stage that reads it needs (the asb dataset's study and calibration, freevib)."""
+FETCH = "`make data` (`surrogacy data fetch`)"
+"""The command that fetches the public measured data (``pipeline.public_data``)."""
 
 
 @dataclass(frozen=True)
@@ -44,6 +48,12 @@ class Folders:
     build: Path
     results: Path
     run_log: Path | None = None
+
+
+def measured_stage_not_run(stage: str, data: str) -> str:
+    """The report's line for a stage that reads measured data and did not run: the data it reads and the command
+    that fetches it (a demo without the data skips the stage)."""
+    return f"_{stage} not run: it reads {data}; {FETCH} fetches the data where it is absent_"
 
 
 def _read_json(path: Path) -> dict | None:
@@ -206,7 +216,8 @@ def backbone_section(results: Path, out: Path, groups: dict) -> list[str]:
         lines.append("")
     runs = sorted({path.stem for pattern in ("*.png", "*.json") for path in (results / "freevib").glob(pattern)})
     lines += ["Measured ring-down (Chen 2022 BRB hammer test), both FreeVib estimators:", ""]
-    lines += [_image(results / "freevib" / f"{stem}.png", stem, out) for stem in runs] or ["_freevib not run_"]
+    lines += ([_image(results / "freevib" / f"{stem}.png", stem, out) for stem in runs]
+              or [measured_stage_not_run("freevib", MEASURED_DATA["freevib"])])
     for mode in groups.get("ring-down (surrogacy freevib)", []):
         settings = mode.settings
         lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 8), "
@@ -226,12 +237,13 @@ def embedded_study(report: Path, out: Path, number: int) -> list[str]:
     return text.replace("## Surrogacy study:", f"## {number}. Surrogacy study:", 1).splitlines()
 
 
-def study_not_reported(report: Path) -> str:
-    """What the pipeline report says of a study whose ``report.md`` is absent: not run, or run (its study.json
-    or designs are there) without its report."""
+def study_not_reported(report: Path, data: str | None = None) -> str:
+    """What the pipeline report says of a study whose ``report.md`` is absent: not run (with the measured data it
+    reads and the command that fetches it, where ``data`` names it), or run (its study.json or designs are there)
+    without its report."""
     folder = report.parent
     if not any((folder / name).exists() for name in ("study.json", "designs", "analysis")):
-        return "_study not run_"
+        return "_study not run_" if data is None else measured_stage_not_run("study", data)
     return (f"_{report} absent: the study ran ({folder} holds its files) but its report step did not, or the report "
             f"was deleted (rerun `surrogacy study --out {folder}` with the study's options and `--steps report`)_")
 
@@ -272,7 +284,9 @@ def calibration_section(results: Path, out: Path) -> list[str]:
                       [f"_Surrogacy confidence of {model}: {path} absent beside its figure (rerun `surrogacy "
                        "confidence`)_", ""])
             lines += [_image(path.with_suffix(".png"), f"confidence_{model}", out), ""]
-    return lines + ([] if folders else ["_calibration not run_"])
+    lines += [] if folders else ["_calibration not run_", ""]
+    return lines + [measured_stage_not_run(f"calibration of {dataset} (fit-{dataset})", MEASURED_DATA[dataset])
+                    for dataset, _ in STUDIES if dataset in MEASURED_DATA and not (results / f"fit-{dataset}").is_dir()]
 
 
 CONFIDENCE_NAMES = ("model", "surrogate", "real")
@@ -489,7 +503,8 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
     for number, (dataset, folder) in enumerate(STUDIES, start=5):
         study_report = folders.results / folder / "report.md"
         lines += (embedded_study(study_report, out, number) if study_report.exists()
-                  else [f"## {number}. Surrogacy study: {dataset}", "", study_not_reported(study_report)]) + [""]
+                  else [f"## {number}. Surrogacy study: {dataset}", "",
+                        study_not_reported(study_report, MEASURED_DATA.get(dataset))]) + [""]
     lines += calibration_section(folders.results, out) + [""]
     lines += discrepancy_section(folders.results, out) + [""]
     lines += provenance_section(folders)

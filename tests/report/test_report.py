@@ -12,6 +12,7 @@ import pytest
 from geometry.parameters import BEAM_NAMES
 from cli.console import main as surrogacy
 from discrepancy.virtual_data import write_undeclared_ringdown
+from report.document import Folders, write_pipeline_report
 from locations import ASB_MODELS
 
 ASB_C1 = ASB_MODELS.parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
@@ -116,11 +117,29 @@ def test_report_shows_every_figure_the_stages_wrote_and_names_stages_not_run(pip
                   ("rom", ["_first_bending.png"])) for suffix in suffixes for beam in BEAM_NAMES),
                *results.rglob("*.png")]
     assert {path.resolve() for path in written if path.exists()} == linked
-    assert "_freevib not run_" in text  # this run had no ring-down stage: said, not filled in
+    assert ("_freevib not run: it reads the measured Chen 2022 ring-down; `make data` (`surrogacy data fetch`) "
+            "fetches the data where it is absent_") in text  # this run had no ring-down stage: said, not filled in
+    assert "calibration of asb (fit-asb) not run" not in text  # it ran
     assert "## 5. Surrogacy study: beams\n\n_study not run_" in text
     for section in ("## 1. Geometry", "## 2. Finite elements", "## 3. Superelements", "## 4. Backbones",
                     "## 6. Surrogacy study: asb", "## 7. Calibration", "## 8. Discrepancy loop", "## 9. Provenance"):
         assert section in text
+
+
+def test_stages_without_their_measured_data_say_the_command_that_fetches_it(tmp_path):
+    """A report of a run without the public measured data (a fresh clone's demo runs the beams only; here nothing
+    ran): each stage that reads the data is named not run with the data and the command that fetches it; the beams'
+    study, which needs none, is only named not run."""
+    build, results = tmp_path / "build", tmp_path / "results"
+    build.mkdir()
+    results.mkdir()
+    text = write_pipeline_report(Folders(build, results), results / "report.md").read_text()
+    asb = "the measured ASB backbones and reduced models"
+    fetch = "`make data` (`surrogacy data fetch`) fetches the data"
+    assert f"_freevib not run: it reads the measured Chen 2022 ring-down; {fetch} where it is absent_" in text
+    assert f"## 6. Surrogacy study: asb\n\n_study not run: it reads {asb}; {fetch} where it is absent_" in text
+    assert f"_calibration of asb (fit-asb) not run: it reads {asb}; {fetch} where it is absent_" in text
+    assert "## 5. Surrogacy study: beams\n\n_study not run_" in text
 
 
 def test_report_timings_are_the_logged_runs(pipeline_report):
