@@ -10,7 +10,7 @@ clock, its memory the process's peak resident memory at its end (the process's, 
 before it). The structure is the ASB C1 superelement of the measured data, or the BRB's from ``build/rom`` where
 that is absent.
 
-Run: ``python -m benchmarks.compile`` (about 10 minutes here on a cold cache).
+Run: ``python -m benchmarks.compile`` (about a minute here).
 """
 
 from __future__ import annotations

@@ -60,7 +60,7 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
 def kernels_cached(folder: Path = Path(__file__).parent) -> bool:
     """Whether numba's on-disk cache (``NUMBA_CACHE_DIR`` where set, else ``folder/__pycache__``) holds compiled
     code, an index file ``.nbi``, of every kernel module: where it does not, the first QSMA call compiles them
-    (minutes and a few GB on two cores, once)."""
+    (about half a minute and 0.5 GB on two cores, once)."""
     cache = Path(numba.config.CACHE_DIR or folder / "__pycache__")
     return cache.is_dir() and all(next(cache.rglob(f"{module}.*.nbi"), None) is not None for module in KERNEL_MODULES)
 
@@ -68,7 +68,7 @@ def kernels_cached(folder: Path = Path(__file__).parent) -> bool:
 @functools.cache
 def announce_compiling() -> None:
     """Say once per process, on stderr, that the kernels are being compiled where ``kernels_cached`` finds them
-    not cached (called before the first kernel call: a cold compile is minutes without another word)."""
+    not cached (called before the first kernel call: a cold compile is half a minute without another word)."""
     if not kernels_cached():
-        print("compiling the QSMA kernels, first use only (minutes on two cores; numba keeps them on disk) ...",
-              file=sys.stderr, flush=True)
+        print("compiling the QSMA kernels, first use only (about half a minute on two cores; numba keeps them on "
+              "disk) ...", file=sys.stderr, flush=True)
