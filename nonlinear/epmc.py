@@ -31,22 +31,46 @@ from nonlinear.condensation import JointSpace
 from nonlinear.harmonic_balance import (JointSystem, compliance_operator, dynamic_compliance,
                                         element_jacobian, fourier_basis, harmonic_count, newton, pseudo_arclength,
                                         slip_deficit_harmonics, stacked_sliders, static_equilibrium)
-from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_elements,
-                             tangential_rows)
+from nonlinear.friction_models import SMALLEST_SLIDER
+from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_dissipation,
+                             tangential_elements, tangential_rows)
 from nonlinear.qsma import qsma_reference, stuck_target_mode
 
 HARMONICS = (1, 3, 5, 7, 9, 11, 15)  # harmonic counts tried by ``converged_harmonics``, in order
 SAMPLES = 256  # samples per period of the AFT time loop
 FREQUENCY_TOLERANCE = 1e-5  # converged_harmonics: relative change of omega between two harmonic counts
 DAMPING_TOLERANCE = 1e-3  # converged_harmonics: relative change of zeta between two harmonic counts
+RESOLUTION = 1e-2  # slider_resolution: smallest slider slip displacement per slip ratio reached
+SMALLEST_RESOLVED = 1e-10  # slider_resolution: floor of the smallest slider slip displacement (units of phi_max)
+RELEVANT_DISSIPATION = 1e-6  # slider_resolution: share of the dissipation from which an element is resolved
 
 
-def joint_system(space: JointSpace, model: str, design, stuck_group: int | None = None) -> JointSystem:
+def slider_resolution(slip_ratio, dissipation) -> np.ndarray:
+    """The smallest slip displacement (units of phi_max) each element's Iwan sliders must resolve
+    (``FrictionModel.sliders``), from its slip ratio x_e (n_t,) at the lowest amplitude asked and its Masing
+    dissipation there (n_t,) J: RESOLUTION x_e, within [SMALLEST_RESOLVED, SMALLEST_SLIDER], for the elements
+    that dissipate at least RELEVANT_DISSIPATION of the total; SMALLEST_SLIDER for the others.
+
+    Why: the sliders lump every slip displacement below the smallest into one slider; an element cycling at an
+    amplitude below it dissipates nothing, and one at a few times it too much (a 4-parameter Iwan element with
+    chi = -0.4 at 1.4e-4 phi_max: +25 %; below 4e-5 phi_max: nothing). From 100 times the smallest up the
+    sliders' Masing dissipation is within about 1e-5 of the closed form (``nonlinear.slip_laws``)."""
+    slip_ratio, dissipation = np.asarray(slip_ratio, dtype=float), np.asarray(dissipation, dtype=float)
+    resolved = np.clip(RESOLUTION * slip_ratio, SMALLEST_RESOLVED, SMALLEST_SLIDER)
+    relevant = dissipation >= RELEVANT_DISSIPATION * dissipation.sum()
+    return np.where(relevant, resolved, SMALLEST_SLIDER)
+
+
+def joint_system(space: JointSpace, model: str, design, stuck_group: int | None = None,
+                 lowest_amplitude: float | None = None) -> JointSystem:
     """The ``nonlinear.harmonic_balance.JointSystem`` of one design of ``model`` on ``space``: the stuck modes
     (QSMA's tracked mode, refined by Rayleigh quotient iteration, and the dense solve's other modes), the
     tangential friction elements that can slip (a stuck patch group is a linear spring, part of the stuck
     structure) with their registry sliders (``FrictionModel.sliders``: Jenkins, Iwan, a core spring as one
-    slider that never slips). Raises ValueError where the stuck target mode has a negative stiffness."""
+    slider that never slips). lowest_amplitude: the lowest modal amplitude q (m kg^0.5) the system will be
+    solved at; the Iwan elements' sliders then resolve the slip ratios each reaches there in the stuck mode
+    (``slider_resolution``); None: the registry's default resolution, 1e-4 phi_max. Raises ValueError where the
+    stuck target mode has a negative stiffness."""
     superelement = space.superelement
     elements = patch_elements(model, design, superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
@@ -59,9 +83,15 @@ def joint_system(space: JointSpace, model: str, design, stuck_group: int | None 
     eigenvalues[stuck.target], shapes[:, stuck.target] = stuck.eigenvalue, stuck.shape
     slipping = np.flatnonzero(~tangential.stuck)
     rows = tangential_rows(superelement.n_patches)[slipping]
+    smallest = np.full(slipping.size, SMALLEST_SLIDER)
+    if lowest_amplitude is not None:
+        motion = lowest_amplitude * np.abs(space.joint_modes[tangential_rows(superelement.n_patches)]
+                                           @ stuck.shape)[None, :]
+        dissipation = tangential_dissipation(tangential, motion)[0, slipping]
+        smallest = slider_resolution(motion[0, slipping] / slip_displacement(tangential)[0, slipping], dissipation)
     sliders = [elements.model.sliders(*(float(values[0, e]) for values in (
         tangential.slip_force, tangential.stiffness, tangential.chi, tangential.beta, tangential.theta,
-        tangential.core_stiffness))) for e in slipping]
+        tangential.core_stiffness)), smallest=float(resolution)) for e, resolution in zip(slipping, smallest)]
     stiffness = (tangential.stiffness + tangential.core_stiffness)[0, slipping]
     return JointSystem(eigenvalues, shapes, (space.joint_modes[rows] @ shapes).T, stuck.target, stiffness,
                        stacked_sliders(sliders))
@@ -262,11 +292,12 @@ class ModeComparison(NamedTuple):
 
 def compare_with_qsma(space: JointSpace, model: str, design, amplitudes, counts=HARMONICS, samples: int = SAMPLES,
                       check_levels: int = 3, stuck_group: int | None = None) -> ModeComparison:
-    """EPMC of a design with its harmonic count chosen by ``converged_harmonics`` at ``check_levels`` amplitudes
-    spread over ``amplitudes`` (the first, the last and between), then at every amplitude; QSMA
+    """EPMC of a design (its sliders resolving the lowest amplitude, ``joint_system``) with its harmonic count
+    chosen by ``converged_harmonics`` at ``check_levels`` amplitudes spread over ``amplitudes`` (the first, the
+    last and between), then at every amplitude; QSMA
     (``nonlinear.qsma.qsma_reference``) at the same amplitudes, without linear damping on either."""
     amplitudes = np.asarray(amplitudes, dtype=float)
-    system = joint_system(space, model, design, stuck_group)
+    system = joint_system(space, model, design, stuck_group, lowest_amplitude=float(amplitudes[0]))
     checked = amplitudes[np.unique(np.linspace(0, amplitudes.size - 1, check_levels).round().astype(int))]
     harmonics = converged_harmonics(system, checked, counts, samples)
     mode = nonlinear_mode(system, amplitudes, harmonics.harmonics, samples)

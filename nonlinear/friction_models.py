@@ -48,6 +48,8 @@ STUCK_GROUP_PARAMETERS = ("K_T", "K_z")
 ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0, "K_c": 0.0}
 """Values of the element parameters a model does not have (chi of Jenkins, F_S of a stuck patch): they make every
 slip law well defined and are never read for those elements; K_c = 0 is no core."""
+SMALLEST_SLIDER = 1e-4
+"""Default smallest slip displacement of an Iwan element's sliders, in units of phi_max (``FrictionModel.sliders``)."""
 ELEMENT_PARAMETERS = ("F_S", "K_T", "chi", "beta", "theta", "K_z", "K_c")
 """Every element parameter, in the order of ``nonlinear.joint.PatchElements``' fields."""
 CONTAINED_UNIT = {"theta": 1.0, "K_c": 0.0, "chi": 0.0, "beta": 1.0}
@@ -128,11 +130,13 @@ class FrictionModel:
         return segalman_constants(slip_force, stiffness, chi, beta)
 
     def sliders(self, slip_force: float, stiffness: float, chi: float, beta: float, theta: float,
-                core_stiffness: float = 0.0) -> Sliders:
+                core_stiffness: float = 0.0, smallest: float = SMALLEST_SLIDER) -> Sliders:
         """One element (scalar parameters) as a set of parallel sliders for time stepping (``nonlinear.sliders``),
-        with the core (``core``) as one more slider of infinite strength."""
+        with the core (``core``) as one more slider of infinite strength. smallest: the smallest slip displacement
+        an Iwan element's sliders resolve, in units of its macroslip displacement phi_max (its dissipation is
+        accurate to about 1e-5 from 100 times that amplitude up; ``nonlinear.sliders.iwan_sliders``)."""
         element = (jenkins_sliders(stiffness, slip_force) if self.element == "jenkins"
-                   else iwan_sliders(slip_force, stiffness, chi, beta, theta))
+                   else iwan_sliders(slip_force, stiffness, chi, beta, theta, smallest=smallest))
         return with_linear_spring(element, core_stiffness) if self.core else element
 
 

@@ -39,6 +39,8 @@ def slider_periods(displacement, position, direction, stiffness, strength, theta
             for n in range(samples):
                 jacobian[e, n, n] = element_stiffness[e]
             for j in range(n_sliders):
+                if stiffness[e, j] == 0.0:  # padding (``stacked_sliders``): never slides, carries nothing
+                    continue
                 k, f, p, d = stiffness[e, j], strength[e, j], position[e, j], direction[e, j]
                 start_p, start_d, last = p, d, last_slip[e, j]
                 for n in range(samples):

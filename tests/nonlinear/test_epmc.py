@@ -5,12 +5,15 @@ import numpy as np
 import scipy.linalg
 
 from nonlinear.condensation import joint_space, stuck_modes
-from nonlinear.epmc import converged_harmonics, joint_system, nonlinear_mode
+from nonlinear.epmc import converged_harmonics, joint_system, nonlinear_mode, slider_resolution, slip_amplitude
+from nonlinear.friction_models import friction_model
+from nonlinear.iwan import segalman_constants
 from nonlinear.harmonic_balance import JointSystem, periodic_hysteresis, stacked_sliders, virgin_state
 from nonlinear.jenkins import describing_function
 from nonlinear.joint import joint_row_stiffness, patch_elements, stuck_stiffness
 from nonlinear.qsma import qsma_reference
 from nonlinear.sliders import jenkins_sliders
+from nonlinear.slip_laws import masing_dissipation
 from reduction.superelement import beam_superelement
 
 SPRING, JOINT, SLIP = 1.0e6, 2.0e6, 10.0  # N/m, N/m, N: unit mass on a spring with a Jenkins element beside it
@@ -126,3 +129,56 @@ def test_epmc_and_qsma_agree_in_microslip_on_the_beam(beam_roms):
     assert 1e-3 < qsma.slip_ratio.max(axis=1)[0] and qsma.slip_ratio.max() < 0.5
     np.testing.assert_allclose(mode.frequency, qsma.frequency, rtol=2e-4)
     np.testing.assert_allclose(mode.damping, qsma.damping, rtol=1e-3)
+
+
+def iwan_oscillator(smallest: float) -> JointSystem:
+    """The Jenkins oscillator's spring (1 kg, k = 1e6 N/m) with a four-parameter Iwan element instead (F_S = 10 N,
+    K_T = 2e6 N/m, chi = -0.5, beta = 1), its sliders resolving slip displacements from ``smallest`` phi_max."""
+    sliders = friction_model("iwan4").sliders(SLIP, JOINT, -0.5, 1.0, 1.0, smallest=smallest)
+    return JointSystem(np.array([SPRING + JOINT]), np.eye(1), np.ones((1, 1)), 0, np.array([JOINT]),
+                       stacked_sliders([sliders]))
+
+
+def test_iwan_sliders_resolve_the_lowest_amplitude():
+    """An Iwan element cycling far below its macroslip displacement (1e-6 and 1e-3 phi_max): with one harmonic the
+    motion is a cosine, so EPMC's damping is the element's Masing dissipation over 2 pi q^2 omega^2, the closed form
+    (``nonlinear.slip_laws.masing_dissipation``). With the sliders ``slider_resolution`` asks for (smallest 1e-2
+    of the lowest slip ratio) it holds to 1e-4 (measured 1e-5); with the default smallest slider, 1e-4 phi_max,
+    the element at 1e-6 phi_max dissipates nothing (to round-off), and at 2e-4 phi_max several per cent too much."""
+    phi_max, r, s = segalman_constants(SLIP, JOINT, -0.5, 1.0)
+    ratios = np.array([1e-6, 2e-4, 1e-3])
+    smallest = slider_resolution(ratios[:1], [1.0])[0]
+    assert abs(smallest / 1e-8 - 1) < 1e-15
+    resolved = nonlinear_mode(iwan_oscillator(smallest), ratios * phi_max, harmonics=1, samples=512)
+    default = nonlinear_mode(iwan_oscillator(1e-4), ratios * phi_max, harmonics=1, samples=512)
+    dissipation = 4 * phi_max * masing_dissipation(ratios, r, s, -0.5, 1.0)
+    closed_form = dissipation / (2 * np.pi * (ratios * phi_max) ** 2 * resolved.frequency ** 2)
+    np.testing.assert_allclose(resolved.damping, closed_form, rtol=1e-4)
+    assert default.damping[0] < 1e-9 * closed_form[0] and abs(default.damping[1] / closed_form[1] - 1) > 0.03
+
+
+def test_slider_resolution_only_for_elements_that_dissipate():
+    """Elements dissipating less than 1e-6 of the total keep the default resolution; the others resolve 1e-2 of
+    their slip ratio, within [1e-10, 1e-4] phi_max."""
+    resolution = slider_resolution([1e-3, 1e-5, 1e-14, 1e-5], [1.0, 1.0, 1.0, 1e-7])
+    np.testing.assert_allclose(resolution, [1e-5, 1e-7, 1e-10, 1e-4], rtol=1e-15)
+
+
+def test_epmc_and_qsma_agree_on_a_joint_dissipating_far_below_slip(beam_roms):
+    """A Table 3 iwan4 design on the BRB whose dissipation comes from the end patches' elements at slip ratios of
+    7e-6 to 7e-5 (F_S = 8e7 N), the middle of the joint reaching 0.01 to 0.1: EPMC with the sliders resolving the
+    lowest amplitude (``joint_system(..., lowest_amplitude)``) agrees with QSMA to 1e-5 in damping and 1e-6 in
+    frequency (measured 4e-6 and 1e-7); the default sliders (smallest 1e-4 phi_max) give the end patches no
+    dissipation at the lowest level (zeta 5e-11 against 4.9e-7) and twice too much at the next."""
+    space = joint_space(beam_superelement(beam_roms / "BRB.npz"))
+    design = np.array([8.17201748e+07, 1.11270357e+09, -3.95759134e-01, 5.63183133e+00, 3.35321966e+11,
+                       2.26788201e+04, 1.36883729e+13, -9.86343880e-01, 4.41765940e+01, 3.46928847e+04,
+                       1.31146409e+06, 4.04835573e+10, -6.68848406e-01, 2.07260468e+02, 1.43699907e+06])
+    amplitude = slip_amplitude(space, "iwan4", design) * np.array([0.01, 0.1])
+    qsma = qsma_reference(space, "iwan4", design, amplitudes=amplitude)
+    resolved = nonlinear_mode(joint_system(space, "iwan4", design, lowest_amplitude=amplitude[0]), amplitude, 1)
+    default = nonlinear_mode(joint_system(space, "iwan4", design), amplitude, 1)
+    assert qsma.converged.all() and resolved.converged.all()
+    np.testing.assert_allclose(resolved.damping, qsma.damping, rtol=1e-5)
+    np.testing.assert_allclose(resolved.frequency, qsma.frequency, rtol=1e-6)
+    assert default.damping[0] < 1e-3 * qsma.damping[0] and default.damping[1] > 1.5 * qsma.damping[1]
