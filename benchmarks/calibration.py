@@ -22,7 +22,7 @@ from calibration.objectives import fit_space, linf_errors, model_curves, unit_ze
 from experiment.measured_files import read_mode_backbone
 from nonlinear.condensation import modal_split
 from nonlinear.joint import parameter_names
-from study.datasets import DATASET_MODELS
+from study.datasets import ASB
 from study.pareto import non_dominated
 from study.structures import asb_superelement, structure
 
@@ -40,7 +40,7 @@ def rows(configurations=("C1", "CD1"), n_designs: int = 4000, seed: int = 0) -> 
         measured = structure(f"ASB {configuration}", asb_superelement(model_path), read_mode_backbone(backbone_path),
                              0.0)
         study_zeta0 = float(measured.measurement.damping[0])
-        for model in DATASET_MODELS["asb"]:
+        for model in ASB.models:
             space = fit_space(model, 1, measured.measurement)
             sample = np.random.default_rng(seed).random((n_designs, len(parameter_names(model, 1))))
             errors = linf_errors(measured.measurement, model_curves(

@@ -23,7 +23,7 @@ from pathlib import Path
 from experiment.backbone_files import freevib_stem
 from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
-from study.datasets import DEFAULT_MODELS
+from study.datasets import dataset
 
 STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "fit-asb", "study-beams", "discrepancy", "discrepancy-modal-asb",
          "fit-beams", "confidence-asb", "confidence-beams", "report")
@@ -134,13 +134,14 @@ def fit_step(results: Path, dataset: str, skipped: str | None = None) -> Step:
                                      str(results / f"fit-{dataset}")),)))
 
 
-def confidence_step(results: Path, dataset: str, skipped: str | None = None) -> Step:
-    """``confidence-<dataset>``: each model's surrogacy confidence at the bounds ``fit-<dataset>`` derived;
-    skipped for the reason given, if one is."""
-    fit = results / f"fit-{dataset}"
-    return (Step(f"confidence-{dataset}", skipped=skipped) if skipped else Step(f"confidence-{dataset}", tuple(
-        ("confidence", "--study", str(results / f"study-{dataset}"), "--model", model, "--bounds",
-         str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv")) for model in DEFAULT_MODELS[dataset])))
+def confidence_step(results: Path, name: str, skipped: str | None = None) -> Step:
+    """``confidence-<name>``: each default model's surrogacy confidence on dataset ``name`` at the bounds
+    ``fit-<name>`` derived; skipped for the reason given, if one is."""
+    fit = results / f"fit-{name}"
+    return (Step(f"confidence-{name}", skipped=skipped) if skipped else Step(f"confidence-{name}", tuple(
+        ("confidence", "--study", str(results / f"study-{name}"), "--model", model, "--bounds",
+         str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv"))
+        for model in dataset(name).default_models)))
 
 
 def command(run: tuple[str, ...], run_log: Path | None) -> list[str]:

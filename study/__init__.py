@@ -3,7 +3,9 @@ surrogate) be trusted in another (the real one)? ``surrogacy study`` runs it ste
 :mod:`study.workflow`).
 
 Measurements to fit (:mod:`study.datasets`, :mod:`study.structures`; the beams' from :mod:`virtual_experiment`)
-    DATASETS, DATASET_MODELS, DEFAULT_MODELS   the beams (virtual experiments) and the ASB (measured), their friction models
+    DATASETS, dataset, Dataset  the registry: the beams (virtual experiments) and the ASB (measured), each with
+                                its structures, friction models, damping cases and rule, measurements and
+                                superelement format
     write_asb_measurements      the ASB's measured backbones in the backbone CSV format
     structure, Structure        superelement, target mode chosen from the measured frequency, levels to fit
 Designs and errors (:mod:`study.designs`, :mod:`study.errors`, :mod:`study.exploration`)

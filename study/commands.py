@@ -31,7 +31,7 @@ from pipeline.config import add_config_arguments, configuration
 from pipeline.files import check_output_file, check_output_folder, stage_folder
 from study import workflow
 from study.confidence import read_bounds, surrogacy_confidence
-from study.datasets import DEFAULT_DAMPING_CASE
+from study.datasets import dataset
 from study.parameters import defaults
 from study.subset_simulation import Settings
 
@@ -105,7 +105,7 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     check_output_folder(out.with_name(out.name + ".levels"))
     folder = workflow.read_study(arguments.study)
     exploration = folder.exploration
-    case = arguments.damping_case or DEFAULT_DAMPING_CASE[folder.parameters["study"].dataset]
+    case = arguments.damping_case or dataset(folder.parameters["study"].dataset).default_damping_case
     if arguments.bounds is not None:
         frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names, case)
     else:

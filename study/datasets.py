@@ -1,4 +1,5 @@
-"""The two datasets a study runs on: the Brake-Reuss beams (virtual experiments) and the ASB assembly (measured).
+"""The datasets a study runs on, one registry: the Brake-Reuss beams (virtual experiments) and the ASB assembly
+(measured). Every other module asks ``dataset(name)``; adding a dataset is one entry of ``DATASETS`` plus its tests.
 
 Each dataset is a set of structures sharing one joint. Their measured backbones are first written in the one
 documented backbone format (``experiment.backbone_files``, ``<study>/measurements/<structure>.csv``), and the
@@ -17,41 +18,71 @@ study reads only those files, whatever the source:
   (``study.errors`` rule "outside_joint": the measured damping already holds the joint's). The middle-stuck model
   needs a middle patch and is not defined on the ASB's single group: the ASB study runs Jenkins, both Iwan models
   and the stuck core.
+
+A ``Dataset`` owns its structures' names, the friction models they can carry and those a study runs unless told,
+its damping cases and the rule that makes them zeta_0, where its measurements come from (their input files, what
+else they depend on, how they are written as backbone CSVs) and its superelements' format.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from experiment.backbone_files import write_backbone
 from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import models_for
 from nonlinear.joint import BRB_PATCH_GROUPS
-from reduction.superelement import ASB_CONFIGURATIONS, StructureError, beam_superelement
+from reduction.superelement import ASB_CONFIGURATIONS, StructureError, Superelement, beam_superelement
 from study.structures import N_LEVELS, Structure, asb_superelement, structure
+from virtual_experiment.hammer_test import virtual_experiments
 
-DATASETS = ("beams", "asb")
-DATASET_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1), "asb": models_for(1)}
-"""The friction models each dataset's structures can carry: the beams' three patch groups, the ASB's one (every
-patch in one group, ``study.structures.asb_superelement``)."""
-DEFAULT_MODELS = {"beams": models_for(max(BRB_PATCH_GROUPS) + 1, in_paper=True), "asb": DATASET_MODELS["asb"]}
-"""The models a study runs unless told: the paper's four on the beams (Table 5 and the ANOVA of Table 6 compare),
-every model the ASB can carry (its single group rules out the middle-stuck one)."""
-DEFAULT_DAMPING_CASE = {"beams": "BRB", "asb": "measured"}
-DAMPING_RULE = {"beams": "added", "asb": "outside_joint"}
-"""How each dataset's damping cases become zeta_0 (``study.errors.DAMPING_RULES``, module docstring)."""
+
+@dataclass(frozen=True)
+class Dataset:
+    """One dataset: a set of structures sharing one joint.
+
+    name: as ``[study] dataset`` gives it. structures: the structures' names. models: the friction models they can
+    carry; default_models: those a study runs unless told. default_damping_case: the linear damping case the
+    analysis uses; damping_rule: how its cases become zeta_0 (``study.errors.DAMPING_RULES``). paper: the paper's
+    study (its Table 5 beside the surrogacy matrices, Table 6's ANOVA and the prestress comparison).
+
+    Each function takes the study's inputs ``paths`` (``study.workflow.Paths``: ``rom`` and ``data`` folders, the
+    paper's ``tables``, the ``measurements`` folder): ``sources(paths)``, the files its measurements are made of;
+    ``inputs(paths)``, what else they depend on (JSON-ready, recorded for the cache); ``write_measurements(paths)``,
+    its backbones to fit as backbone CSVs in ``paths.measurements``; ``superelement(paths, name, prestress)``, a
+    structure's superelement; ``damping_cases(paths, structures)``, case name -> zeta_0 of each structure.
+    """
+
+    name: str
+    structures: tuple[str, ...]
+    models: tuple[str, ...]
+    default_models: tuple[str, ...]
+    default_damping_case: str
+    damping_rule: str
+    paper: bool
+    sources: Callable[..., list[Path]]
+    inputs: Callable[..., dict]
+    write_measurements: Callable[..., None]
+    superelement: Callable[..., Superelement]
+    damping_cases: Callable[..., dict[str, list[float]]]
 
 
 def measurement_path(folder: Path, name: str) -> Path:
     return Path(folder) / f"{name.replace(' ', '_')}.csv"
 
 
+def asb_backbone_path(data_folder: Path, configuration: str) -> Path:
+    return Path(data_folder) / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
+
+
 def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
     """The ASB's measured backbones (``asb-backbones/ASB_<conf>_20Nm_BB.mat``) in the backbone CSV format."""
     paths = []
     for configuration in ASB_CONFIGURATIONS:
-        source = Path(data_folder) / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
+        source = asb_backbone_path(data_folder, configuration)
         if not source.exists():
             raise StructureError(f"{source}: missing (the ASB measurements: surrogacy data fetch downloads them)")
         measured = read_mode_backbone(source)
@@ -60,35 +91,56 @@ def write_asb_measurements(data_folder: Path, folder: Path) -> list[Path]:
     return paths
 
 
-def structure_names(dataset: str) -> list[str]:
-    if dataset not in DATASETS:
-        raise StructureError(f"dataset {dataset!r} is not one of {DATASETS}")
-    return list(BEAM_NAMES) if dataset == "beams" else [f"ASB {c}" for c in ASB_CONFIGURATIONS]
+BEAMS = Dataset(
+    "beams", BEAM_NAMES, models_for(max(BRB_PATCH_GROUPS) + 1), models_for(max(BRB_PATCH_GROUPS) + 1, in_paper=True),
+    "BRB", "added", True,
+    sources=lambda paths: [paths.rom / f"{beam}.npz" for beam in BEAM_NAMES],
+    inputs=lambda paths: {
+        "table1": {beam: [row.frequency_hz, row.damping] for beam, row in paths.tables.table1.items()},
+        "table3": {name: list(limits) for name, limits in paths.tables.table3.items()}},
+    write_measurements=lambda paths: virtual_experiments(paths.rom, paths.measurements, paths.tables.table1,
+                                                         paths.tables.table3),
+    superelement=lambda paths, name, prestress: beam_superelement(paths.rom / f"{name}.npz", prestress),
+    damping_cases=lambda paths, structures: {beam: [paths.tables.table1[beam].damping] * len(structures)
+                                             for beam in BEAM_NAMES})
+"""The beams: the paper's four models by default (Table 5 and the ANOVA of Table 6 compare) of those their three
+patch groups can carry."""
+ASB = Dataset(
+    "asb", tuple(f"ASB {configuration}" for configuration in ASB_CONFIGURATIONS), models_for(1), models_for(1),
+    "measured", "outside_joint", False,
+    sources=lambda paths: [asb_backbone_path(paths.data, configuration) for configuration in ASB_CONFIGURATIONS],
+    inputs=lambda paths: {},
+    write_measurements=lambda paths: write_asb_measurements(paths.data, paths.measurements),
+    superelement=lambda paths, name, prestress: asb_superelement(
+        paths.data / "asb-reduced-models" / f"MAT_NULLRED_{name.removeprefix('ASB ')}.mat"),
+    damping_cases=lambda paths, structures: {"measured": [float(s.measurement.damping[0]) for s in structures]})
+"""The ASB: every model its single patch group can carry (every patch in one group,
+``study.structures.asb_superelement``), all of them by default; its reduced models as their files give them."""
+DATASETS = {dataset.name: dataset for dataset in (BEAMS, ASB)}
+"""Every dataset by name."""
+DATASET_NAMES = tuple(DATASETS)
+DEFAULT_DAMPING_CASE = {name: entry.default_damping_case for name, entry in DATASETS.items()}
+"""Dataset name -> ``Dataset.default_damping_case``, for the readers of a study's configuration."""
 
 
-def dataset_structures(dataset: str, measurements: Path, rom_folder: Path, data_folder: Path,
-                       n_levels: int = N_LEVELS, prestress: bool = True) -> list[Structure]:
-    """The dataset's structures from the measurement files in ``measurements``; linear damping 0 (the cases
-    of :func:`damping_cases` are applied in the errors). prestress: the beams' superelements with the preload's
+def dataset(name: str) -> Dataset:
+    """The registry's dataset of that name; StructureError listing the datasets otherwise."""
+    try:
+        return DATASETS[name]
+    except (KeyError, TypeError):
+        raise StructureError(f"dataset {name!r} is not one of {DATASET_NAMES}") from None
+
+
+def dataset_structures(name: str, paths, n_levels: int = N_LEVELS, prestress: bool = True) -> list[Structure]:
+    """The dataset's structures from the measurement files in ``paths.measurements``; linear damping 0 (the cases
+    of ``Dataset.damping_cases`` are applied in the errors). prestress: the beams' superelements with the preload's
     stress stiffness (``reduction.superelement.beam_superelement``); the ASB's are as their files give them."""
+    chosen = dataset(name)
     structures = []
-    for name in structure_names(dataset):
-        path = measurement_path(measurements, name)
+    for structure_name in chosen.structures:
+        path = measurement_path(paths.measurements, structure_name)
         if not path.exists():
-            raise StructureError(f"{path}: missing measurement of {name} (run the measurements step first)")
-        measured = read_mode_backbone(path)
-        if dataset == "beams":
-            superelement = beam_superelement(Path(rom_folder) / f"{name}.npz", prestress)
-        else:
-            configuration = name.removeprefix("ASB ")
-            superelement = asb_superelement(Path(data_folder) / "asb-reduced-models" / f"MAT_NULLRED_{configuration}.mat")
-        structures.append(structure(name, superelement, measured, 0.0, n_levels, str(path)))
+            raise StructureError(f"{path}: missing measurement of {structure_name} (run the measurements step first)")
+        structures.append(structure(structure_name, chosen.superelement(paths, structure_name, prestress),
+                                    read_mode_backbone(path), 0.0, n_levels, str(path)))
     return structures
-
-
-def damping_cases(dataset: str, structures: list[Structure], table1: dict | None = None) -> dict[str, list[float]]:
-    """Linear damping cases (module docstring): case name -> zeta_0 of each structure. table1: paper Table 1
-    (``pipeline.published.TABLE1``: beam -> LowAmplitude), for the beams."""
-    if dataset == "beams":
-        return {beam: [table1[beam].damping] * len(structures) for beam in BEAM_NAMES}
-    return {"measured": [float(s.measurement.damping[0]) for s in structures]}

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from study.datasets import DATASET_MODELS, DATASETS, DEFAULT_MODELS
+from study.datasets import DATASET_NAMES, dataset
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
 from study.exploration import Sample
 from study.structures import N_LEVELS
@@ -13,8 +13,8 @@ from study.structures import N_LEVELS
 
 @dataclass(frozen=True)
 class StudyParameters:
-    """[study]: dataset ("beams" or "asb"), friction models (default: ``study.datasets.DEFAULT_MODELS``), levels per
-    structure, and whether the beams' superelements carry the preload's stress stiffness (``prestress``, default
+    """[study]: dataset (``study.datasets.DATASETS``), friction models (default: the dataset's default_models),
+    levels per structure, and whether the beams' superelements carry the preload's stress stiffness (``prestress``, default
     true: K_A + K_bolt; false: the unstressed halves K; ``reduction.superelement.beam_superelement``). The ASB's
     reduced models are used as their files give them whatever ``prestress`` says."""
 
@@ -24,12 +24,13 @@ class StudyParameters:
     prestress: bool = True
 
     def __post_init__(self):
-        if self.dataset not in DATASETS:
-            raise ValueError(f"field 'dataset' = {self.dataset!r}: expected one of {DATASETS}")
-        unknown = [m for m in self.models if m not in DATASET_MODELS[self.dataset]]
+        if self.dataset not in DATASET_NAMES:
+            raise ValueError(f"field 'dataset' = {self.dataset!r}: expected one of {DATASET_NAMES}")
+        available = dataset(self.dataset).models
+        unknown = [m for m in self.models if m not in available]
         if unknown:
             raise ValueError(f"field 'models': {unknown} not available for dataset {self.dataset!r}; expected some "
-                             f"of {DATASET_MODELS[self.dataset]}")
+                             f"of {available}")
         if self.n_levels < 3:
             raise ValueError(f"field 'n_levels' = {self.n_levels}: expected at least 3")
         if not isinstance(self.prestress, bool):
@@ -37,7 +38,7 @@ class StudyParameters:
 
     @property
     def friction_models(self) -> tuple[str, ...]:
-        return self.models or DEFAULT_MODELS[self.dataset]
+        return self.models or dataset(self.dataset).default_models
 
 
 @dataclass(frozen=True)

@@ -32,16 +32,13 @@ from pipeline.files import atomic_path, sha256_file, write_json
 from pipeline.runners import SERIAL
 from pipeline.published import PaperTables, paper_tables
 from study import anova, figures, pareto, prestress, surrogacy
-from geometry.parameters import BEAM_NAMES
 from study.analysis import anova_observations, design_rows, representative_designs, sample_counts
-from study.datasets import (ASB_CONFIGURATIONS, DAMPING_RULE, DEFAULT_DAMPING_CASE, dataset_structures, damping_cases,
-                            measurement_path, structure_names, write_asb_measurements)
+from study.datasets import dataset, dataset_structures, measurement_path
 from study.errors import design_errors
 from study.exploration import Explored, Exploration, StudyError, check_explored, explore, refuse_other_studies
 from study.parameters import defaults
 from study.report import write_report
 from reduction.superelement import StructureError
-from virtual_experiment.hammer_test import virtual_experiments
 
 
 VERSIONS = package_versions("numpy", "scipy", "numba")
@@ -102,29 +99,20 @@ def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], No
     """Write the dataset's backbones to fit (virtual experiments of the beams, or the ASB's measured ones),
     unless ``measurements/measurements.json`` records them for the same input files (then nothing is redone);
     ``before_writing`` is called once the input files are found, before the first file is written."""
-    dataset = parameters["study"].dataset
-    if dataset == "asb":
-        sources = [paths.data / "asb-backbones" / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
-    else:
-        sources = [paths.rom / f"{beam}.npz" for beam in BEAM_NAMES]
+    chosen = dataset(parameters["study"].dataset)
+    sources = chosen.sources(paths)
     missing = [str(source) for source in sources if not source.exists()]
     if missing:
-        raise StructureError(f"{', '.join(missing)}: missing (inputs of the {dataset} measurements)")
-    inputs = {"dataset": dataset, "sources": {source.name: sha256_file(source) for source in sources}}
-    if dataset == "beams":
-        tables = paths.tables
-        inputs["table1"] = {beam: [row.frequency_hz, row.damping] for beam, row in tables.table1.items()}
-        inputs["table3"] = {name: list(limits) for name, limits in tables.table3.items()}
+        raise StructureError(f"{', '.join(missing)}: missing (inputs of the {chosen.name} measurements)")
+    inputs = {"dataset": chosen.name, "sources": {source.name: sha256_file(source) for source in sources},
+              **chosen.inputs(paths)}
     sidecar = paths.measurements / "measurements.json"
-    kinds = [measurement_path(paths.measurements, name).stem for name in structure_names(dataset)]
+    kinds = [measurement_path(paths.measurements, name).stem for name in chosen.structures]
     if is_current(sidecar, inputs, VERSIONS, kinds):
         print(f"measurements: {paths.measurements} is current")
         return
     before_writing()
-    if dataset == "asb":
-        write_asb_measurements(paths.data, paths.measurements)
-    else:
-        virtual_experiments(paths.rom, paths.measurements, tables.table1, tables.table3)
+    chosen.write_measurements(paths)
     files = {kind: paths.measurements / f"{kind}.csv" for kind in kinds}
     write_json(sidecar, sidecar_record(inputs, VERSIONS, files))
 
@@ -132,11 +120,10 @@ def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], No
 def exploration(paths: Paths, parameters: dict) -> Exploration:
     """The study's structures, models, sample and damping cases from the measurement files."""
     study = parameters["study"]
-    structures = dataset_structures(study.dataset, paths.measurements, paths.rom, paths.data, study.n_levels,
-                                    study.prestress)
-    table1 = paths.tables.table1 if study.dataset == "beams" else None
+    chosen = dataset(study.dataset)
+    structures = dataset_structures(chosen.name, paths, study.n_levels, study.prestress)
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
-                       damping_cases(study.dataset, structures, table1), DAMPING_RULE[study.dataset])
+                       chosen.damping_cases(paths, structures), chosen.damping_rule)
 
 
 class StudyFolder(NamedTuple):
@@ -219,9 +206,10 @@ def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) 
     check_explored(explored, paths.designs)
     before_writing()
     names = explored.names
-    case = DEFAULT_DAMPING_CASE[study.dataset]
+    chosen = dataset(study.dataset)
+    case = chosen.default_damping_case
     out = paths.analysis
-    paper = surrogacy.paper_surrogacy(paths.tables.table5) if study.dataset == "beams" else None
+    paper = surrogacy.paper_surrogacy(paths.tables.table5) if chosen.paper else None
     sweep_frequency = acceptance.frequency_tolerance_hz * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     sweep_damping = acceptance.damping_tolerance * np.array([0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0])
     counts = {}
@@ -244,7 +232,7 @@ def analyse(paths: Paths, parameters: dict, before_writing: Callable[[], None]) 
         figures.plot_fronts(out / f"pareto_{model}.png", model, names, sample.plotted, sample.n_designs, fronts,
                             acceptance)
         responses(paths, parameters, explored, model, fronts)
-    if study.dataset == "beams":
+    if chosen.paper:
         observations = anova_observations(counts, names)
         table = anova.surrogacy_anova(observations)
         anova.write_anova_markdown(table, out / "anova.md", anova.paper_anova(paths.tables.table6),
@@ -274,7 +262,7 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
     """NSGA-II on each structure seeded from the sample's front there (``study.analysis.Front``, one per
     structure) and ``population`` designs drawn from the sample's n_designs (paper Fig. 6), both fronts written to
     fronts_<model>.csv (the column source: "sample" or "nsga2")."""
-    settings, case = parameters["pareto"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
+    settings, case = parameters["pareto"], dataset(parameters["study"].dataset).default_damping_case
     limits = parameter_limits(model, explored.n_groups)
     names = parameter_names(model, explored.n_groups)
     nsga_errors, nsga_designs, rows = [], [], []
@@ -308,7 +296,7 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
 
 def responses(paths: Paths, parameters: dict, explored: Exploration, model: str, fronts: Fronts) -> None:
     """Backbones of representative front designs of each structure against its measurement (Figs. 9-11)."""
-    acceptance, case = parameters["acceptance"], DEFAULT_DAMPING_CASE[parameters["study"].dataset]
+    acceptance, case = parameters["acceptance"], dataset(parameters["study"].dataset).default_damping_case
     names = parameter_names(model, explored.n_groups)
     curves = []
     for index, structure in enumerate(explored.structures):

@@ -4,7 +4,8 @@ experiment/ (measured and simulated ring-downs, backbones) knows nothing of the 
 nonlinear/ reads no measured-data files (it may build the ring-down type, experiment.ringdown); a package imports
 only the packages before it in the data's flow, and no module of a package imports itself back through others; the
 command line (cli/) comes after every stage and no module imports it; no library module imports a command module; no
-module but the friction-model registry decides on a model's name; no module but the runners starts workers.
+module but the friction-model registry decides on a model's name, nor on a dataset's but the dataset registry; no
+module but the runners starts workers.
 """
 
 import ast
@@ -16,6 +17,7 @@ import pytest
 
 from locations import REPOSITORY
 from nonlinear.friction_models import MODEL_NAMES
+from study.datasets import DATASET_NAMES
 
 ROOT = REPOSITORY
 FILE_READERS = ("csv", "pyuff", "scipy.io", "experiment.ringdown_files", "experiment.backbone_files",
@@ -138,9 +140,9 @@ def test_a_planted_upward_import_is_found(tmp_path, monkeypatch):
                                           "config.py": ["study.datasets", "study.datasets.DEFAULT_MODELS"]}
 
 
-def model_name_branches(path: Path, names=MODEL_NAMES) -> list[str]:
-    """Places in a module that decide on a friction model's name: a comparison with a model name (``==``, ``in``,
-    against a name or a tuple, list or set of them) or a dict keyed by model names, as 'line: source'."""
+def name_branches(path: Path, names) -> list[str]:
+    """Places in a module that decide on one of ``names`` (friction models, datasets): a comparison with a name
+    (``==``, ``in``, against a name or a tuple, list or set of them) or a dict keyed by names, as 'line: source'."""
     source = path.read_text()
     found = []
     for node in ast.walk(ast.parse(source, filename=str(path))):
@@ -159,7 +161,7 @@ def model_name_branches(path: Path, names=MODEL_NAMES) -> list[str]:
 
 @pytest.mark.parametrize("package", PACKAGES)
 def test_no_branch_on_a_friction_model_name_outside_the_registry(package):
-    offending = {path.name: model_name_branches(path) for path in sorted((ROOT / package).glob("*.py"))
+    offending = {path.name: name_branches(path, MODEL_NAMES) for path in sorted((ROOT / package).glob("*.py"))
                  if path != ROOT / "nonlinear" / "friction_models.py"}
     offending = {module: places for module, places in offending.items() if places}
     assert not offending, offending
@@ -169,7 +171,7 @@ def test_a_planted_branch_on_a_model_name_is_found(tmp_path):
     planted = tmp_path / "transient.py"
     planted.write_text('law = {"jenkins": 1, "iwan4": 2}\nif model == "iwan5":\n    pass\n'
                        'stuck = model in ("iwan4_stuck", "other")\nname = "iwan4"\n')
-    assert [place.split(":")[0] for place in model_name_branches(planted)] == ["1", "2", "4"]
+    assert [place.split(":")[0] for place in name_branches(planted, MODEL_NAMES)] == ["1", "2", "4"]
 
 
 def module_graph(package: str) -> dict[str, set[str]]:
@@ -231,3 +233,23 @@ def test_a_planted_pool_is_found(tmp_path, monkeypatch):
            "commands.py": "def run():\n    from distributed import Client\n"})
     assert parallel_imports("virtual_experiment") == {"commands.py": ["distributed", "distributed.Client"],
                                                       "hammer_test.py": ["multiprocessing"]}
+
+
+DATASET_PACKAGES = tuple(package for package in PACKAGES[PACKAGES.index("study"):] if package != "report")
+"""The packages that know the study's datasets (below the study, "beams" is the geometry stage's name). The report
+still lists the measured data per dataset itself (report/document.py's MEASURED_DATA)."""
+
+
+@pytest.mark.parametrize("package", DATASET_PACKAGES)
+def test_no_branch_on_a_dataset_name_outside_the_registry(package):
+    offending = {path.name: name_branches(path, DATASET_NAMES) for path in sorted((ROOT / package).glob("*.py"))
+                 if path != ROOT / "study" / "datasets.py"}
+    offending = {module: places for module, places in offending.items() if places}
+    assert not offending, offending
+
+
+def test_a_planted_branch_on_a_dataset_name_is_found(tmp_path):
+    planted = tmp_path / "workflow.py"
+    planted.write_text('if study.dataset == "asb":\n    pass\ncases = {"beams": "BRB"}\nname = "beams"\n'
+                       'paper = dataset in ("beams", "other")\n')
+    assert [place.split(":")[0] for place in name_branches(planted, DATASET_NAMES)] == ["1", "3", "5"]

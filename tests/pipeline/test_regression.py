@@ -89,7 +89,7 @@ ASB_JOINT_COUNTS = [[88, 75, 81, 11, 48, 2], [75, 218, 77, 81, 76, 2], [81, 77, 
 def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
     from cli.console import main as surrogacy
     from study.analysis import model_errors
-    from study.datasets import structure_names
+    from study.datasets import dataset
     from study.errors import accepted
     from study.surrogacy import surrogacy_matrix
     from locations import ASB_MODELS
@@ -101,6 +101,6 @@ def test_surrogacy_counts_of_a_small_asb_study(tmp_path):
     assert surrogacy(["study", "--out", str(out), "--data", str(data), "--set", "study.dataset=asb",
                       "--set", "sample.n_designs=4000", "--set", "sample.chunk_size=1000",
                       "--set", 'study.models=["iwan4"]', "--steps", "measurements", "explore"]) == 0
-    errors = model_errors(out / "designs", "iwan4", structure_names("asb"), "measured")
+    errors = model_errors(out / "designs", "iwan4", list(dataset("asb").structures), "measured")
     matrix = surrogacy_matrix(accepted(errors.frequency_error_hz, errors.damping_error, 2.0, 0.005))
     np.testing.assert_array_equal(matrix.joint_counts, ASB_JOINT_COUNTS)

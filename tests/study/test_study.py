@@ -31,6 +31,7 @@ from study.analysis import model_errors
 from reduction.superelement import StructureError, beam_superelement, target_mode
 from study.structures import Measurement, measured_levels, qsma_measurement, structure
 from study.surrogacy import surrogacy_matrix
+from study.workflow import Paths
 
 MODEL = "iwan4"
 # A stiff, microslipping joint in BRB layout (groups {1,5}, {2,4}, {3}): per group F_S (N), K_T (N/m), chi,
@@ -225,8 +226,9 @@ def test_study_prestress_option_chooses_the_beams_superelement(beams, beam_roms,
         m = structure_.measurement
         write_backbone(replace(backbone_with(m.amplitude, m.frequency_hz, m.damping), structure=structure_.name,
                                low_amplitude_frequency_hz=float(m.frequency_hz[0])),
-                       measurement_path(tmp_path, structure_.name))
-    chosen = {flag: dataset_structures("beams", tmp_path, beam_roms, tmp_path, N_LEVELS, flag)
+                       measurement_path(tmp_path / "measurements", structure_.name))
+    inputs = Paths(tmp_path, beam_roms, tmp_path)  # the measurements in tmp_path/measurements
+    chosen = {flag: dataset_structures("beams", inputs, N_LEVELS, flag)
               for flag in (True, False)}
     for stressed, unstressed in zip(chosen[True], chosen[False]):
         assert np.min(stressed.space.eigenvalues) < -(2 * np.pi * 10.0) ** 2
