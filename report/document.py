@@ -6,8 +6,9 @@ the tied first bending (fem), the superelements (reduction), the backbones to fi
 virtual experiments, the ASB's measured backbones, the Chen 2022 measured ring-down), each dataset's surrogacy
 study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the calibration
 (fitted designs against the study's fronts), the discrepancy
-loop's before/after table, and the provenance (commit, versions, seeds, configuration, per-stage wall times and
-peak memory from the ``surrogacy --run-log`` file). A stage whose files are missing is named as not run, never
+loop's before/after table, the provenance (commit, versions, seeds, configuration, per-stage wall times and
+peak memory from the ``surrogacy --run-log`` file), and QSMA against EPMC on the studies' representative designs
+(:mod:`report.epmc`, where ``make epmc`` ran). A stage whose files are missing is named as not run, never
 filled in; a file absent where its stage ran (a figure, a calibration's table beside its records, a discrepancy
 loop's record) is named as missing where it belongs, never linked or dropped; a damaged record (cut short, a field
 missing) is refused naming it, before any file is written.
@@ -31,6 +32,7 @@ from experiment.measured_files import read_mode_backbone
 from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import MODEL_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
+from report.epmc import epmc_section
 from study.figures import plt, save
 
 STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
@@ -495,7 +497,8 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
              "The beams' \"measurements\" in this report are **VIRTUAL** (simulated ring-downs of a reference joint, "
              "labelled virtual wherever they appear); the ASB backbones and the Chen 2022 ring-down are measured.",
              "", "Contents: 1 geometry, 2 finite elements, 3 superelements, 4 backbones, 5-6 surrogacy studies "
-             "(Table 5, Figs. 6, 9-12, Table 6), 7 calibration, 8 discrepancy loop, 9 provenance.", ""]
+             "(Table 5, Figs. 6, 9-12, Table 6), 7 calibration, 8 discrepancy loop, 9 provenance, 10 QSMA against the "
+             "nonlinear mode by harmonic balance (EPMC).", ""]
     lines += geometry_section(folders.build, out) + [""]
     lines += fe_section(folders.build, out) + [""]
     lines += reduction_section(folders.build, out) + [""]
@@ -507,7 +510,8 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
                         study_not_reported(study_report, MEASURED_DATA.get(dataset))]) + [""]
     lines += calibration_section(folders.results, out) + [""]
     lines += discrepancy_section(folders.results, out) + [""]
-    lines += provenance_section(folders)
+    lines += provenance_section(folders) + [""]
+    lines += epmc_section(folders.results, out, 10)
     if groups:
         plot_backbones(out / "report_backbones.png", groups)
     with atomic_path(destination) as temporary:
