@@ -334,7 +334,7 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
     order of A), matrix (m, m + 1 or wider), right (m,) and active (m,) are work space; x, power and table
     (``_law_table``): the iterate, its slip powers and the laws. Returns True if singular."""
     m = residual.size
-    n_active = 0
+    n_active = np.int64(0)  # typed int64 from the start: a literal 0 reaching the calls would compile them once more
     clipped = False
     for j in range(m):
         if slope[j] > 0.0:
@@ -716,7 +716,7 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
         for i in range(m):
             for j in range(m):
                 design_compliance[i, j] = compliance[d, i, j] - joint_shape[d, i] * joint_shape[d, j] * mode_share
-        pinv_formed = False
+        pinv_formed = np.bool_(False)  # not a literal, which would compile ``_solve_level`` a second time for it
         previous, before, earliest = -1, -1, -1  # the last three converged levels
         lost = False  # whether the loading path jumped or was lost (stiction)
         for level in range(n_levels):
