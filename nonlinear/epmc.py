@@ -41,7 +41,7 @@ SAMPLES = 256  # samples per period of the AFT time loop
 FREQUENCY_TOLERANCE = 1e-5  # converged_harmonics: relative change of omega between two harmonic counts
 DAMPING_TOLERANCE = 1e-3  # converged_harmonics: relative change of zeta between two harmonic counts
 RESOLUTION = 1e-2  # slider_resolution: smallest slider slip displacement per slip ratio reached
-SMALLEST_RESOLVED = 1e-10  # slider_resolution: floor of the smallest slider slip displacement (units of phi_max)
+SMALLEST_RESOLVED = 1e-16  # slider_resolution: floor of the smallest slider slip displacement (units of phi_max)
 RELEVANT_DISSIPATION = 1e-6  # slider_resolution: share of the dissipation from which an element is resolved
 
 

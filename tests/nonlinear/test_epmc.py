@@ -159,9 +159,9 @@ def test_iwan_sliders_resolve_the_lowest_amplitude():
 
 def test_slider_resolution_only_for_elements_that_dissipate():
     """Elements dissipating less than 1e-6 of the total keep the default resolution; the others resolve 1e-2 of
-    their slip ratio, within [1e-10, 1e-4] phi_max."""
-    resolution = slider_resolution([1e-3, 1e-5, 1e-14, 1e-5], [1.0, 1.0, 1.0, 1e-7])
-    np.testing.assert_allclose(resolution, [1e-5, 1e-7, 1e-10, 1e-4], rtol=1e-15)
+    their slip ratio, within [1e-16, 1e-4] phi_max."""
+    resolution = slider_resolution([1e-3, 1e-5, 1e-13, 1e-20, 1e-5], [1.0, 1.0, 1.0, 1.0, 1e-7])
+    np.testing.assert_allclose(resolution, [1e-5, 1e-7, 1e-15, 1e-16, 1e-4], rtol=1e-15)
 
 
 def test_epmc_and_qsma_agree_on_a_joint_dissipating_far_below_slip(beam_roms):
