@@ -34,6 +34,17 @@ def dot(x, y):
 
 
 @numba.njit(cache=True, fastmath=FAST_MATH)
+def copy_matrix(source, out):
+    """out = source for two matrices of one shape, by loops (slice assignment from an array also compiles numba's
+    formatted shape-mismatch error: seconds of a cold compile)."""
+    rows, columns = source.shape
+    for i in range(rows):
+        for j in range(columns):
+            out[i, j] = source[i, j]
+    return out
+
+
+@numba.njit(cache=True, fastmath=FAST_MATH)
 def matvec(a, x, out):
     """out = a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
     rows, columns = a.shape

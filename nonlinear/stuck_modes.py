@@ -49,8 +49,9 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from nonlinear.dense_linear_algebra import (FAST_MATH, backward_substitute, cholesky, dot, forward_substitute, matvec,
-                                            rmatvec, solve_dense, symmetric_eigen_in_place, symmetric_solve)
+from nonlinear.dense_linear_algebra import (FAST_MATH, backward_substitute, cholesky, copy_matrix, dot,
+                                            forward_substitute, matvec, rmatvec, solve_dense, symmetric_eigen_in_place,
+                                            symmetric_solve)
 
 # Newton on S(mu) stops at ESTIMATE_TOLERANCE (relative step; S's own round-off is near 1e-7), the bordered
 # polish at ROOT_TOLERANCE, or at FAST_STEP once it converges at least quadratically.
@@ -194,9 +195,10 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     for _ in range(MAX_NEWTON_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, flexibility, work.weights, work.coefficients, work.packed)
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work.augmented, work)
-        work.small[:] = work.s
+        copy_matrix(work.s, work.small)
         symmetric_eigen_in_place(work.small, work.values, work.vectors)
-        work.w[:] = work.vectors[:, branch]
+        for k in range(work.w.size):
+            work.w[k] = work.vectors[k, branch]
         matvec(work.z, work.w, work.zw)
         rmatvec(high_modes, work.zw, work.high)
         slope = 1.0
@@ -236,12 +238,13 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
         for e in range(weights.size):
             high[e] *= weights[e] * weights[e]
         matvec(high_modes, high, product)  # F'(mu) f, also solved against X(mu)
-        augmented[:, m + n_low] = product
+        for i in range(m):
+            augmented[i, m + n_low] = product[i]
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, augmented, work)
         rmatvec(work.z, product, low)
         for k in range(n_low):
             low[k] -= v_low[k]
-        work.small[:] = work.s
+        copy_matrix(work.s, work.small)
         if solve_dense(work.small, low, n_low):  # mu is a stuck eigenvalue to the last bit (e.g. a single-DOF
             return mu, True                      # joint): keep x
         norm = 0.0
@@ -427,7 +430,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                     total += high0[k, e] * high0[j, e] * inverse_square[e]
                 metric[k, j] = total
         cholesky(metric, metric_factor)
-        projected[:] = s0
+        copy_matrix(s0, projected)
         forward_substitute(metric_factor, projected)
         for k in range(n_low):
             for j in range(n_low):
@@ -437,7 +440,8 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             for j in range(k + 1):
                 work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
         symmetric_eigen_in_place(work.small, delta, estimates)
-        low_estimates[d] = delta
+        for k in range(n_low):
+            low_estimates[d, k] = delta[k]
         backward_substitute(metric_factor, estimates)
         best_branch, best_mac = 0, -1.0
         for i in range(n_low):
@@ -469,7 +473,8 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                                   high_eigenvalues, high_modes, flexibility, work)
             for i in range(m):
                 work.force[i] = -work.zw[i]
-            work.v_low[:] = work.w
+            for k in range(work.w.size):
+                work.v_low[k] = work.w[k]
             mu, converged = _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                                     high_modes, flexibility, work)
             candidate_mac = _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low,
@@ -477,7 +482,12 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
             if candidate_mac > best_mac:
                 best_mac = candidate_mac
                 eigenvalue[d], mac[d], found[d] = mu, candidate_mac, converged
-                shape_low[d], shape_high[d], joint_shape[d] = work.v_low, work.v_high, work.b
+                for k in range(n_low):
+                    shape_low[d, k] = work.v_low[k]
+                for e in range(n_high):
+                    shape_high[d, e] = work.v_high[e]
+                for i in range(m):
+                    joint_shape[d, i] = work.b[i]
             if best_mac >= unambiguous_mac:
                 break
     return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates
