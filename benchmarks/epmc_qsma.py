@@ -60,6 +60,10 @@ REGIMES = (("stuck", 0.0, 0.01), ("microslip", 0.01, 0.5), ("near macroslip", 0.
 FREQUENCY_BOUND, DAMPING_BOUND = 1.5e-3, 5e-2  # the agreement asked of QSMA
 CHECKED_DESIGNS = 4  # designs per model whose harmonic convergence sets the model's count
 STUDY_COUNTS = (1, 3, 5, 7, 9, 11)  # harmonic counts tried per design with --study
+STUDY_COLUMNS = ("dataset", "structure", "model", "source", "design", "parameters", "amplitude", "slip_ratio",
+                 "qsma_frequency_hz", "qsma_damping", "qsma_converged", "epmc_frequency_hz", "epmc_damping",
+                 "epmc_converged", "harmonics", "harmonics_converged", "seconds", "note")
+"""The columns of the --study file, one row per design and level (frequencies in Hz; seconds: the design's CPU)."""
 
 
 def design_levels(space, model: str, design, harmonics: int) -> pd.DataFrame:
@@ -68,7 +72,8 @@ def design_levels(space, model: str, design, harmonics: int) -> pd.DataFrame:
     amplitudes = slip * LEVELS
     qsma = qsma_reference(space, model, design, amplitudes=amplitudes)
     try:
-        mode = nonlinear_mode(joint_system(space, model, design), amplitudes, harmonics)
+        mode = nonlinear_mode(joint_system(space, model, design, lowest_amplitude=amplitudes[0]), amplitudes,
+                              harmonics)
         epmc_frequency, epmc_damping, epmc_converged = mode.frequency, mode.damping, mode.converged
     except (RuntimeError, np.linalg.LinAlgError):  # no start at the first level: the design counts as failed
         epmc_frequency = epmc_damping = np.full(amplitudes.size, np.nan)
@@ -81,8 +86,11 @@ def design_levels(space, model: str, design, harmonics: int) -> pd.DataFrame:
 
 def model_harmonics(space, model: str, designs) -> int:
     """The largest harmonic count ``converged_harmonics`` chose among COUNTS on these designs (at CHECK_LEVELS)."""
-    counts = [converged_harmonics(joint_system(space, model, design), slip_amplitude(space, model, design)
-                                  * CHECK_LEVELS, COUNTS).harmonics for design in designs]
+    counts = []
+    for design in designs:
+        amplitudes = slip_amplitude(space, model, design) * CHECK_LEVELS
+        counts.append(converged_harmonics(joint_system(space, model, design, lowest_amplitude=amplitudes[0]),
+                                          amplitudes, COUNTS).harmonics)
     return max(counts)
 
 
@@ -159,6 +167,7 @@ def study_rows(structure, model: str, source: str, index: int, design, levels: i
            "parameters": json.dumps(np.asarray(design).tolist())}
     if not usable(structure.space, model, design):
         return pd.DataFrame([{**row, "amplitude": q, "epmc_converged": False, "qsma_converged": False,
+                              "seconds": time.process_time() - started,
                               "note": "unstable stuck mode or no slipping element"} for q in amplitudes])
     comparison = compare_with_qsma(structure.space, model, design, amplitudes, counts)
     mode, qsma = comparison.mode, comparison.qsma
@@ -196,22 +205,23 @@ def compare_study(study: Path, structures, models, representatives: int, levels:
     every = study_structures(study, dataset, rom, data, configuration["n_levels"], configuration["prestress"])
     done = pd.read_csv(out) if out.exists() else pd.DataFrame(columns=["structure", "model", "design", "parameters"])
     out.parent.mkdir(parents=True, exist_ok=True)
-    for index, structure in enumerate(every):
-        if structures and structure.name not in structures:
+    for index, chosen in enumerate(every):
+        if structures and chosen.name not in structures:
             continue
-        n_groups = max(structure.space.superelement.patch_groups) + 1
+        n_groups = max(chosen.space.superelement.patch_groups) + 1
         for model in models or models_for(n_groups):
-            source, indices, designs = study_designs(study, structure, index, model, representatives, seed)
+            source, indices, designs = study_designs(study, chosen, index, model, representatives, seed)
             for design_index, design in zip(indices, designs):
                 text = json.dumps(np.asarray(design).tolist())
-                if ((done.structure == structure.name) & (done.model == model) & (done.parameters == text)).any():
+                if ((done.structure == chosen.name) & (done.model == model) & (done.parameters == text)).any():
                     continue
-                frame = study_rows(structure, model, source, design_index, design, levels, STUDY_COUNTS)
+                frame = study_rows(chosen, model, source, design_index, design, levels, STUDY_COUNTS)
                 frame.insert(0, "dataset", dataset)
+                frame = frame.reindex(columns=STUDY_COLUMNS)
                 frame.to_csv(out, mode="a", header=not out.exists(), index=False)
                 done = pd.concat([done, frame], ignore_index=True)
-                print(f"{structure.name} {model} {source} {design_index}: H {frame.harmonics.iloc[0] if 'harmonics' in frame else '-'}, "
-                      f"{frame.seconds.iloc[0] if 'seconds' in frame else 0:.0f} s CPU", flush=True)
+                print(f"{chosen.name} {model} {source} {design_index}: {frame.harmonics.iloc[0]} harmonics, "
+                      f"{frame.seconds.iloc[0]:.0f} s CPU", flush=True)
     return done
 
 
