@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pandas as pd
+import pytest
 
 from report.document import Folders, write_pipeline_report
 from report.epmc import epmc_section
@@ -56,3 +57,11 @@ def test_an_absent_comparison_is_named_and_the_report_says_how_to_run_it(tmp_pat
     assert "## 10. QSMA against the nonlinear mode by harmonic balance (EPMC)" in text
     assert "_EPMC comparison not run: `make epmc`" in text
     assert not (tmp_path / "report_epmc.png").exists()
+
+
+def test_a_comparison_file_without_a_column_is_refused_naming_it(tmp_path):
+    """A comparison file lacking a column the section reads: a ValueError naming the file and the column."""
+    (tmp_path / "epmc").mkdir()
+    comparison_rows().drop(columns="epmc_damping").to_csv(tmp_path / "epmc" / "study_asb.csv", index=False)
+    with pytest.raises(ValueError, match=r"study_asb\.csv: not an EPMC comparison: column 'epmc_damping' missing"):
+        epmc_section(tmp_path, tmp_path, 10)
