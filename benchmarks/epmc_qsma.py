@@ -6,8 +6,9 @@ Run as ``python -m benchmarks.epmc_qsma [--beam BRB] [--models jenkins iwan4 ...
 whose stuck target mode has a negative stiffness (prestressed halves on too soft a joint) are left out; each is
 evaluated at ``LEVELS`` modal amplitudes from 0.01 to 2 times its slip amplitude (``nonlinear.epmc.slip_amplitude``:
 where its first element reaches macroslip in the stuck mode), by QSMA (``qsma_reference``) and by EPMC
-(``nonlinear_mode``) at a harmonic count chosen per model by ``converged_harmonics`` on its first designs (the
-largest count they needed), neither with linear damping. A level counts where both converged (QSMA's flagged levels
+(``nonlinear_mode``, the Iwan elements' sliders resolving the design's lowest amplitude, ``nonlinear.epmc
+.joint_system``) at a harmonic count chosen per model by ``converged_harmonics`` on its first designs (the largest
+count they needed), neither with linear damping. A level counts where both converged (QSMA's flagged levels
 and EPMC's failed corrections are counted apart). Regimes by QSMA's largest slip ratio s of the level (|r| over the
 element's macroslip displacement): stuck s < 0.01, microslip 0.01 <= s < 0.5, near macroslip 0.5 <= s < 2,
 macroslip s >= 2. Per model and regime: the levels, the median, 95th percentile and largest |f_QSMA / f_EPMC - 1|
