@@ -37,7 +37,7 @@ from nonlinear.dense_linear_algebra import FAST_MATH, ldl_back_substitute, ldl_e
 
 # The helpers below are separate compiled functions, called from ``solve_levels`` (numba's default: LLVM may still
 # inline the small ones). Copying them all into it in numba's IR (inline='always') made one function whose first
-# compile took minutes and GBs, for levels about 2 % faster (docs/benchmarks.md, the first use of the kernels).
+# compile took minutes and GBs, for rates about 3 % higher (docs/benchmarks.md, the first use of the kernels).
 # numpy's error model: a division by zero gives an infinity or NaN instead of raising out of the whole batch of
 # designs, and loops that divide need no test per division, so they vectorise (the levels 4 to 10 % faster; the
 # results bitwise the same on the benchmarks' designs).
