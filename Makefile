@@ -80,8 +80,8 @@ bench: $(STAMP)
 	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks
 
 # QSMA against the nonlinear mode by harmonic balance (EPMC) on the studies' representative designs, every friction
-# model, the beams and the ASB's CD1 (results/epmc/study_<dataset>.csv, report section 10; about an hour on two
-# cores, not part of the demo); a design already compared is kept.
+# model, the beams and the ASB's CD1 (results/epmc/study_<dataset>.csv, report section 10; 57 designs, 9 min of CPU,
+# half an hour on a loaded 2-core machine; not part of the demo); a design already compared is kept.
 epmc: $(STAMP)
 	$(BIN)/python -m benchmarks.epmc_qsma --study results/study-beams --rom build/rom
 	$(if $(wildcard results/study-asb/study.json),$(BIN)/python -m benchmarks.epmc_qsma --study results/study-asb \

@@ -142,7 +142,7 @@ def epmc_section(results: Path, out: Path, number: int) -> list[str]:
     if levels is None:
         return lines + [f"_EPMC comparison not run: `make epmc` (`python -m benchmarks.epmc_qsma --study "
                         f"results/study-<dataset>`) writes {Path(results) / 'epmc' / 'study_<dataset>.csv'} after "
-                        "the studies; not part of `make demo` (tens of minutes)_"]
+                        "the studies; not part of `make demo` (9 min of CPU)_"]
     figure = Path(out) / "report_epmc.png"
     plot_differences(figure, levels)
     datasets = ", ".join(sorted(set(levels.dataset)))
