@@ -79,24 +79,31 @@ def central_jacobian(residuals, point, lower=0.0, upper=1.0) -> np.ndarray:
     return ((rows[:p] - rows[p:]) / steps[:, None]).T
 
 
-def box_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: int = 400):
+TOLERANCE = 1e-10
+"""least_squares' xtol, ftol and gtol of a calibration's fits."""
+
+
+def box_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: int = 400,
+                      tolerance: float = TOLERANCE):
     """scipy.optimize.least_squares (trust-region reflective) of a batched residual function ((n, p) points ->
     (n, m) rows) from ``start`` (p,) in the box [lower, upper] (scalars or (p,); infinite sides allowed), with the
-    Jacobian by ``central_jacobian`` (module docstring); scipy's OptimizeResult."""
+    Jacobian by ``central_jacobian`` (module docstring), to ``tolerance`` (xtol, ftol and gtol); scipy's
+    OptimizeResult."""
     start = np.clip(np.asarray(start, dtype=float), lower, upper)
     return least_squares(lambda x: residuals(x[None, :])[0], start,
                          jac=lambda x: central_jacobian(residuals, x, lower, upper), bounds=(lower, upper),
-                         method="trf", x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
+                         method="trf", x_scale="jac", xtol=tolerance, ftol=tolerance, gtol=tolerance,
+                         max_nfev=max_evaluations)
 
 
 def continued_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluations: int = 400,
-                            continuations: int = 0):
+                            continuations: int = 0, tolerance: float = TOLERANCE):
     """``box_least_squares`` restarted from where a run stopped on its budget of ``max_evaluations``, up to
     ``continuations`` times: (the last run's OptimizeResult, evaluations of every run, restarts made). The fit
     converged where the last run's status is positive (a tolerance met), not 0 (its budget spent)."""
     evaluations, restarts = 0, -1
     while True:
-        solution = box_least_squares(residuals, start, lower, upper, max_evaluations)
+        solution = box_least_squares(residuals, start, lower, upper, max_evaluations, tolerance)
         evaluations, restarts, start = evaluations + int(solution.nfev), restarts + 1, solution.x
         if solution.status != 0 or restarts == continuations:
             return solution, evaluations, restarts

@@ -21,7 +21,7 @@ from nonlinear.friction_models import MODEL_NAMES, friction_model
 from nonlinear.joint import contained_unit_designs, parameter_limits, parameter_names, to_unit
 from pipeline.cache import package_versions
 from pipeline.files import sha256_file, sha256_json, stage_folder, write_json
-from study.datasets import DEFAULT_DAMPING_CASE
+from study.datasets import dataset
 from study.exploration import Exploration, structure_errors
 from study.structures import Structure
 from study.workflow import Paths, front_designs, read_study
@@ -171,7 +171,7 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                          f"structures {list(explored.names)})")
     if max_generations < 1:
         raise ValueError(f"option --max-generations = {max_generations}: expected at least 1")
-    case = DEFAULT_DAMPING_CASE[parameters["study"].dataset]  # the study's zeta_0, paired with its seeds
+    case = dataset(parameters["study"].dataset).default_damping_case  # the study's zeta_0, paired with its seeds
     chosen = [(model, explored.names.index(name)) for model in models for name in structures]
     for model in models:
         check_fronts(paths.analysis / f"fronts_{model}.csv", model, explored.n_groups, structures,

@@ -67,6 +67,10 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
         lines.append(f"| {number} | {step.effect or reference} | "
                      f"{step.reduced_chi_squared:.3g} | {step.fit.bic:.4g} | {e['frequency_linf_hz']:.4g} | "
                      f"{e['frequency_rms_hz']:.4g} | {e['damping_linf']:.3g} | {e['damping_rms']:.3g} |")
+    stopped = [str(number) for number, step in enumerate(verdict.steps) if not step.fit.converged]
+    if stopped:
+        lines += ["", f"NOT CONVERGED: the fit of step {', '.join(stopped)} stopped on its evaluation budget, not on "
+                      "its tolerances; its chi^2 is an upper bound of the model's optimum."]
     last = verdict.steps[-1]
     if last.candidates:
         lines += ["", "Candidates at the last decision (BIC; an effect is added when it lowers the BIC by more "
@@ -169,5 +173,6 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
                                                          for k, v in step.fit.parameters.items()},
                    "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
                    "candidates": step.candidates, "not_accepted": step.rejected,
-                   "undetermined_parameters": step.fit.undetermined, "held_parameters": step.fit.held}
+                   "undetermined_parameters": step.fit.undetermined, "held_parameters": step.fit.held,
+                   "converged": step.fit.converged}
                   for step in verdict.steps]})

@@ -168,7 +168,9 @@ def _to_vector(parameters: dict, specification) -> np.ndarray:
 class Fit(NamedTuple):
     """A fitted model: its effects, parameters, chi^2, BIC and model curves at the measured amplitudes, the number
     of parameters fitted, its effect parameters that the points leave at a bound or undetermined
-    (``determinacy``: name -> reason) and those held at their law's limit (``held``: name -> the evidence)."""
+    (``determinacy``: name -> reason), those held at their law's limit (``held``: name -> the evidence), the
+    covariance of its variables and whether its least squares stopped on its tolerances (``converged``), not on
+    its evaluation budget."""
 
     effects: tuple
     parameters: dict
@@ -180,6 +182,7 @@ class Fit(NamedTuple):
     undetermined: dict = {}
     held: dict = {}
     covariance: np.ndarray | None = None
+    converged: bool = False
 
 
 PHYSICAL_LIMITS = {
@@ -226,7 +229,7 @@ def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarr
 def best_least_squares(residual, starts, held: dict):
     """The lowest-chi^2 trust-region least-squares optimum of ``residual`` (vector (p,) -> (m,)) over the variables
     not in ``held`` (index -> value kept fixed), from each start (p,): (chi^2, vector (p,), Jacobian (m, p) with
-    zero columns for the held variables)."""
+    zero columns for the held variables, whether its least squares stopped on its tolerances)."""
     template = np.asarray(starts[0], dtype=float).copy()
     free = np.array([index for index in range(template.size) if index not in held], dtype=int)
     template[list(held)] = list(held.values())
@@ -245,7 +248,7 @@ def best_least_squares(residual, starts, held: dict):
         if np.isfinite(chi_squared) and (best is None or chi_squared < best[0]):
             jacobian = np.zeros((result.jac.shape[0], template.size))
             jacobian[:, free] = result.jac
-            best = (chi_squared, full(result.x), jacobian)
+            best = (chi_squared, full(result.x), jacobian, bool(result.status > 0))
     return best
 
 
@@ -278,7 +281,7 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
     vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
                           specification) for start in starts]
     effect_indices = range(len(BASE), len(specification) - len(priors))
-    chi_squared, vector, jacobian = best_least_squares(residual, vectors, {})
+    chi_squared, vector, jacobian, converged = best_least_squares(residual, vectors, {})
     held, values = {}, {}
     for index in (index for index in effect_indices if specification[index][0] in PHYSICAL_LIMITS):
         name = specification[index][0]
@@ -286,7 +289,7 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
         constrained = best_least_squares(residual, [vector], trial)
         ratio = constrained[0] - chi_squared
         if ratio < LIMIT_TEST:
-            chi_squared, vector, jacobian = constrained
+            chi_squared, vector, jacobian, converged = constrained
             values = trial
             held[name] = (f"held at its law's limit, {PHYSICAL_LIMITS[name][1]}: freeing it lowers chi^2 by "
                           f"{max(ratio, 0.0):.3g} < {LIMIT_TEST}")
@@ -298,7 +301,7 @@ def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, n
                                [i for i in effect_indices if specification[i][0] not in held_names])
     k = len(specification) - len(priors) - len(held)
     return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
-               held, parameter_covariance(jacobian, chi_squared, n - k))
+               held, parameter_covariance(jacobian, chi_squared, n - k), converged)
 
 
 def nominal_priors(effects, nominal_frequency_hz: float, nominal_damping: float,
@@ -452,8 +455,9 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
 
 def select_effects(measurement: Measurement, fitted, library) -> Verdict:
     """The loop's decisions, for any model family: ``fitted(effects, previous)`` gives the best Fit of the
-    reference model with ``effects`` added (None where the family cannot hold that combination), starting from
-    ``previous``. Forward selection by BIC from the reference model, forward paths from the next-best first
+    reference model with ``effects`` added (None where the family cannot hold that combination; a Fit whose
+    effects hold more where an effect comes only with another, as a stuck core with microslip on a superelement:
+    the step names both), starting from ``previous``. Forward selection by BIC from the reference model, forward paths from the next-best first
     steps (``other_first_steps``, ``climb``), then ``stepwise_refinement``; the answer is ``final_model`` over
     every model they evaluated."""
     n = 2 * len(measurement.amplitude)
@@ -496,8 +500,9 @@ def select_effects(measurement: Measurement, fitted, library) -> Verdict:
         if best is None or trials[best].bic > current.bic - EVIDENCE:
             verdict.steps[-1] = verdict.steps[-1]._replace(candidates=candidates, rejected=rejected)
             break
+        added = [effect for effect in trials[best].effects if effect not in current.effects]  # with what it brings
         current = trials[best]
-        verdict.steps.append(step(best, current, candidates, rejected))
+        verdict.steps.append(step(", ".join(added), current, candidates, rejected))
     for model in other_first_steps(verdict.steps[0].fit, current, evaluated, accepted):
         climb(model, library, trial, accepted, n)
     stepwise_refinement(current, library, trial, accepted)

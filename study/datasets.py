@@ -119,8 +119,6 @@ ASB = Dataset(
 DATASETS = {dataset.name: dataset for dataset in (BEAMS, ASB)}
 """Every dataset by name."""
 DATASET_NAMES = tuple(DATASETS)
-DEFAULT_DAMPING_CASE = {name: entry.default_damping_case for name, entry in DATASETS.items()}
-"""Dataset name -> ``Dataset.default_damping_case``, for the readers of a study's configuration."""
 
 
 def dataset(name: str) -> Dataset:
