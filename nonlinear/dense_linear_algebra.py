@@ -9,6 +9,13 @@ backward stable at the usual size: a residual of order n eps |A|, so a solution 
 n eps cond(A) (Golub & Van Loan, Matrix Computations, 4th ed.: Cholesky 4.2, LDL^T 4.1, partial pivoting
 3.4, cyclic Jacobi 8.5). Positive definiteness and singularity are reported as documented per routine,
 never raised (they run inside compiled loops over designs).
+
+Everything compiled here and in its callers is strict IEEE arithmetic, without numba's fast-math flags: with
+reassociation or fused multiply-adds, what LLVM makes of a routine depends on whether it is inlined into a caller
+compiled in the same process or linked from numba's on-disk cache, and 300 ASB designs differed between a process
+that compiled the kernels and one that loaded them (by up to 2e-8 Hz in a backbone frequency, the last bits
+amplified on ill-conditioned levels): a study's rows depended on which process compiled first. Strict arithmetic
+gives the same bits either way, for about 8 % of the rates (docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -16,15 +23,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-# Floating-point reassociation and fused multiply-adds (never assumptions about NaN or infinity): lets the
-# compiler vectorise the small reductions; results change only in the last bits. Shared by the compiled
-# physics (``nonlinear.stuck_modes``, ``nonlinear.qsma_kernel``).
-FAST_MATH = {"reassoc", "contract", "arcp"}
 JACOBI_TOLERANCE = 1e-16  # off-diagonal entries below this times the matrix norm are left alone
 MAX_JACOBI_SWEEPS = 30
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def dot(x, y):
     """x . y of two vectors (a loop: no temporary array)."""
     total = 0.0
@@ -33,7 +36,7 @@ def dot(x, y):
     return total
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def copy_matrix(source, out):
     """out = source for two matrices of one shape, by loops (slice assignment from an array also compiles numba's
     formatted shape-mismatch error: seconds of a cold compile)."""
@@ -44,7 +47,7 @@ def copy_matrix(source, out):
     return out
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def matvec(a, x, out):
     """out = a x for a small dense matrix (plain loops: BLAS calls cost more than the work at these sizes)."""
     rows, columns = a.shape
@@ -56,7 +59,7 @@ def matvec(a, x, out):
     return out
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def rmatvec(a, x, out):
     """out = a^T x for a small dense matrix, summed in the order of the rows, four rows of ``a`` per pass over
     ``out`` (a quarter of its loads and stores: the 40 x 120 product of
@@ -75,7 +78,7 @@ def rmatvec(a, x, out):
     return out
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def cholesky(a, upper):
     """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read) into ``upper``
     (same shape), stored as the upper triangular U = L^T (A = U^T U), row by row with right-looking updates
@@ -97,7 +100,7 @@ def cholesky(a, upper):
     return upper
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def forward_substitute(upper, b):
     """U^-T b (= L^-1 b) for the factor of ``cholesky`` and b (n, k), in place (all right-hand sides in the
     inner loop)."""
@@ -113,7 +116,7 @@ def forward_substitute(upper, b):
     return b
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def backward_substitute(upper, b):
     """U^-1 b (= L^-T b) for the factor of ``cholesky`` and b (n, k), in place."""
     n, k = b.shape
@@ -128,7 +131,7 @@ def backward_substitute(upper, b):
     return b
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
+@numba.njit(cache=True, inline="always")
 def ldl_eliminate(a, n, width):
     """Symmetric Gaussian elimination (LDL^T: no square roots, which would lengthen the chain of dependent
     operations) of the symmetric positive definite leading n x n block of ``a`` (its upper triangle is read),
@@ -151,7 +154,7 @@ def ldl_eliminate(a, n, width):
     return True
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH, inline="always")
+@numba.njit(cache=True, inline="always")
 def ldl_back_substitute(factor, n, column, out):
     """The solution x = L^-T D^-1 c of L D L^T x = b into out[:n], from ``ldl_eliminate(factor, n, width)``
     having carried b along in ``column`` (which then holds c = L^-1 b)."""
@@ -162,7 +165,7 @@ def ldl_back_substitute(factor, n, column, out):
         out[j] = total * factor[j, j]
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def symmetric_solve(augmented, n):
     """A^-1 B for the symmetric positive definite A in the upper triangle of the leading n x n block of
     ``augmented`` (n, n + k) and the k right-hand sides B in its last k columns, in place (the solution there;
@@ -181,7 +184,7 @@ def symmetric_solve(augmented, n):
                 target[c] -= multiplier * solution[c]
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def symmetric_eigen_in_place(a, values, vectors):
     """Eigenvalues (ascending, into ``values``) and orthonormal eigenvectors (columns, into ``vectors``) of a
     small symmetric matrix ``a`` (overwritten) by cyclic Jacobi rotations, until every off-diagonal entry is
@@ -229,7 +232,7 @@ def symmetric_eigen_in_place(a, values, vectors):
                 vectors[k, i], vectors[k, smallest] = vectors[k, smallest], vectors[k, i]
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def symmetric_eigen(a):
     """Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a small symmetric matrix
     (``symmetric_eigen_in_place`` on a copy)."""
@@ -239,7 +242,7 @@ def symmetric_eigen(a):
     return values, vectors
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def solve_dense(a, b, n):
     """Gaussian elimination with partial pivoting of the leading n x n block of ``a`` against b[:n], both
     overwritten (the solution in b[:n]); returns True if singular. Only an exactly zero pivot counts as
@@ -265,7 +268,7 @@ def solve_dense(a, b, n):
     return False
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def back_substitute(upper, b, n):
     """Solve the leading n x n upper-triangular block of ``upper`` against b[:n], in place in b."""
     for k in range(n - 1, -1, -1):

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from nonlinear.dense_linear_algebra import FAST_MATH, ldl_back_substitute, ldl_eliminate, solve_dense
+from nonlinear.dense_linear_algebra import ldl_back_substitute, ldl_eliminate, solve_dense
 
 # The helpers below are separate compiled functions, called from ``solve_levels`` (numba's default: LLVM may still
 # inline the small ones). Copying them all into it in numba's IR (inline='always') made one function whose first
@@ -109,7 +109,7 @@ RESIDUAL, TRIAL_RESIDUAL, STEP, NEWTON_SLOPE, LINEAR, RIGHT, POWER, TRIAL_POWER,
 N_WORK_ROWS = 17
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def law_constants(r, s, chi, theta):
     """The constants of one element's scaled slip law that do not depend on the slip, formed once per design
     (N_LAW of them, N or N per unit scaled slip, exponents and shape factors dimensionless): the exponent
@@ -127,7 +127,7 @@ N_LAW = 8
 MACROSLIP_SLOPE, STICTION = 3, 6
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _power(base, exponent):
     """base^exponent for base >= 0, exponent > 0 as 2^(exponent log2 base): a third faster than libm's pow,
     with a relative error of about (2 + |exponent log2 base|) units in the last place (1e-13 at base 1e-300,
@@ -135,7 +135,7 @@ def _power(base, exponent):
     return np.exp2(exponent * np.log2(base))
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _slip_power(x, exponent, r, base=None, base_power=None):
     """The slip power r min(|x|, 1)^(chi+1) of one element (N per unit scaled slip; exponent = chi + 1). Given
     its value base_power at a nearby base (a Newton trial from the iterate, |x| within NEAR of |base|, both in
@@ -151,7 +151,7 @@ def _slip_power(x, exponent, r, base=None, base_power=None):
     return r if a >= 1.0 else r * _power(a, exponent) if r != 0.0 else 0.0
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _scaled_slip_law(x, power, shape, macroslip_slope, slope_factor, potential_factor, stiction, beyond_potential):
     """``slip_law`` from the slip power (``_slip_power``) and the constants of ``law_constants``."""
     a = abs(x)
@@ -164,7 +164,7 @@ def _scaled_slip_law(x, power, shape, macroslip_slope, slope_factor, potential_f
     return deficit, min(slope, macroslip_slope), potential
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def slip_law(x, r, s, chi, theta):
     """Slip deficit g (N), its slope clipped at K_T phi_max = s + r / (chi + 1) (N per unit scaled slip)
     and its integral G (N per unit scaled slip) at scaled slip x: ``nonlinear.slip_laws``' three functions
@@ -175,7 +175,7 @@ def slip_law(x, r, s, chi, theta):
                             stiction, beyond)
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _law_table(r, s, chi, theta, table):
     """``law_constants`` of every element into table (m, N_LAW)."""
     for i in range(r.size):
@@ -184,7 +184,7 @@ def _law_table(r, s, chi, theta, table):
             table[i, k] = constants[k]
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _evaluate(x, table, deficit, slope, potential, power, base=None, base_power=None):
     """The slip law at every element of x (constants in ``table``, see ``_law_table``) into the four arrays;
     where a nearby base and its slip powers are given, powers from them (``_slip_power``)."""
@@ -197,7 +197,7 @@ def _evaluate(x, table, deficit, slope, potential, power, base=None, base_power=
                                                               table[i, 5], table[i, 6], table[i, 7])
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _residual(x, linear, compliance, phi, deficit, out):
     """Scaled residual R / phi into ``out``; returns (max|R| over the largest term, |R / phi|). The terms are
     |r_i|, |linear_i| and sum_j |C_ij g_j|, the magnitude C g is summed from (its round-off; in deep macroslip g
@@ -223,7 +223,7 @@ def _residual(x, linear, compliance, phi, deficit, out):
     return largest_residual / largest_term, np.sqrt(norm)
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _energy(x, linear, compliance_pinv, phi, potential):
     """Potential energy E (J) and the magnitude of its terms (for its round-off)."""
     m = x.size
@@ -236,7 +236,7 @@ def _energy(x, linear, compliance_pinv, phi, potential):
     return quadratic - slip, abs(quadratic) + abs(slip)
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _directional_derivative(step, compliance_pinv, residual, phi):
     """dE/dt along the scaled step: (phi dx)^T C^+ (phi R / phi), J per unit step (the gradient of E is C^+ R)."""
     derivative = 0.0
@@ -246,7 +246,7 @@ def _directional_derivative(step, compliance_pinv, residual, phi):
     return derivative
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def pseudo_inverse(matrix, inverse, factor):
     """Moore-Penrose inverse of a symmetric positive semi-definite matrix into ``inverse`` (same shape;
     eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
@@ -273,7 +273,7 @@ def pseudo_inverse(matrix, inverse, factor):
                     inverse[i, j] += vectors[i, k] * vectors[j, k] / values[k]
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _norm_1(matrix):
     """Largest absolute column sum."""
     largest = 0.0
@@ -285,7 +285,7 @@ def _norm_1(matrix):
     return largest
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix, shift):
     """The upper triangle of diag((1 + shift) phi_A / slopes) - C_AA into ``matrix`` (returned) for the n_active
     slipping elements ``active[:n_active]`` (slopes in their order); read along contiguous rows of C where every
@@ -305,7 +305,7 @@ def _slipping_matrix(compliance, phi, slopes, active, n_active, matrix, shift):
     return matrix
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _factor_with_right_side(compliance, phi, slopes, residual, active, n_active, matrix, shift):
     """``_slipping_matrix`` with -R_A in column n_active, eliminated by ``ldl_eliminate``; False if the matrix
     is not positive definite."""
@@ -315,7 +315,7 @@ def _factor_with_right_side(compliance, phi, slopes, residual, active, n_active,
                          n_active + 1)
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, right, active, x, power, table,
                  shift):
     """Newton step of R(u) = u - linear - C g(u) in u = phi x, shifted by ``shift`` (a Levenberg-Marquardt
@@ -384,7 +384,7 @@ def _newton_step(residual, compliance, phi, slope, step, newton_slope, matrix, r
     return False
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _convex_between(x, trial, slope, trial_slope, table):
     """Whether E is convex on the segment from x to trial: it is wherever each element's tangent stiffness
     K_T - g' stays >= 0 (C^+ - diag(g') >= 0, C^+ holding the stuck tangents K_T + K_c) and its deficit is
@@ -405,7 +405,7 @@ def _convex_between(x, trial, slope, trial_slope, table):
     return True
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, table, mechanisms, mechanism_load,
                          modal_force, modal_force_terms, force):
     """How far the element forces are from balancing the load on the joint's mechanisms: the full equations
@@ -461,7 +461,7 @@ def _mechanism_imbalance(x, phi, residual, deficit, power, stiffness, core, tabl
     return max(worst, 0.0) / max(size, 1e-300)
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _deepest_slip(x):
     """max |x|: the deepest element's slip in slip displacements."""
     deepest = 0.0
@@ -470,7 +470,7 @@ def _deepest_slip(x):
     return deepest
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _solve_level(linear, compliance, phi, table, work, matrix, active, compliance_pinv, pinv_formed, stiffness,
                  core, mechanisms, mechanism_load, joint_shape, stuck_force, amplitude_control):
     """Damped Newton for one design at one level from work[X] (the start) to work[X]; table: the elements'
@@ -598,7 +598,7 @@ def _solve_level(linear, compliance, phi, table, work, matrix, active, complianc
     return UNRESTRAINED if singular or beyond_macroslip else NOT_CONVERGED, pinv_formed
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _sliding_mechanism(x, table, core, mechanisms):
     """Whether every element taking part in some joint mechanism d_j (``PARTICIPATION``) slides beyond macroslip
     with no core spring (core: K_c phi, 0 where none): then none holds it, each element's force is its constant
@@ -619,7 +619,7 @@ def _sliding_mechanism(x, table, core, mechanisms):
     return False
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
     """Whether the unshifted Newton step from the iterate x (``_newton_step``, the true slopes where the matrix
     allows) is within STEP_ACCEPT of the largest joint motion: the iterate is then an equilibrium to that
@@ -636,7 +636,7 @@ def _newton_resolved(residual, compliance, phi, work, matrix, active, x, table):
     return largest_step <= STEP_ACCEPT * largest_motion
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _regime_changed(x, previous, dropping):
     """Whether an element whose force drops at macroslip (dropping: (m,) bool) is on the other side of macroslip,
     |x| = 1, at x than at the previous equilibrium: its force jumped, and so does the loading path."""
@@ -646,7 +646,7 @@ def _regime_changed(x, previous, dropping):
     return False
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
     """alpha = lambda_1 q - b^T g under amplitude control (stuck_force = lambda_1 q), else the level itself, and
     the magnitude of its terms (for its round-off)."""
@@ -659,7 +659,7 @@ def _modal_force(stuck_force, joint_shape, deficit, amplitude_control):
     return stuck_force - modal_deficit, terms
 
 
-@numba.njit(cache=True, error_model=ERROR_MODEL, fastmath=FAST_MATH)
+@numba.njit(cache=True, error_model=ERROR_MODEL)
 def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
                  amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load, defined):
     """All designs, all levels, and their modal backbone.

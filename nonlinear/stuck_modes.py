@@ -49,7 +49,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from nonlinear.dense_linear_algebra import (FAST_MATH, backward_substitute, cholesky, copy_matrix, dot,
+from nonlinear.dense_linear_algebra import (backward_substitute, cholesky, copy_matrix, dot,
                                             forward_substitute, matvec, rmatvec, solve_dense, symmetric_eigen_in_place,
                                             symmetric_solve)
 
@@ -93,7 +93,7 @@ class _Work(NamedTuple):
     coefficients: np.ndarray  # (SERIES_TERMS + n_E,) the coefficients of ``flexibility_basis``'s rows in F(mu)
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _work(m, n_low, n_high):
     """``_Work`` for m joint rows, n_low low and n_high high modes."""
     return _Work(np.empty(m * (m + 1) // 2), np.empty(n_high), np.empty((m, m + n_low + 1)),
@@ -125,7 +125,7 @@ def flexibility_basis(high_eigenvalues, high_modes) -> np.ndarray:
     return np.ascontiguousarray(np.vstack([inverse_powers @ outer[far], outer]))
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _high_flexibility(mu, high_eigenvalues, flexibility, weights, coefficients, packed):
     """F(mu) = Phi_E (Lambda_E - mu)^-1 Phi_E^T packed as its row-major lower triangle (m (m+1) / 2,) into
     ``packed``, m/N, and 1 / (lambda_E - mu) into ``weights``, from ``flexibility_basis``'s rows: for |mu| below
@@ -147,7 +147,7 @@ def _high_flexibility(mu, high_eigenvalues, flexibility, weights, coefficients, 
     rmatvec(flexibility[:SERIES_TERMS + near], coefficients[:SERIES_TERMS + near], packed)
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augmented, work):
     """Z = X(mu)^-1 Phi_L (m, n_L) and S(mu) (n_L, n_L) into ``work``, from the high modes' flexibility F(mu)
     packed by ``_high_flexibility``. ``augmented`` (m, m + n_L + k) is work space whose last k columns hold
@@ -180,7 +180,7 @@ def _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, packed, augm
             s[i, j] = s[j, i] = 0.5 * (s[i, j] + s[j, i])
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes,
                  flexibility, work):
     """Root of the ``branch``-th smallest eigenvalue of S(mu) in (0, lambda_c), by Newton's method from mu,
@@ -217,7 +217,7 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     return mu + step
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility, work):
     """Newton's method on the Rayleigh functional of the bordered form B(mu) x = 0, x = (f, v_L),
 
@@ -285,7 +285,7 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     return mu, False
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _high_projection(z, high_modes, projection):
     """Z^T Phi_E (n_L, n_E) into ``projection``: the high modes' share of the joint forces Z (m, n_L), rows
     contiguous."""
@@ -298,7 +298,7 @@ def _high_projection(z, high_modes, projection):
                 projection[k, e] += factor * high_modes[i, e]
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, reference_high, v_high):
     """MAC against the reference of the estimated mode v_L = w, v_E = -(Lambda_E - mu)^-1 Phi_E^T Z w (into
     ``v_high``, (n_E,)), from the high modes' projection Z^T Phi_E (n_L, n_E) of ``_high_projection``."""
@@ -314,7 +314,7 @@ def _estimate_mac(mu, w, high_projection, high_eigenvalues, reference_low, refer
     return projection ** 2 / norm
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low, reference_high, work):
     """Unit mode (v_L, v_E = (Lambda_E - mu)^-1 Phi_E^T f) with a positive projection on the (unit) reference,
     into work.v_low and work.v_high, and the joint shape b = Phi v = -K^-1 f / |v| (m per unit modal amplitude,
@@ -341,7 +341,7 @@ def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_l
     return projection ** 2
 
 
-@numba.njit(cache=True, fastmath=FAST_MATH)
+@numba.njit(cache=True)
 def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
                   reference_low, reference_high, unambiguous_mac, rows):
     """Tracked stuck mode and joint-space compliance for every design.

@@ -1,6 +1,6 @@
 """The compiled kernels' cache follows every kernel source: numba itself checks only the file that defines a
 kernel, and the kernels inline functions of the other kernel files. Every friction model runs on one compiled
-version of each kernel."""
+version of each kernel, and the kernels loaded from the cache compute the same bits as where they were compiled."""
 
 import json
 import os
@@ -13,6 +13,7 @@ import numba
 import pytest
 
 import nonlinear
+from locations import ASB_MODELS
 from nonlinear.compiled_cache import (KERNEL_MODULES, STAMP, announce_compiling, drop_stale_kernels,
                                      kernels_cached)
 
@@ -94,3 +95,39 @@ def test_first_use_compiles_one_version_of_each_kernel_within_the_memory_bound(t
     assert measured["specialisations"] == dict.fromkeys(
         ("solve_levels", "_solve_level", "_newton_step", "_factor_with_right_side", "stuck_designs"), 1)
     assert measured["peak_mib"] < 1536
+
+
+ASB_BACKBONES = """
+import hashlib, sys
+import numpy as np
+from nonlinear.condensation import joint_space, modal_split
+from nonlinear.joint import random_designs
+from nonlinear.qsma_vectorised import qsma_designs
+from reduction.superelement import read_asb_superelement
+
+space = joint_space(read_asb_superelement(sys.argv[1]))
+split, digest = modal_split(space), hashlib.sha256()
+for model in ("jenkins", "iwan4"):
+    designs = random_designs(model, 300, max(space.superelement.patch_groups) + 1, np.random.default_rng(3))
+    result = qsma_designs(space, model, designs, amplitudes=np.geomspace(7e-6, 1.1e-4, 8), linear_damping=1e-3,
+                          split=split)
+    for name in ("force", "frequency", "damping", "joint_displacement", "slip_ratio", "stuck_frequency", "mac"):
+        digest.update(np.ascontiguousarray(getattr(result, name)).tobytes())
+print(digest.hexdigest())
+"""
+
+
+@pytest.mark.slow
+def test_kernels_loaded_from_the_cache_give_the_compiling_process_s_bits(tmp_path):
+    """300 random Table 3 designs of two models on the ASB (C1) at 8 levels, computed by a process with an empty
+    numba cache (it compiles the kernels) and by a second one that loads them from that cache: the same bits in
+    every backbone quantity. With numba's fast-math flags they differed (2e-8 Hz in a frequency), so that a
+    study's rows depended on which of its processes compiled first. About 40 s on two cores."""
+    path = ASB_MODELS / "MAT_NULLRED_C1.mat"
+    if not path.exists():
+        pytest.skip(f"ASB reduced model not available at {path} (shared data folder absent)")
+    environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path),
+                       PYTHONPATH=os.pathsep.join([str(SOURCES.parent), os.environ.get("PYTHONPATH", "")]))
+    digests = [subprocess.run([sys.executable, "-c", ASB_BACKBONES, str(path)], env=environment, capture_output=True,
+                              text=True, check=True).stdout.split()[-1] for _ in range(2)]
+    assert digests[0] == digests[1]

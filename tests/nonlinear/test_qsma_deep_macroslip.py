@@ -321,15 +321,11 @@ ILL_CONDITIONED_CASES = [
                        92843211932659.53, 101182934.14708754, 173.79564133978388, -0.8260195897253332,
                        8.124115664320804, 21178854033.819054], 19,
      "an element of 7e13 N/m at its kink (x = -0.9999999) beside one 3.4e4 slip displacements deep"),
-    pytest.param("BRB", "iwan4", [115565.3446594011, 294.30140211626883, -0.8538471528065135, 81.61265761619084,
+    ("BRB", "iwan4", [115565.3446594011, 294.30140211626883, -0.8538471528065135, 81.61265761619084,
                       854073070168.8481, 9193357120.722284, 10146742741096.35, -0.9064654190899878,
                       1.0897431801990516, 13778097209.115515, 48.86154348233974, 3172.629982718458,
                       -0.27560635917376863, 1858.9829774100044, 12480041357.759722], 18,
-     "elements 2.9e5 slip displacements deep; the oracle's finite-difference hybrid method is off by 1.6e-7 here",
-     marks=pytest.mark.xfail(strict=False, reason=(
-         "open defect: with the kernels compiled as separate functions, the motion's distance to the 40-digit "
-         "equilibrium of its own condensation depends on how numba's cache was filled: 2.0e-6 (above STEP_ACCEPT) "
-         "where the parallel test run compiled it, within it where one process did; omega and zeta hold either way"))),
+     "elements 2.9e5 slip displacements deep; the oracle's finite-difference hybrid method is off by 1.6e-7 here"),
 ]
 
 
