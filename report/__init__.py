@@ -3,4 +3,8 @@ stages wrote (:mod:`report.document`); ``surrogacy report`` writes it (:mod:`rep
 
     Folders                 the build and results folders and the run log a report is made from
     write_pipeline_report   the report, section by section in the order the data flows
+    study_section           a dataset's study from its records (:mod:`report.studies`)
+    epmc_section            QSMA against EPMC on the studies' representative designs (:mod:`report.epmc`)
+    read_record, read_as    the stages' records read back, a damaged one named (:mod:`report.records`)
+    image_line              a figure linked, or named absent (:mod:`report.markdown`)
 """

@@ -1,25 +1,23 @@
 """The pipeline's report: one Markdown file (``results/report.md``) with every stage's figures and tables, read
-back from the files the stages wrote, so it states only what a run produced.
+back from the files the stages wrote, so it states only what a run produced. Each section is a function of the
+stages' records (sidecars, JSON records, CSV tables, figures); the datasets are those of the registry
+(``study.datasets``).
 
 Sections, in the order the data flows: the three meshes (geometry), contact pressure under the bolt preload and
 the tied first bending (fem), the superelements (reduction), the backbones to fit (paper Fig. 3: the beams'
 virtual experiments, the ASB's measured backbones, the Chen 2022 measured ring-down), each dataset's surrogacy
-study (its own report embedded: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the calibration
-(fitted designs against the study's fronts), the discrepancy
-loop's before/after table, the provenance (commit, versions, seeds, configuration, per-stage wall times and
-peak memory from the ``surrogacy --run-log`` file), and QSMA against EPMC on the studies' representative designs
-(:mod:`report.epmc`, where ``make epmc`` ran). A stage whose files are missing is named as not run, never
-filled in; a file absent where its stage ran (a figure, a calibration's table beside its records, a discrepancy
-loop's record) is named as missing where it belongs, never linked or dropped; a damaged record (cut short, a field
-missing) is refused naming it, before any file is written.
+study (:mod:`report.studies`: Pareto fronts, Figs. 6, 9-12, Tables 5-6 beside the paper's), the calibration
+(fitted designs against the study's fronts), the discrepancy loop's before/after table, the provenance (commit,
+versions, seeds, configuration, per-stage wall times and peak memory from the ``surrogacy --run-log`` file), and
+QSMA against EPMC on the studies' representative designs (:mod:`report.epmc`, where ``make epmc`` ran). A stage
+whose files are missing is named as not run, never filled in; a file absent where its stage ran (a figure, a
+calibration's table beside its records, a discrepancy loop's record) is named as missing where it belongs, never
+linked or dropped; a damaged record (cut short, a field missing) is refused naming it, before any file is written.
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,13 +31,19 @@ from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import MODEL_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
 from report.epmc import epmc_section
+from report.markdown import image_line, low_amplitude_markdown, measured_stage_not_run, relative_link
+from report.records import read_as, read_record
+from report.studies import BACKBONE_TITLES, MEASURED_DATA, calibration_folder, study_folder, study_section
+from study.datasets import DATASETS
 from study.figures import plt, save
+from virtual_experiment.hammer_test import experiment_record_path
 
-STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))
-MEASURED_DATA = {"asb": "the measured ASB backbones and reduced models", "freevib": "the measured Chen 2022 ring-down"}
-"""The public measured data each stage that reads it needs (the asb dataset's study and calibration, freevib)."""
-FETCH = "`make data` (`surrogacy data fetch`)"
-"""The command that fetches the public measured data (``pipeline.public_data``)."""
+RINGDOWN_DATA = "the measured Chen 2022 ring-down"
+"""The public measured data freevib reads."""
+RINGDOWN_TITLE = "ring-down (surrogacy freevib)"
+"""The title of freevib's backbones in the backbone figure."""
+BACKBONE_FIGURE = "report_backbones.png"
+"""The backbone figure (paper Fig. 3), drawn beside the report."""
 
 
 @dataclass(frozen=True)
@@ -52,74 +56,12 @@ class Folders:
     run_log: Path | None = None
 
 
-def measured_stage_not_run(stage: str, data: str) -> str:
-    """The report's line for a stage that reads measured data and did not run: the data it reads and the command
-    that fetches it (a demo without the data skips the stage)."""
-    return f"_{stage} not run: it reads {data}; {FETCH} fetches the data where it is absent_"
-
-
-def _read_json(path: Path) -> dict | None:
-    """The JSON object a stage wrote at ``path`` (None where the file is absent); a damaged file (cut short, not
-    one JSON object) raises a ValueError naming it."""
-    if not path.exists():
-        return None
-    try:
-        value = json.loads(path.read_text(errors="replace"))
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: not one JSON object ({error}); rerun the stage that writes it") from error
-    if not isinstance(value, dict):
-        raise ValueError(f"{path}: not one JSON object; rerun the stage that writes it")
-    return value
-
-
-@contextlib.contextmanager
-def read_as(path: Path, what: str):
-    """Reading the record ``path`` (a ``what``) in the block: a field missing or of another type, or a table that
-    does not parse, raises a ValueError naming the file and the field (never a traceback, never half a row)."""
-    try:
-        yield
-    except KeyError as error:
-        raise ValueError(f"{path}: not a {what}: field {error} missing (rerun the stage that writes it)") from error
-    except (IndexError, TypeError, ValueError) as error:
-        raise ValueError(f"{path}: not a {what}: a field not as written ({error}; rerun the stage that writes "
-                         "it)") from error
-
-
-def _relative(target: Path, start: Path) -> str:
-    """``target`` relative to the folder ``start``, with forward slashes (Markdown links)."""
-    return Path(os.path.relpath(Path(target).resolve(), Path(start).resolve())).as_posix()
-
-
-def _image(target: Path, caption: str, report_folder: Path, ran: bool = True) -> str:
-    """A Markdown image line for the figure ``target`` (linked relative to ``report_folder``), or, where its stage
-    did not run (``ran`` false) and the file is absent, a line saying so. A figure absent although its stage ran
-    is named by :func:`missing_figures`."""
-    if not ran and not target.exists():
-        return f"_{caption}: {target} not written (stage not run)_"
-    return f"![{caption}]({_relative(target, report_folder)})"
-
-
-IMAGE_LINK = re.compile(r"!\[([^\]]*)\]\((?!https?:)([^)]+)\)")
-"""A Markdown image link to a local file: caption and path."""
-
-
-def missing_figures(text: str, report_folder: Path) -> str:
-    """``text`` (Markdown linked relative to ``report_folder``) with every image link to an absent file replaced
-    by a line naming the file as missing (never a broken link in the report)."""
-    def checked(link: re.Match) -> str:
-        target = Path(os.path.normpath(Path(report_folder) / link.group(2)))
-        return link.group(0) if target.exists() else (
-            f"_{link.group(1)}: figure missing: {target} is absent although its stage ran (deleted, or not drawn: "
-            "rerun the stage to draw it)_")
-    return IMAGE_LINK.sub(checked, text)
-
-
 def stage_table(folder: Path, columns: list[str], cells) -> list[str]:
     """A Markdown table with a row per beam from its sidecar ``<folder>/<beam>.json``: ``cells(sidecar)`` gives the
     row's cells after the beam's name; a beam without a sidecar is said not run."""
     lines = ["| beam | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for beam in BEAM_NAMES:
-        sidecar = _read_json(folder / f"{beam}.json")
+        sidecar = read_record(folder / f"{beam}.json")
         with read_as(folder / f"{beam}.json", "stage sidecar"):
             row = cells(sidecar) if sidecar is not None else ["not run"] + [""] * (len(columns) - 1)
         lines.append(f"| {beam} | " + " | ".join(row) + " |")
@@ -140,8 +82,8 @@ def geometry_section(build: Path, out: Path) -> list[str]:
     table = stage_table(build / "beams", ["nodes", "mass on the mesh (kg)", "mass from the drawing (kg)",
                                           "interface area, mesh / drawing (mm^2)"], mesh_cells)
     return (["## 1. Geometry: the three Brake-Reuss beams", "", *table, ""]
-            + [_image(build / "beams" / f"{beam}.png", f"{beam} mesh", out, (build / "beams" / f"{beam}.json").exists())
-               for beam in BEAM_NAMES])
+            + [image_line(build / "beams" / f"{beam}.png", f"{beam} mesh", out,
+                          (build / "beams" / f"{beam}.json").exists()) for beam in BEAM_NAMES])
 
 
 def fe_section(build: Path, out: Path) -> list[str]:
@@ -153,8 +95,8 @@ def fe_section(build: Path, out: Path) -> list[str]:
     lines = ["## 2. Finite elements: bolt preload, frictionless contact, stress stiffness, modes", "", *table, ""]
     for beam in BEAM_NAMES:
         ran = (build / "fe" / f"{beam}.json").exists()
-        lines += [_image(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out, ran),
-                  _image(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out, ran)]
+        lines += [image_line(build / "fe" / f"{beam}_contact_pressure.png", f"{beam} contact pressure", out, ran),
+                  image_line(build / "fe" / f"{beam}_first_bending.png", f"{beam} tied first bending", out, ran)]
     return lines
 
 
@@ -164,7 +106,7 @@ def reduction_section(build: Path, out: Path) -> list[str]:
                         lambda sidecar: [f"{sidecar['mass_kg']:.4f}",
                                          ", ".join(f"{f:.2f}" for f in sidecar["stuck_joint_frequencies_hz"])])
     return (["## 3. Superelements (Hurty/Craig-Bampton, 60 + 26 DOFs)", "", *table, ""]
-            + [_image(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out,
+            + [image_line(build / "rom" / f"{beam}_first_bending.png", f"{beam} superelement first bending", out,
                       (build / "rom" / f"{beam}.json").exists()) for beam in BEAM_NAMES])
 
 
@@ -191,9 +133,9 @@ def plot_backbones(destination: Path, groups: dict) -> None:
 def backbone_groups(results: Path) -> dict:
     """The backbones the studies fit and freevib's, by the title of their group in the backbone figure (the
     groups that hold any)."""
-    sources = {"beams: VIRTUAL experiments": sorted((results / "study-beams" / "measurements").glob("*.csv")),
-               "ASB: measured": sorted((results / "study-asb" / "measurements").glob("*.csv")),
-               "ring-down (surrogacy freevib)": sorted((results / "freevib").glob("*_backbone.csv"))}
+    sources = {BACKBONE_TITLES.get(chosen, chosen.name): sorted((study_folder(results, chosen) / "measurements")
+                                                                .glob("*.csv")) for chosen in DATASETS.values()}
+    sources[RINGDOWN_TITLE] = sorted((results / "freevib").glob("*_backbone.csv"))
     groups = {title: [read_mode_backbone(path) for path in files if path.name != "low_amplitude.csv"]
               for title, files in sources.items()}
     return {title: backbones for title, backbones in groups.items() if backbones}
@@ -207,20 +149,17 @@ def backbone_section(results: Path, out: Path, groups: dict) -> list[str]:
     if groups:
         lines += ["The beams' backbones are **virtual**: simulated hammer ring-downs of one reference joint in "
                   "each beam's model, processed as measured data (paper's measured curves are not public). The "
-                  "ASB's are measured.", "", _image(out / "report_backbones.png", "backbones", out), ""]
-    low_amplitude = results / "study-beams" / "measurements" / "low_amplitude.csv"
-    if low_amplitude.exists():
-        table = np.genfromtxt(low_amplitude, delimiter=",", names=True, dtype=None, encoding="utf-8")
-        lines += ["Lowest-amplitude frequency of the virtual experiments against paper Table 1:", "",
-                  "| beam | virtual (Hz) | Table 1 (Hz) | difference (%) |", "|---|---|---|---|"]
-        lines += [f"| {row['beam']} | {row['virtual_hz']:.2f} | {row['table1_hz']:.2f} | "
-                  f"{row['difference_percent']:+.2f} |" for row in np.atleast_1d(table)]
-        lines.append("")
+                  "ASB's are measured.", "", f"![backbones]({relative_link(out / BACKBONE_FIGURE, out)})", ""]
+    for chosen in DATASETS.values():
+        low_amplitude = study_folder(results, chosen) / "measurements" / "low_amplitude.csv"
+        if low_amplitude.exists():
+            lines += ["Lowest-amplitude frequency of the virtual experiments against paper Table 1:", "",
+                      *low_amplitude_markdown(low_amplitude), ""]
     runs = sorted({path.stem for pattern in ("*.png", "*.json") for path in (results / "freevib").glob(pattern)})
     lines += ["Measured ring-down (Chen 2022 BRB hammer test), both FreeVib estimators:", ""]
-    lines += ([_image(results / "freevib" / f"{stem}.png", stem, out) for stem in runs]
-              or [measured_stage_not_run("freevib", MEASURED_DATA["freevib"])])
-    for mode in groups.get("ring-down (surrogacy freevib)", []):
+    lines += ([image_line(results / "freevib" / f"{stem}.png", stem, out) for stem in runs]
+              or [measured_stage_not_run("freevib", RINGDOWN_DATA)])
+    for mode in groups.get(RINGDOWN_TITLE, []):
         settings = mode.settings
         lines += ["", f"{mode.structure}: the Hilbert backbone that the discrepancy loop reads (section 8), "
                       "estimated "
@@ -228,26 +167,6 @@ def backbone_section(results: Path, out: Path, groups: dict) -> list[str]:
                       f"{', each channel a record' if settings.get('per_channel') else ''}; its settings are recorded "
                       "in the backbone file."]
     return lines
-
-
-def embedded_study(report: Path, out: Path, number: int) -> list[str]:
-    """A study's own report, its headings moved one level down and its image links made relative to ``out``."""
-    text = report.read_text()
-    text = re.sub(r"^(#+) ", lambda match: "#" + match.group(1) + " ", text, flags=re.MULTILINE)
-    text = re.sub(r"\]\((?!https?:)([^)]+)\)", lambda match: f"]({_relative(report.parent / match.group(1), out)})",
-                  text)
-    return text.replace("## Surrogacy study:", f"## {number}. Surrogacy study:", 1).splitlines()
-
-
-def study_not_reported(report: Path, data: str | None = None) -> str:
-    """What the pipeline report says of a study whose ``report.md`` is absent: not run (with the measured data it
-    reads and the command that fetches it, where ``data`` names it), or run (its study.json or designs are there)
-    without its report."""
-    folder = report.parent
-    if not any((folder / name).exists() for name in ("study.json", "designs", "analysis")):
-        return "_study not run_" if data is None else measured_stage_not_run("study", data)
-    return (f"_{report} absent: the study ran ({folder} holds its files) but its report step did not, or the report "
-            f"was deleted (rerun `surrogacy study --out {folder}` with the study's options and `--steps report`)_")
 
 
 def calibrated_models(folder: Path) -> list[str]:
@@ -270,7 +189,7 @@ def calibration_section(results: Path, out: Path) -> list[str]:
         name = folder.name.removeprefix("fit-")
         if table.exists():
             body = table.read_text().splitlines()[1:]  # without its own title
-            lines += [f"Calibration of {name} ({_relative(table, out)}):", *body, ""]
+            lines += [f"Calibration of {name} ({relative_link(table, out)}):", *body, ""]
         else:
             records = [path for model in models for path in sorted((folder / model).glob("*.json"))]
             lines += [f"_Calibration of {name}: {table} absent; "
@@ -278,17 +197,18 @@ def calibration_section(results: Path, out: Path) -> list[str]:
                          "calibration ran, its table was deleted or not written (rerun `surrogacy fit`, which "
                          "writes it from the records)_" if records else
                          f"no calibration record in {folder} either (calibration not run)_"), ""]
-        lines += [_image(folder / f"fits_{model}.png", f"fits_{model}", out) for model in models]
+        lines += [image_line(folder / f"fits_{model}.png", f"fits_{model}", out) for model in models]
         for model in sorted({path.name.removeprefix("confidence_").split(".")[0]
                              for path in folder.glob("confidence_*") if path.suffix in (".csv", ".png")}):
             path = folder / f"confidence_{model}.csv"
             lines += (confidence_matrix(path, out) if path.exists() else
                       [f"_Surrogacy confidence of {model}: {path} absent beside its figure (rerun `surrogacy "
                        "confidence`)_", ""])
-            lines += [_image(path.with_suffix(".png"), f"confidence_{model}", out), ""]
+            lines += [image_line(path.with_suffix(".png"), f"confidence_{model}", out), ""]
     lines += [] if folders else ["_calibration not run_", ""]
-    return lines + [measured_stage_not_run(f"calibration of {dataset} (fit-{dataset})", MEASURED_DATA[dataset])
-                    for dataset, _ in STUDIES if dataset in MEASURED_DATA and not (results / f"fit-{dataset}").is_dir()]
+    return lines + [measured_stage_not_run(f"calibration of {chosen.name} ({calibration_folder(results, chosen).name})",
+                                           data)
+                    for chosen, data in MEASURED_DATA.items() if not calibration_folder(results, chosen).is_dir()]
 
 
 CONFIDENCE_NAMES = ("model", "surrogate", "real")
@@ -329,7 +249,7 @@ def confidence_matrix(path: Path, out: Path) -> list[str]:
     same bounds where it accepted any design."""
     table = confidence_table(path)
     names = list(dict.fromkeys(table["real"]))
-    lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({_relative(path, out)}; "
+    lines = [f"Surrogacy confidence of {table['model'][0]} at the bounds from the data ({relative_link(path, out)}; "
              "subset simulation, in brackets its 95 % interval, \"not reached\" where its runs stalled short of I's "
              "region at every number of designs per level tried; after the slash the study's sample at the same "
              "bounds, - where it accepted nothing):", "",
@@ -366,7 +286,7 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
               "|---|---|---|---|---|---|---|---|---|---|"]
     for folder in runs:
         path = folder / "discrepancy.json"
-        verdict = _read_json(path)
+        verdict = read_record(path)
         if verdict is None:
             present = sorted(child.name for child in folder.iterdir() if not child.name.startswith("."))
             lines.append(f"| {folder.name} | {path.name} absent from {folder} "
@@ -374,12 +294,12 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
                          "`surrogacy discrepancy` | | | | | | | | |")
             continue
         document = path.with_suffix(".md")
-        name = (f"[{folder.name}]({_relative(document, out)})" if document.exists() else
+        name = (f"[{folder.name}]({relative_link(document, out)})" if document.exists() else
                 f"{folder.name} ({document} absent)")
         with read_as(path, "discrepancy record"):
             lines.append(verdict_row(verdict, name))
     lines.append("")
-    lines += [_image(folder / "discrepancy.png", f"{folder.name} before and after", out) for folder in runs
+    lines += [image_line(folder / "discrepancy.png", f"{folder.name} before and after", out) for folder in runs
               if any((folder / name).exists() for name in ("discrepancy.json", "discrepancy.png"))]
     return lines
 
@@ -462,25 +382,26 @@ def provenance_section(folders: Folders) -> list[str]:
              "|---|---|---|"]
     for stage, sidecar in (("geometry", folders.build / "beams" / "BRB.json"), ("fem", folders.build / "fe" / "BRB.json"),
                            ("reduction", folders.build / "rom" / "BRB.json")):
-        values = _read_json(sidecar)
+        values = read_record(sidecar)
         if values is not None:
             with read_as(sidecar, "stage sidecar"):
                 lines.append(f"| {stage} | {json_text(values['versions'])} | - |")
-    for beam in BEAM_NAMES:
-        path = folders.results / "study-beams" / "measurements" / f"{beam}_experiment.json"
-        experiment = _read_json(path)
-        if experiment is not None:
-            with read_as(path, "virtual experiment record"):
-                lines.append(f"| virtual experiment {beam} | {json_text(experiment['versions'])} | "
-                             f"{experiment['seed']} |")
+    for chosen in DATASETS.values():
+        for structure in chosen.structures:
+            path = experiment_record_path(study_folder(folders.results, chosen) / "measurements", structure)
+            experiment = read_record(path)
+            if experiment is not None:
+                with read_as(path, "virtual experiment record"):
+                    lines.append(f"| virtual experiment {structure} | {json_text(experiment['versions'])} | "
+                                 f"{experiment['seed']} |")
     configurations = []
-    for dataset, folder in STUDIES:
-        path = folders.results / folder / "study.json"
-        study = _read_json(path)
+    for chosen in DATASETS.values():
+        path = study_folder(folders.results, chosen) / "study.json"
+        study = read_record(path)
         if study is not None:
             with read_as(path, "study record"):
-                lines.append(f"| study ({dataset}) | {json_text(study['versions'])} | {study['seed']} |")
-                configurations += [f"Study configuration ({dataset}):", "", "```json",
+                lines.append(f"| study ({chosen.name}) | {json_text(study['versions'])} | {study['seed']} |")
+                configurations += [f"Study configuration ({chosen.name}):", "", "```json",
                                    json_text(study["configuration"], indent=1, sort_keys=True), "```", ""]
     return lines + [""] + configurations + ["### Per-stage wall time and peak memory", "",
                                             *timings_table(folders.run_log)]
@@ -503,17 +424,14 @@ def write_pipeline_report(folders: Folders, destination: Path) -> Path:
     lines += fe_section(folders.build, out) + [""]
     lines += reduction_section(folders.build, out) + [""]
     lines += backbone_section(folders.results, out, groups) + [""]
-    for number, (dataset, folder) in enumerate(STUDIES, start=5):
-        study_report = folders.results / folder / "report.md"
-        lines += (embedded_study(study_report, out, number) if study_report.exists()
-                  else [f"## {number}. Surrogacy study: {dataset}", "",
-                        study_not_reported(study_report, MEASURED_DATA.get(dataset))]) + [""]
+    for number, chosen in enumerate(DATASETS.values(), start=5):
+        lines += study_section(chosen, folders.results, out, number) + [""]
     lines += calibration_section(folders.results, out) + [""]
     lines += discrepancy_section(folders.results, out) + [""]
     lines += provenance_section(folders) + [""]
     lines += epmc_section(folders.results, out, 10)
     if groups:
-        plot_backbones(out / "report_backbones.png", groups)
+        plot_backbones(out / BACKBONE_FIGURE, groups)
     with atomic_path(destination) as temporary:
-        temporary.write_text(missing_figures("\n".join(lines) + "\n", out))
+        temporary.write_text("\n".join(lines) + "\n")
     return Path(destination)

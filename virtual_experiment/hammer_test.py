@@ -246,6 +246,12 @@ def versions() -> dict:
     return {"python": platform.python_version(), **package_versions("numpy", "scipy", "numba")}
 
 
+def experiment_record_path(folder: Path, beam: str) -> Path:
+    """The record of a beam's virtual experiment in a measurements folder: its generating configuration,
+    superelement, versions and runtimes (:func:`write_virtual_experiment`)."""
+    return Path(folder) / f"{beam}_experiment.json"
+
+
 def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_path: Path,
                              ring_downs: bool = True) -> dict[str, Path]:
     """Write ``<folder>/<beam>.csv`` (the backbone CSV of :mod:`experiment.backbone_files`, provenance virtual),
@@ -255,7 +261,7 @@ def write_virtual_experiment(folder: Path, experiment: VirtualExperiment, rom_pa
     prestressed halves; recorded). Returns kind -> path."""
     folder = Path(folder)
     paths = {"backbone": folder / f"{experiment.beam}.csv",
-             "configuration": folder / f"{experiment.beam}_experiment.json"}
+             "configuration": experiment_record_path(folder, experiment.beam)}
     write_backbone(experiment.backbone, paths["backbone"])
     if ring_downs:
         paths["ring_downs"] = folder / f"{experiment.beam}_ringdowns.mat"

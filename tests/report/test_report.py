@@ -188,7 +188,7 @@ def test_report_on_a_partly_deleted_results_folder_names_what_is_missing(pipelin
     (partial / "beams").mkdir(parents=True)
     shutil.copy(build / "beams" / "BRB.json", partial / "beams")
     (damaged / "study-beams").mkdir()
-    shutil.copy(damaged / "study-asb" / "study.json", damaged / "study-beams")  # a study without its report
+    shutil.copy(damaged / "study-asb" / "study.json", damaged / "study-beams")  # a study without its analysis
     deleted = [damaged / "study-asb" / "analysis" / "pareto_jenkins.png", damaged / "fit-asb" / "fits_jenkins.png",
                damaged / "fit-asb" / "calibration.md", damaged / "discrepancy" / "ASB_C1" / "discrepancy.json",
                damaged / "discrepancy" / "ASB_C1_again" / "discrepancy.md",
@@ -209,8 +209,8 @@ def test_report_on_a_partly_deleted_results_folder_names_what_is_missing(pipelin
             "discrepancy.png)") in text
     assert f"| ASB_C1_again ({deleted[4]} absent) | measured |" in text
     assert f"_LBRB mesh: {partial / 'beams' / 'LBRB.png'} not written (stage not run)_" in text
-    assert (f"## 5. Surrogacy study: beams\n\n_{damaged / 'study-beams' / 'report.md'} absent: the study ran "
-            f"({damaged / 'study-beams'} holds its files) but its report step did not") in text
+    assert (f"## 5. Surrogacy study: beams\n\n_{damaged / 'study-beams' / 'designs' / 'exploration.json'} absent: "
+            f"the study ran ({damaged / 'study-beams'} holds its files) but not to its analysis") in text
 
 
 @pytest.mark.parametrize("damage, message", [
