@@ -18,19 +18,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 
-from experiment.backbone import Backbone, ModeBackbone
-from experiment.backbone_files import write_backbone
-from nonlinear.condensation import joint_space
-from nonlinear.epmc import HARMONICS, SAMPLES, compare_with_qsma, slip_amplitude
+from nonlinear.epmc import HARMONICS, SAMPLES
 from nonlinear.friction_models import MODEL_NAMES
 from nonlinear.joint import parameter_names
-from pipeline.files import check_output_folder, stage_folder
-from reduction.superelement import TIED_MODES, beam_superelement, read_asb_superelement, stuck_joint_modes
+from pipeline.files import check_output_folder
+from virtual_experiment.nonlinear_mode import METHODS, follow_mode, read_superelement, write_backbones
 
 
 def read_design(text: str, model: str, n_groups: int) -> np.ndarray:
@@ -48,83 +44,46 @@ def read_design(text: str, model: str, n_groups: int) -> np.ndarray:
     return values
 
 
-def read_superelement(path: Path):
-    """The superelement of option --rom by its suffix: a beam's .npz or an ASB .mat."""
-    if not path.is_file():
-        raise ValueError(f"option --rom = {path}: no such file (expected build/rom/<beam>.npz or an ASB "
-                         "MAT_NULLRED_<configuration>.mat)")
-    if path.suffix == ".npz":
-        return beam_superelement(path)
-    if path.suffix == ".mat":
-        return read_asb_superelement(path)
-    raise ValueError(f"option --rom = {path}: expected a .npz (surrogacy rom) or an ASB .mat superelement")
-
-
-def backbone(name: str, method: str, amplitude, frequency, damping, source: str, settings: dict) -> ModeBackbone:
-    """A virtual backbone of one method at the levels it reached (finite frequency and damping)."""
-    unknown = np.full(len(amplitude), np.nan)
-    curve = Backbone(np.asarray(amplitude), frequency / (2 * np.pi), unknown, unknown, damping, unknown, unknown,
-                     np.ones(len(amplitude), dtype=int))
-    return ModeBackbone(f"{name} ({method})", float(frequency[0] / (2 * np.pi)), "m kg^0.5", "virtual", source,
-                        curve, settings)
+def print_levels(followed) -> None:
+    """The harmonic count chosen and, per level, the amplitude, EPMC's and QSMA's frequency and damping and their
+    differences; the levels a method did not reach."""
+    mode, harmonics = followed.comparison.mode, followed.comparison.harmonics
+    changes = ", ".join(f"{c:.1e}/{d:.1e}" for c, d in zip(harmonics.frequency_change, harmonics.damping_change))
+    print(f"harmonics: {mode.harmonics} ({'converged' if harmonics.converged else 'NOT converged'}; "
+          f"largest relative change of frequency/damping between counts: {changes or 'none checked'}), "
+          f"{mode.samples} samples per period, {followed.seconds:.1f} s")
+    print(f"{'q [m kg^0.5]':>14} {'slip':>8} {'f EPMC [Hz]':>12} {'f QSMA [Hz]':>12} {'df [%]':>8} "
+          f"{'zeta EPMC':>10} {'zeta QSMA':>10} {'dzeta [%]':>9}")
+    (omega_epmc, z_epmc), (omega_qsma, z_qsma) = (followed.curve(method) for method in METHODS)
+    for level, q in enumerate(followed.amplitudes):
+        f_epmc, f_qsma = omega_epmc[level] / (2 * np.pi), omega_qsma[level] / (2 * np.pi)
+        damping_change = (f"{100 * (z_qsma[level] / z_epmc[level] - 1):9.3f}" if abs(z_epmc[level]) > 1e-12
+                          else f"{'-':>9}")
+        print(f"{q:14.4e} {q / followed.slip:8.3g} {f_epmc:12.6f} {f_qsma:12.6f} {100 * (f_qsma / f_epmc - 1):8.4f} "
+              f"{z_epmc[level]:10.3e} {z_qsma[level]:10.3e} {damping_change}")
+    for method in METHODS:
+        kept = followed.reached(method)
+        if not kept.all():
+            print(f"{method}: {int((~kept).sum())} level(s) not reached: "
+                  f"{json.dumps(followed.amplitudes[~kept].tolist())}")
 
 
 def run(arguments: argparse.Namespace) -> None:
-    """Solve EPMC and QSMA of the design and write both backbones."""
-    if not 1 <= arguments.mode <= TIED_MODES:
-        raise ValueError(f"option --mode = {arguments.mode}: expected a tied mode from 1 to {TIED_MODES}")
-    if not 0 < arguments.start < arguments.stop or arguments.levels < 2:
-        raise ValueError(f"options --from {arguments.start}, --to {arguments.stop}, --levels {arguments.levels}: "
-                         "expected 0 < from < to and at least 2 levels")
-    if arguments.harmonics is not None and not 1 <= arguments.harmonics < arguments.samples / 2:
-        raise ValueError(f"option --harmonics = {arguments.harmonics}: expected 1 to fewer than half of --samples "
-                         f"({arguments.samples})")
+    """Solve EPMC and QSMA of the design, write both backbones and print the levels."""
     check_output_folder(arguments.out)
+    if not arguments.rom.is_file():
+        raise ValueError(f"option --rom = {arguments.rom}: no such file (expected build/rom/<beam>.npz or an ASB "
+                         "MAT_NULLRED_<configuration>.mat)")
     superelement = read_superelement(arguments.rom)
     design = read_design(arguments.design, arguments.model, max(superelement.patch_groups) + 1)
-    space = joint_space(superelement, reference_mode=stuck_joint_modes(superelement, arguments.mode)[1][:, -1])
-    slip = slip_amplitude(space, arguments.model, design)
-    if not np.isfinite(slip):
-        raise ValueError(f"option --design: no tangential element of the {arguments.model} design moves in the mode "
-                         "or can slip; nothing to follow")
-    amplitudes = slip * np.geomspace(arguments.start, arguments.stop, arguments.levels)
-    counts = HARMONICS if arguments.harmonics is None else (arguments.harmonics,)
-    started = time.perf_counter()
-    comparison = compare_with_qsma(space, arguments.model, design, amplitudes, counts, arguments.samples)
-    seconds = time.perf_counter() - started
-    mode, qsma = comparison.mode, comparison.qsma
-    stem = f"{arguments.rom.stem}_{arguments.model}"
+    followed = follow_mode(superelement, arguments.model, design, arguments.mode, arguments.start, arguments.stop,
+                           arguments.levels, arguments.harmonics, arguments.samples)
     source = f"{arguments.model} design {design.tolist()} on {arguments.rom.name}, tied mode {arguments.mode}"
-    settings = {"harmonics": mode.harmonics, "samples": mode.samples, "harmonics_converged":
-                comparison.harmonics.converged, "slip_amplitude": slip}
-    reached = {"epmc": mode.converged, "qsma": qsma.converged}
-    curves = {"epmc": (mode.frequency, mode.damping), "qsma": (qsma.frequency, qsma.damping)}
-    with stage_folder(arguments.out):
-        for method, kept in reached.items():
-            if not kept.any():
-                print(f"{method}: no level reached; nothing written")
-                continue
-            frequency, damping = (values[kept] for values in curves[method])
-            path = Path(arguments.out) / f"{stem}_{method}.csv"
-            write_backbone(backbone(superelement.name, method, amplitudes[kept], frequency, damping, source,
-                                    settings if method == "epmc" else {}), path)
-            print(f"wrote {path}")
-    changes = ", ".join(f"{c:.1e}/{d:.1e}" for c, d in zip(comparison.harmonics.frequency_change,
-                                                            comparison.harmonics.damping_change))
-    print(f"harmonics: {mode.harmonics} ({'converged' if comparison.harmonics.converged else 'NOT converged'}; "
-          f"largest relative change of frequency/damping between counts: {changes or 'none checked'}), "
-          f"{mode.samples} samples per period, {seconds:.1f} s")
-    print(f"{'q [m kg^0.5]':>14} {'slip':>8} {'f EPMC [Hz]':>12} {'f QSMA [Hz]':>12} {'df [%]':>8} "
-          f"{'zeta EPMC':>10} {'zeta QSMA':>10} {'dzeta [%]':>9}")
-    for level, q in enumerate(amplitudes):
-        f_epmc, f_qsma = mode.frequency[level] / (2 * np.pi), qsma.frequency[level] / (2 * np.pi)
-        z_epmc, z_qsma = mode.damping[level], qsma.damping[level]
-        damping_change = f"{100 * (z_qsma / z_epmc - 1):9.3f}" if abs(z_epmc) > 1e-12 else f"{'-':>9}"
-        print(f"{q:14.4e} {q / slip:8.3g} {f_epmc:12.6f} {f_qsma:12.6f} {100 * (f_qsma / f_epmc - 1):8.4f} "
-              f"{z_epmc:10.3e} {z_qsma:10.3e} {damping_change}")
-    for method, kept in reached.items():
-        if not kept.all():
-            print(f"{method}: {int((~kept).sum())} level(s) not reached: {json.dumps(amplitudes[~kept].tolist())}")
+    written = write_backbones(followed, arguments.out, f"{arguments.rom.stem}_{arguments.model}", superelement.name,
+                              source)
+    for method, path in written.items():
+        print(f"wrote {path}" if path is not None else f"{method}: no level reached; nothing written")
+    print_levels(followed)
 
 
 def register(subparsers) -> None:
