@@ -235,9 +235,8 @@ def test_a_planted_pool_is_found(tmp_path, monkeypatch):
                                                       "hammer_test.py": ["multiprocessing"]}
 
 
-DATASET_PACKAGES = tuple(package for package in PACKAGES[PACKAGES.index("study"):] if package != "report")
-"""The packages that know the study's datasets (below the study, "beams" is the geometry stage's name). The report
-still lists the measured data per dataset itself (report/document.py's MEASURED_DATA)."""
+DATASET_PACKAGES = PACKAGES[PACKAGES.index("study"):]
+"""The packages that know the study's datasets (below the study, "beams" is the geometry stage's name)."""
 
 
 @pytest.mark.parametrize("package", DATASET_PACKAGES)
@@ -253,3 +252,34 @@ def test_a_planted_branch_on_a_dataset_name_is_found(tmp_path):
     planted.write_text('if study.dataset == "asb":\n    pass\ncases = {"beams": "BRB"}\nname = "beams"\n'
                        'paper = dataset in ("beams", "other")\n')
     assert [place.split(":")[0] for place in name_branches(planted, DATASET_NAMES)] == ["1", "3", "5"]
+
+
+def dataset_strings(path: Path, names) -> list[str]:
+    """String constants of a module that name a dataset or a dataset's results folder (``asb``, ``study-asb``,
+    ``fit-asb``, also as a component of a path such as ``results/study-asb``), as 'line: source'; docstrings and
+    "beams" alone (the geometry stage's folder, build/beams) aside."""
+    named = {f"{prefix}{name}" for name in names for prefix in ("study-", "fit-")} | set(names) - {"beams"}
+    source = path.read_text()
+    tree = ast.parse(source, filename=str(path))
+    docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                  if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef)) and node.body
+                  and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
+    return [f"{node.lineno}: {ast.get_source_segment(source, node)}" for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings
+            and named & set(node.value.split("/"))]
+
+
+def test_the_report_finds_the_datasets_through_the_registry():
+    """The report knows no dataset by name: its studies and calibrations are those of ``study.datasets``, in the
+    folders ``report.studies`` names."""
+    offending = {path.name: dataset_strings(path, DATASET_NAMES) for path in sorted((ROOT / "report").glob("*.py"))}
+    offending = {module: places for module, places in offending.items() if places}
+    assert not offending, offending
+
+
+def test_a_planted_dataset_string_is_found(tmp_path):
+    planted = tmp_path / "document.py"
+    planted.write_text('"""The studies of study-asb."""\nSTUDIES = (("beams", "study-beams"), ("asb", "study-asb"))\n'
+                       'folder = results / "fit-asb"\nlog = "results/study-beams/study.json"\n'
+                       'meshes = build / "beams"\nfolder = results / f"study-{name}"\n')
+    assert sorted(place.split(":")[0] for place in dataset_strings(planted, DATASET_NAMES)) == ["2", "2", "2", "3", "4"]
