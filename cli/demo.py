@@ -21,9 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from experiment.backbone_files import freevib_stem
-from geometry.parameters import BEAM_NAMES
 from reduction.superelement import ASB_CONFIGURATIONS
-from study.datasets import dataset
+from report.studies import calibration_folder, study_folder
+from study.datasets import DATASETS, dataset
 
 STEPS = ("study-asb", "beams", "fe", "rom", "freevib", "fit-asb", "study-beams", "discrepancy", "discrepancy-modal-asb",
          "fit-beams", "confidence-asb", "confidence-beams", "report")
@@ -107,11 +107,11 @@ def plan(options: DemoOptions) -> list[Step]:
     if options.ringdown.is_file():  # the backbone freevib made of it
         backbone = results / "freevib" / f"{freevib_stem(options.ringdown, options.mode_hz)}_backbone.csv"
         loops.append(("discrepancy", str(backbone), "--out", str(results / "discrepancy" / "chen2022")))
-    studied = {"study-beams": BEAM_NAMES, "study-asb": tuple(f"ASB {c}" for c in ASB_CONFIGURATIONS)}
-    ran = {step.name for step in steps if not step.skipped}
-    loops += [("discrepancy", "--study", str(results / study), "--structure", structure, "--out",
+    ran = {step.name for step in steps if not step.skipped}  # a study's step is named as its folder
+    loops += [("discrepancy", "--study", str(study_folder(results, chosen)), "--structure", structure, "--out",
                str(results / "discrepancy" / f"study-{structure.replace(' ', '_')}"))
-              for study, structures in studied.items() if study in ran for structure in structures]
+              for chosen in DATASETS.values() if study_folder(results, chosen).name in ran
+              for structure in chosen.structures]
     steps.append(Step("discrepancy", tuple(loops)) if loops else Step("discrepancy", skipped="no measurement found"))
     asb_files = [backbones / f"ASB_{c}_20Nm_BB.mat" for c in ASB_CONFIGURATIONS]
     steps.append(Step("discrepancy-modal-asb", tuple(
@@ -126,20 +126,20 @@ def plan(options: DemoOptions) -> list[Step]:
     return steps
 
 
-def fit_step(results: Path, dataset: str, skipped: str | None = None) -> Step:
-    """``fit-<dataset>``: the calibration of the dataset's study (``surrogacy fit``), with its bounds from the data;
+def fit_step(results: Path, name: str, skipped: str | None = None) -> Step:
+    """``fit-<name>``: the calibration of dataset ``name``'s study (``surrogacy fit``), with its bounds from the data;
     skipped for the reason given, if one is."""
-    return (Step(f"fit-{dataset}", skipped=skipped) if skipped else
-            Step(f"fit-{dataset}", (("fit", "--study", str(results / f"study-{dataset}"), "--out",
-                                     str(results / f"fit-{dataset}")),)))
+    study, fit = study_folder(results, dataset(name)), calibration_folder(results, dataset(name))
+    return (Step(fit.name, skipped=skipped) if skipped else
+            Step(fit.name, (("fit", "--study", str(study), "--out", str(fit)),)))
 
 
 def confidence_step(results: Path, name: str, skipped: str | None = None) -> Step:
     """``confidence-<name>``: each default model's surrogacy confidence on dataset ``name`` at the bounds
     ``fit-<name>`` derived; skipped for the reason given, if one is."""
-    fit = results / f"fit-{name}"
+    study, fit = study_folder(results, dataset(name)), calibration_folder(results, dataset(name))
     return (Step(f"confidence-{name}", skipped=skipped) if skipped else Step(f"confidence-{name}", tuple(
-        ("confidence", "--study", str(results / f"study-{name}"), "--model", model, "--bounds",
+        ("confidence", "--study", str(study), "--model", model, "--bounds",
          str(fit / "bounds.csv"), "--out", str(fit / f"confidence_{model}.csv"))
         for model in dataset(name).default_models)))
 
