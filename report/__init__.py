@@ -6,5 +6,5 @@ stages wrote (:mod:`report.document`); ``surrogacy report`` writes it (:mod:`rep
     study_section           a dataset's study from its records (:mod:`report.studies`)
     epmc_section            QSMA against EPMC on the studies' representative designs (:mod:`report.epmc`)
     read_record, read_as    the stages' records read back, a damaged one named (:mod:`report.records`)
-    image_line              a figure linked, or named absent (:mod:`report.markdown`)
+    measured_stage_not_run  a stage that reads measured data and did not run, named (:mod:`report.markdown`)
 """

@@ -31,11 +31,12 @@ from geometry.parameters import BEAM_NAMES
 from nonlinear.friction_models import MODEL_NAMES
 from pipeline.files import atomic_path, check_output_file, check_output_folder, json_float, json_text
 from report.epmc import epmc_section
-from report.markdown import image_line, low_amplitude_markdown, measured_stage_not_run, relative_link
+from report.markdown import measured_stage_not_run
 from report.records import read_as, read_record
-from report.studies import BACKBONE_TITLES, MEASURED_DATA, calibration_folder, study_folder, study_section
+from report.studies import calibration_folder, study_folder, study_section
 from study.datasets import DATASETS
 from study.figures import plt, save
+from study.report import image_line, low_amplitude_markdown, relative_link
 from virtual_experiment.hammer_test import experiment_record_path
 
 RINGDOWN_DATA = "the measured Chen 2022 ring-down"
@@ -133,8 +134,8 @@ def plot_backbones(destination: Path, groups: dict) -> None:
 def backbone_groups(results: Path) -> dict:
     """The backbones the studies fit and freevib's, by the title of their group in the backbone figure (the
     groups that hold any)."""
-    sources = {BACKBONE_TITLES.get(chosen, chosen.name): sorted((study_folder(results, chosen) / "measurements")
-                                                                .glob("*.csv")) for chosen in DATASETS.values()}
+    sources = {chosen.backbone_title: sorted((study_folder(results, chosen) / "measurements").glob("*.csv"))
+               for chosen in DATASETS.values()}
     sources[RINGDOWN_TITLE] = sorted((results / "freevib").glob("*_backbone.csv"))
     groups = {title: [read_mode_backbone(path) for path in files if path.name != "low_amplitude.csv"]
               for title, files in sources.items()}
@@ -207,8 +208,9 @@ def calibration_section(results: Path, out: Path) -> list[str]:
             lines += [image_line(path.with_suffix(".png"), f"confidence_{model}", out), ""]
     lines += [] if folders else ["_calibration not run_", ""]
     return lines + [measured_stage_not_run(f"calibration of {chosen.name} ({calibration_folder(results, chosen).name})",
-                                           data)
-                    for chosen, data in MEASURED_DATA.items() if not calibration_folder(results, chosen).is_dir()]
+                                           chosen.measured_data)
+                    for chosen in DATASETS.values()
+                    if chosen.measured_data is not None and not calibration_folder(results, chosen).is_dir()]
 
 
 CONFIDENCE_NAMES = ("model", "surrogate", "real")

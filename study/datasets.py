@@ -21,7 +21,8 @@ study reads only those files, whatever the source:
 
 A ``Dataset`` owns its structures' names, the friction models they can carry and those a study runs unless told,
 its damping cases and the rule that makes them zeta_0, where its measurements come from (their input files, what
-else they depend on, how they are written as backbone CSVs) and its superelements' format.
+else they depend on, how they are written as backbone CSVs), its superelements' format, and how the pipeline report
+names it (its backbones' title, the public measured data its study reads).
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ class Dataset:
     carry; default_models: those a study runs unless told. default_damping_case: the linear damping case the
     analysis uses; damping_rule: how its cases become zeta_0 (``study.errors.DAMPING_RULES``). paper: the paper's
     study (its Table 5 beside the surrogacy matrices, Table 6's ANOVA and the prestress comparison).
+    backbone_title: its group's title in the pipeline report's backbone figure. measured_data: the public measured
+    data its study reads, where it reads any (the pipeline report names it where the study did not run).
 
     Each function takes the study's inputs ``paths`` (``study.workflow.Paths``: ``rom`` and ``data`` folders, the
     paper's ``tables``, the ``measurements`` folder): ``sources(paths)``, the files its measurements are made of;
@@ -68,6 +71,8 @@ class Dataset:
     write_measurements: Callable[..., None]
     superelement: Callable[..., Superelement]
     damping_cases: Callable[..., dict[str, list[float]]]
+    backbone_title: str
+    measured_data: str | None = None
 
 
 def measurement_path(folder: Path, name: str) -> Path:
@@ -102,7 +107,8 @@ BEAMS = Dataset(
                                                          paths.tables.table3),
     superelement=lambda paths, name, prestress: beam_superelement(paths.rom / f"{name}.npz", prestress),
     damping_cases=lambda paths, structures: {beam: [paths.tables.table1[beam].damping] * len(structures)
-                                             for beam in BEAM_NAMES})
+                                             for beam in BEAM_NAMES},
+    backbone_title="beams: VIRTUAL experiments")
 """The beams: the paper's four models by default (Table 5 and the ANOVA of Table 6 compare) of those their three
 patch groups can carry."""
 ASB = Dataset(
@@ -113,7 +119,8 @@ ASB = Dataset(
     write_measurements=lambda paths: write_asb_measurements(paths.data, paths.measurements),
     superelement=lambda paths, name, prestress: asb_superelement(
         paths.data / "asb-reduced-models" / f"MAT_NULLRED_{name.removeprefix('ASB ')}.mat"),
-    damping_cases=lambda paths, structures: {"measured": [float(s.measurement.damping[0]) for s in structures]})
+    damping_cases=lambda paths, structures: {"measured": [float(s.measurement.damping[0]) for s in structures]},
+    backbone_title="ASB: measured", measured_data="the measured ASB backbones and reduced models")
 """The ASB: every model its single patch group can carry (every patch in one group,
 ``study.structures.asb_superelement``), all of them by default; its reduced models as their files give them."""
 DATASETS = {dataset.name: dataset for dataset in (BEAMS, ASB)}

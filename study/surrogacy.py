@@ -240,15 +240,15 @@ def surrogacy_cell(row) -> str:
     return text if np.isnan(row.paper) else f"{text}; paper {row.paper:.3f}"
 
 
-def surrogacy_markdown(table: pd.DataFrame, level: float = CONFIDENCE_LEVEL) -> str:
-    """Markdown in Table 5's layout from ``surrogacy_table``: per friction model, rows surrogate (S), columns
-    real (R), structures in the table's order."""
+def surrogacy_markdown(table: pd.DataFrame, level: float = CONFIDENCE_LEVEL, depth: int = 3) -> str:
+    """Markdown in Table 5's layout from ``surrogacy_table``: per friction model (a heading of level ``depth``),
+    rows surrogate (S), columns real (R), structures in the table's order."""
     sections = [f"Surrogacy confidence SC_IJ = n_IJ / n_I (paper Eq. 29) with its {100 * level:g} % binomial "
                 "confidence interval and (n_IJ/n_I); rows surrogate S, columns real R.\n"]
     for model, rows in table.groupby("model", sort=False):
         structures = list(dict.fromkeys(rows["surrogate"]))
         cells = {(row.surrogate, row.real): surrogacy_cell(row) for row in rows.itertuples()}
-        lines = [f"### {model}", "", "| S \\ R | " + " | ".join(structures) + " |",
+        lines = [f"{'#' * depth} {model}", "", "| S \\ R | " + " | ".join(structures) + " |",
                  "|---" * (len(structures) + 1) + "|"]
         lines += [f"| {surrogate} | " + " | ".join(cells[surrogate, real] for real in structures) + " |"
                   for surrogate in structures]

@@ -1,6 +1,6 @@
-"""The report's study sections (``report.studies``) are assembled from the study's records: the same text as the
-study's own report one heading level down with its figures linked from the pipeline report, whether or not the
-study's report.md is there; the studies are those of the dataset registry."""
+"""The study's sections (``study.report``) at a heading depth, their figures linked from a folder: the study's own
+report.md and the pipeline report's study section (``report.studies``), assembled from the study's records whether
+or not the study's report.md is there; the studies are those of the dataset registry."""
 
 from __future__ import annotations
 
@@ -10,9 +10,11 @@ import pytest
 
 from cli.console import main as surrogacy
 from locations import ASB_MODELS
-from report.markdown import relative_link
 from report.studies import study_folder, study_section
 from study.datasets import DATASETS, dataset
+from study.exploration import manifest
+from study.report import study_lines, write_report
+from study.workflow import read_study
 
 ASB_BACKBONES = ASB_MODELS.parent / "asb-backbones"
 
@@ -30,30 +32,37 @@ def asb_study(tmp_path_factory):
     return results
 
 
-def one_level_down(report_text: str, study: str, out) -> list[str]:
-    """The study's own report as the pipeline report shows it (written here, by hand, from its text): headings one
-    level down, the title numbered, figure links relative to ``out``."""
-    lines = []
-    for line in report_text.splitlines():
-        if line.startswith("#"):
-            line = "#" + line
-        if line.startswith("!["):
-            caption, target = line[2:-1].split("](")
-            line = f"![{caption}]({relative_link(study / target, out)})"
-        lines.append(line)
-    return [lines[0].replace("## Surrogacy study:", "## 6. Surrogacy study:"), *lines[1:]]
+def headings(lines: list[str]) -> list[tuple[int, str]]:
+    """Each Markdown heading's level and text."""
+    return [(len(line) - len(line.lstrip("#")), line.lstrip("# ")) for line in lines if line.startswith("#")]
 
 
-def test_study_section_is_the_study_report_one_level_down(asb_study, tmp_path):
-    """The section from the records reads as the study's report.md, a level down, with links from a report in
-    another folder; every link is to a figure that exists."""
-    study = study_folder(asb_study, dataset("asb"))
+def test_study_sections_sit_below_the_depth_given_and_link_their_figures_from_the_base(asb_study, tmp_path):
+    """The same sections at two depths differ only in their headings' levels, each below the study's; with the
+    links taken from another folder, every figure link leads from there to a figure that exists."""
+    folder = study_folder(asb_study, dataset("asb"))
+    parameters = read_study(folder).parameters
+    explored = manifest(folder / "designs")
     out = tmp_path / "elsewhere"
     out.mkdir()
-    section = study_section(dataset("asb"), asb_study, out, 6)
-    assert section == one_level_down((study / "report.md").read_text(), study, out)
-    links = [line.split("](")[1][:-1] for line in section if line.startswith("![")]
-    assert links and all((out / link).exists() for link in links)
+    shallow, deep = (study_lines(folder, parameters, explored, depth, out) for depth in (1, 3))
+    assert [text for _, text in headings(shallow)] == [text for _, text in headings(deep)]
+    assert all(level > 1 for level, _ in headings(shallow)) and all(level > 3 for level, _ in headings(deep))
+    assert [level + 2 for level, _ in headings(shallow)] == [level for level, _ in headings(deep)]
+    links = [line.split("](")[1][:-1] for line in deep if line.startswith("![")]
+    assert len(links) == 3 and all((out / link).is_file() for link in links)
+
+
+def test_the_study_report_names_a_figure_deleted_before_it_was_written(asb_study, tmp_path):
+    """The study's own report.md links its figures from its folder, and names one that is absent, never a broken
+    link."""
+    copy = tmp_path / "study"
+    shutil.copytree(study_folder(asb_study, dataset("asb")), copy)
+    (copy / "analysis" / "pareto_jenkins.png").unlink()
+    study = read_study(copy)
+    text = write_report(study.paths, study.parameters).read_text()
+    assert "![responses](analysis/responses_jenkins.png)" in text
+    assert "](analysis/pareto_jenkins.png)" not in text and "_fronts: figure missing:" in text
 
 
 def test_study_section_reads_no_study_report(asb_study, tmp_path):

@@ -148,7 +148,7 @@ def test_reasons_counted_by_chunk_equal_the_whole_columns(folder):
         column = frame[f"reason[{name}]"].astype(str)
         assert reasons[name] == column[column != ""].value_counts().to_dict()
         assert sum(reasons[name].values()) > 50
-    lines = flag_table(folder, [MODEL], NAMES).splitlines()
+    lines = flag_table(folder, [MODEL], NAMES)
     column = frame["reason[B]"].astype(str)
     counts = "; ".join(f"{reason}: {count}" for reason, count in column[column != ""].value_counts().items())
     assert lines[3] == f"| {MODEL} | B | {N_DESIGNS} | {(column != '').sum()} | {counts} |"
