@@ -37,7 +37,7 @@ import numpy as np
 from discrepancy.files import verdict_summary, write_verdict
 from discrepancy.fitted_model import check_record, evaluate, model_record
 from discrepancy.loop import discrepancy_loop, with_findings
-from discrepancy.nominal import NominalError, checked_nominal, low_amplitude_nominal
+from discrepancy.nominal import NominalError, checked_nominal, low_amplitude_nominal, offset_caveat
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.measured_files import BACKBONE, known_formats, read_mode_backbone
 from pipeline.files import atomic_path, stage_folder
@@ -88,8 +88,9 @@ def backbone_levels(measured, levels: int, path: Path):
 
 def nominal_record(measurement, frequency_hz: float | None, damping: float | None) -> dict:
     """The nominal the loop starts from: the given values, and for any not given the measurement's low-amplitude
-    estimate (``discrepancy.nominal.low_amplitude_nominal``), with standard errors (0 for a given value) and a
-    ``nominal_source`` saying where they came from."""
+    estimate (``discrepancy.nominal.low_amplitude_nominal``), with standard errors (0 for a given value), a
+    ``nominal_source`` saying where they came from and a ``nominal_caveat`` saying which offsets an estimated
+    nominal holds (``discrepancy.nominal.offset_caveat``; None where both were given)."""
     estimate = (low_amplitude_nominal(measurement) if frequency_hz is None or damping is None else None)
     given = [name for name, value in (("frequency", frequency_hz), ("damping", damping)) if value is not None]
     source = ("given" if len(given) == 2 else estimate.source if not given else
@@ -99,7 +100,9 @@ def nominal_record(measurement, frequency_hz: float | None, damping: float | Non
             else estimate.frequency_standard_error_hz,
             "nominal_damping": damping if damping is not None else estimate.damping,
             "nominal_damping_standard_error": 0.0 if damping is not None else estimate.damping_standard_error,
-            "nominal_source": source}
+            "nominal_source": source,
+            "nominal_caveat": offset_caveat([name for name, value in (("frequency", frequency_hz),
+                                                                        ("damping", damping)) if value is None])}
 
 
 def run(arguments: argparse.Namespace) -> None:
@@ -135,13 +138,16 @@ def run(arguments: argparse.Namespace) -> None:
         verdict = with_findings(loop(), findings.get("found", []))
         record["signal_checks"] = findings.get("checked", [])
         if arguments.file is not None:
-            record["final_model"] = model_record(verdict.final, measurement, record["nominal_frequency_hz"],
-                                                 record["nominal_damping"])
+            record["final_model"] = {**model_record(verdict.final, measurement, record["nominal_frequency_hz"],
+                                                    record["nominal_damping"]),
+                                     "amplitude_unit": measured.amplitude_unit}
         write_verdict(out, verdict, measurement, source, record)
     seen = [entry["name"] for entry in verdict.findings]
     print(f"{source}: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}"
           f"{'; findings ' + ', '.join(seen) if seen else ''}"
-          f"{' (unexplained)' if verdict.unexplained else ''}; wrote {out / 'discrepancy.md'}")
+          f"{' (unexplained)' if verdict.unexplained else ''}"
+          + (f"; nominal estimated from the file: it holds any offset at every amplitude (see discrepancy.md)"
+             if record.get("nominal_caveat") else "") + f"; wrote {out / 'discrepancy.md'}")
 
 
 def run_model(arguments: argparse.Namespace) -> None:

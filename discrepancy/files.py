@@ -104,24 +104,42 @@ def verdict_summary(joint_law, added, alternatives) -> str:
 EXTRAPOLATION = 3.0  # the figure draws a one-mode final model up to this factor above the fitted range
 
 
+def acceleration(amplitude, frequency_hz, unit: str | None):
+    """The acceleration amplitude (m/s^2) of a harmonic motion of displacement ``amplitude`` at ``frequency_hz``,
+    (2 pi f)^2 x, where the amplitude is a displacement in metres (``unit`` "m": a ring-down's sensor, as FreeVib
+    writes it); None for any other unit (a mass-normalised modal amplitude has no acceleration of its own)."""
+    if unit != "m":
+        return None
+    return (2 * np.pi * np.asarray(frequency_hz, dtype=float)) ** 2 * np.asarray(amplitude, dtype=float)
+
+
 def extrapolation_markdown(final_model: dict | None) -> str:
     """Where the one-mode final model holds (its fitted range) and what it predicts beyond, with its 95 % band:
-    at 1.5, 2 and ``EXTRAPOLATION`` times the largest fitted amplitude (empty without a one-mode model)."""
+    at 1.5, 2 and ``EXTRAPOLATION`` times the largest fitted amplitude (empty without a one-mode model); where the
+    amplitude is a sensor's displacement in m, each row also gives its acceleration amplitude (``acceleration``),
+    the unit hammer and shaker tests state their levels in."""
     if final_model is None:
         return ""
     low, high = final_model["fitted_range"]
+    unit = final_model.get("amplitude_unit")
     amplitude = high * np.array([1.0, 1.5, 2.0, EXTRAPOLATION])
     curve = evaluate(final_model, amplitude)
-    lines = ["", f"The final model is fitted over amplitudes {low:.4g} to {high:.4g} (the measurement's unit). "
-                 "Beyond that it is EXTRAPOLATION, carried by the model's form, not by points; the 95 % band "
-                 "is that of its parameters' uncertainty alone (`surrogacy discrepancy-model` evaluates it "
-                 "anywhere):", "",
-             "| amplitude | | frequency (Hz) | 95 % band | damping ratio | 95 % band |", "|---|---|---|---|---|---|"]
-    lines += [f"| {q:.4g} | {'extrapolation' if out else 'fitted range'} | {f:.5g} | {fl:.5g} to {fh:.5g} | "
+    accelerations = acceleration(amplitude, curve["frequency_hz"], unit)
+    top = "" if accelerations is None else f" ({accelerations[0]:.3g} m/s^2 at the top)"
+    lines = ["", f"The final model is fitted over amplitudes {low:.4g} to {high:.4g} "
+                 f"{unit or '(the measurement unit)'}{top}: the measured range. Beyond that it is EXTRAPOLATION, "
+                 "carried by the model's form, not by points; the 95 % band is that of its parameters' uncertainty "
+                 "alone, within that form (`surrogacy discrepancy-model` evaluates it anywhere):", "",
+             "| amplitude" + ("" if accelerations is None else " | acceleration (m/s^2)")
+             + " | | frequency (Hz) | 95 % band | damping ratio | 95 % band |",
+             "|---|---|---|---|---|---|" + ("" if accelerations is None else "---|")]
+    shown = [None] * amplitude.size if accelerations is None else accelerations
+    lines += [f"| {q:.4g}" + ("" if a is None else f" | {a:.3g}")
+              + f" | {'extrapolation' if out else 'fitted range'} | {f:.5g} | {fl:.5g} to {fh:.5g} | "
               f"{z:.4g} | {zl:.4g} to {zh:.4g} |"
-              for q, out, f, fl, fh, z, zl, zh in zip(amplitude, curve["extrapolated"], curve["frequency_hz"],
-                                                      *curve["frequency_band"], curve["damping"],
-                                                      *curve["damping_band"])]
+              for q, a, out, f, fl, fh, z, zl, zh in zip(amplitude, shown, curve["extrapolated"],
+                                                         curve["frequency_hz"], *curve["frequency_band"],
+                                                         curve["damping"], *curve["damping_band"])]
     return "\n".join(lines) + "\n"
 
 
@@ -150,7 +168,12 @@ def plot_verdict(verdict: Verdict, measurement, destination: Path, final_model: 
                               label="95 % band (parameters' uncertainty)")
             axis.axvspan(high, extended[-1], color="0.9", zorder=0, label="extrapolation (beyond the fitted range)")
             axis.axvline(high, color="0.5", lw=0.8)
-        axis.set(xlabel="modal amplitude", ylabel=name)
+            top = acceleration(high, evaluate(final_model, [high])["frequency_hz"][0],
+                               final_model.get("amplitude_unit"))
+            axis.text(high, 0.98, " top of the measured range" + ("" if top is None else f"\n {top:.3g} m/s^2"),
+                      transform=axis.get_xaxis_transform(), va="top", ha="left", fontsize=7, color="0.3")
+        unit = (final_model or {}).get("amplitude_unit")
+        axis.set(xlabel="amplitude" + (f" ({unit})" if unit else ""), ylabel=name)
         axis.xaxis.set_minor_formatter(NullFormatter())  # decade labels only: the minor ones overlap
     axes[0].legend(fontsize=7)
     figure.tight_layout()

@@ -159,14 +159,41 @@ def ratio(line: LineFit) -> str:
     return f"{line.chi_squared / line.dof:.2g}" if line.dof > 0 else "-"
 
 
+OFFSET_EFFECTS = {"frequency": ("f_0", "stiffness_change", "a stiffness or mass change outside the joint",
+                                 "--nominal-frequency-hz"),
+                  "damping": ("zeta_0", "linear_damping", "a linear damping not from the joint", "--nominal-damping")}
+"""Nominal value -> (its symbol, the offset effect of ``discrepancy.loop.EFFECTS`` it stands in for, what that
+effect is, the option that gives it): an offset at every amplitude and the nominal are one number."""
+
+
+def offset_caveat(estimated) -> str | None:
+    """What a nominal estimated from the measurement itself cannot tell (None where every nominal value was given):
+    an offset outside the joint at every amplitude (a mass or stiffness change, a linear damping) shifts the
+    measurement's low-amplitude limit exactly as a different nominal does, so the estimate holds it, within its
+    standard errors, and the loop's offset effects only test whether the measurement departs from its own
+    low-amplitude extrapolation. ``estimated``: the nominal values estimated, "frequency" and/or "damping"."""
+    entries = [OFFSET_EFFECTS[name] for name in ("frequency", "damping") if name in estimated]
+    if not entries:
+        return None
+    return (f"The nominal {' and '.join(symbol for symbol, _, _, _ in entries)} is estimated from this measurement, "
+            f"so an offset at every amplitude ({'; '.join(f'{what}, {effect}' for _, effect, what, _ in entries)}) "
+            "cannot be told from it: the estimate holds such an offset within its standard errors, and "
+            f"{' and '.join(effect for _, effect, _, _ in entries)} {'are' if len(entries) > 1 else 'is'} named only "
+            "where the fit pulls the nominal beyond them. Against the structure's model, the offset is this "
+            f"nominal minus the model's; give the model's ({', '.join(option for _, _, _, option in entries)}) "
+            "to test for it.")
+
+
 def nominal_statement(record: dict) -> list[str]:
-    """Markdown lines stating the nominal a loop on a file started from and where it came from (the record's
-    ``nominal_*`` keys); nothing for a record without them (a study's structure)."""
+    """Markdown lines stating the nominal a loop on a file started from, where it came from and, for a nominal
+    estimated from the measurement, what it cannot tell (``offset_caveat``; the record's ``nominal_*`` keys);
+    nothing for a record without them (a study's structure)."""
     if "nominal_frequency_hz" not in record:
         return []
     errors = [f" +- {record[key]:.2g}" if record.get(key) else "" for key in
               ("nominal_frequency_standard_error_hz", "nominal_damping_standard_error")]
     source = ("given (--nominal-frequency-hz, --nominal-damping)" if record["nominal_source"] == "given"
               else record["nominal_source"])
+    caveat = record.get("nominal_caveat")
     return [f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g}{errors[0]} Hz, zeta_0 = "
-            f"{record['nominal_damping']:.4g}{errors[1]}; {source}.", ""]
+            f"{record['nominal_damping']:.4g}{errors[1]}; {source}.", "", *([caveat, ""] if caveat else [])]

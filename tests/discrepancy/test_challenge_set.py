@@ -11,7 +11,9 @@ within the hits (outside any backbone library): unexplained, with the finding th
 frequency within 0.5 % and its share within 30 %; the drift's sign and rate within 30 %).
 
 Without the nominal options the nominal is estimated from the file's lowest decade with its standard errors
-(``discrepancy.nominal``): an offset (mass loading, linear damping) may then be taken into the nominal, and where
+(``discrepancy.nominal``): an offset (mass loading, linear damping) may then be taken into the nominal, which then
+holds the key's loaded frequency and added damping within two of its stated standard errors, the verdict saying
+that an offset cannot be told from an estimated nominal (``nominal_caveat``); where
 two models are as good (BIC within 10) the verdict lists the other beside its answer; the key's other effects are
 named in the answer or in a model it lists as as good, and nothing else.
 
@@ -134,3 +136,12 @@ def test_challenge_file_without_the_nominal(tmp_path, key, backbones, case):
     found = sizes(verdict, key["reference"]["x_over_q_at_acc1"])
     for name in (name for name in truth if EFFECT_OF.get(name) in set(verdict["added"]) - OFFSETS):
         assert found[name] == pytest.approx(truth[name], rel=SIZE), name
+    # an offset not named is reported as the nominal, within its stated uncertainty, and the verdict says so
+    assert "cannot be told from it" in verdict["nominal_caveat"]
+    reference = key["reference"]
+    if "stiffness_change" not in verdict["added"]:
+        loaded = reference["stuck_frequency_hz"] / truth.get("mass", 1.0) ** 0.5
+        assert abs(verdict["nominal_frequency_hz"] - loaded) < 2 * verdict["nominal_frequency_standard_error_hz"]
+    if "linear_damping" not in verdict["added"]:
+        damped = reference["linear_damping"] + truth.get("added_zeta", 0.0)
+        assert abs(verdict["nominal_damping"] - damped) < 2 * verdict["nominal_damping_standard_error"]

@@ -6,7 +6,8 @@ names the option and what was expected, with exit status 2 and no output folder;
 decay gives is refused naming the point and its cause (not a signal-check finding beside it), and so are a backbone
 stating a provenance that is not one of the three and an empty file, naming the file; without the nominal
 options the loop starts from the measurement's low-amplitude estimate, which discrepancy.json and .md state with
-its standard errors and where it came from.
+its standard errors and where it came from, and with what it cannot tell: an offset at every amplitude outside the
+joint (a mass loading) is held by the estimate, which the verdict says.
 """
 
 import json
@@ -78,6 +79,42 @@ def test_without_the_nominal_options_the_estimate_is_recorded_with_its_source(tm
     report = (out / "discrepancy.md").read_text()
     assert f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g} +- " in report
     assert "estimated from the measurement" in report
+    assert record["nominal_caveat"] in report and "stiffness_change" in record["nominal_caveat"]
+    assert "linear_damping" in record["nominal_caveat"]
+
+
+def test_an_offset_outside_the_joint_is_held_by_an_estimated_nominal_and_the_verdict_says_so(tmp_path, capsys):
+    """A 1 % frequency drop at every amplitude (a mass loading, the project's generator): with the structure's
+    nominal given, stiffness_change is named at its size; with the nominal estimated from the same file the offset
+    is the estimate itself (the loaded frequency within three of its standard errors, the unloaded one far
+    outside), stiffness_change is not named, and discrepancy.json, .md and the printed line say that an offset at
+    every amplitude cannot be told from an estimated nominal; with the frequency given and the damping estimated,
+    only linear_damping is said to be untested."""
+    backbone = tmp_path / "loaded.csv"
+    write_undeclared_backbone(backbone, ("stiffness_change",))
+    loaded = REFERENCE_FREQUENCY_HZ * 0.99
+    given = tmp_path / "given"
+    assert surrogacy(["discrepancy", str(backbone), "--nominal-frequency-hz", str(REFERENCE_FREQUENCY_HZ),
+                      "--nominal-damping", str(REFERENCE_DAMPING), "--out", str(given)]) == 0
+    record = json.loads((given / "discrepancy.json").read_text())
+    assert record["added"] == ["stiffness_change"] and record["nominal_caveat"] is None
+    assert record["final_model"]["parameters"]["frequency_shift"] == pytest.approx(-0.01, rel=0.1)
+    assert "holds any offset" not in capsys.readouterr().out
+    estimated = tmp_path / "estimated"
+    assert surrogacy(["discrepancy", str(backbone), "--out", str(estimated)]) == 0
+    record = json.loads((estimated / "discrepancy.json").read_text())
+    error = record["nominal_frequency_standard_error_hz"]
+    assert abs(record["nominal_frequency_hz"] - loaded) < 3 * error
+    assert abs(record["nominal_frequency_hz"] - REFERENCE_FREQUENCY_HZ) > 10 * error
+    assert "stiffness_change" not in record["added"]
+    assert "cannot be told from it" in record["nominal_caveat"]
+    assert record["nominal_caveat"] in (estimated / "discrepancy.md").read_text()
+    assert "nominal estimated from the file: it holds any offset at every amplitude" in capsys.readouterr().out
+    half = tmp_path / "half"
+    assert surrogacy(["discrepancy", str(backbone), "--nominal-frequency-hz", str(REFERENCE_FREQUENCY_HZ),
+                      "--out", str(half)]) == 0
+    caveat = json.loads((half / "discrepancy.json").read_text())["nominal_caveat"]
+    assert "linear_damping" in caveat and "stiffness_change" not in caveat and "--nominal-damping" in caveat
 
 
 @pytest.mark.parametrize("name, edit, expected", [
