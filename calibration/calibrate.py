@@ -16,13 +16,29 @@ of the global front and the seeds with the lowest weighted chi^2 are polished by
 larger model fits at least as well.
 
 Multistart. The global phase follows the study's sample, and a sample of another seed reaches other basins (on the
-measured ASB the best compromise's chi^2 moved by up to 28 % between two study seeds). So that the best
-compromise does not depend on the sample, w = 1/2 is also polished from ``MULTISTARTS`` points of a fixed
-(unscrambled) Sobol sequence of ``MULTISTART_POINTS`` points over the whole box: those of lowest chi^2. Each
-polished point is then scanned along each coordinate over its whole unit range (``SCAN_POINTS`` values, all
-coordinates in one QSMA call) and polished again from the best point of the scans while that lowers chi^2 by more
-than ``SCAN_GAIN`` (relative), at most ``SCAN_SWEEPS`` times: a friction model's chi^2 is flat in a parameter
-that does not act (F_S of a joint that never slips at the measured levels), where a gradient method stays.
+measured ASB the best compromise's chi^2 moved by up to 28 % between two study seeds). So that the best compromise
+does not depend on the sample, w = 1/2 is also polished from ``MULTISTARTS`` points of a fixed (unscrambled) Sobol
+sequence of ``MULTISTART_POINTS`` points over the whole box: those of lowest chi^2; and from the ``MULTISTARTS`` of
+lowest chi^2 of an anchored screen: ``ANCHORED_POINTS`` Sobol points of the joint's coordinates, each coordinate at
+its lower and at its upper limit for a share ``PIN`` of them each (optima sit on Table 3's limits, alone or several
+at once: iwan4_core on the measured ASB C2 has its optimum at a corner, F_S at its floor, K_T, chi and beta at their
+ceilings), moved onto the measured stuck frequency with zeta_0 at its least-squares value (``anchored_points``, see
+Escape): where the frequency residuals, whose uncertainty is 1e-4 of the frequency, dominate chi^2, a plain screen
+ranks its points by how near their stuck frequency happens to be, not by what the joint does. Each polished point is
+then scanned along each coordinate over its whole unit range (``SCAN_POINTS`` values, all coordinates in one QSMA
+call) and polished again from the best point of the scans while that lowers chi^2 by more than ``SCAN_GAIN``
+(relative), at most ``SCAN_SWEEPS`` times: a friction model's chi^2 is flat in a parameter that does not act (F_S of
+a joint that never slips at the measured levels), where a gradient method stays.
+
+Escape. A Jenkins joint's backbone has a kink where each measured level starts to slip, and the chi^2 a local
+minimum at each kink: on the measured ASB C4a, fits stopped at reduced chi^2 23.1 (no level slips) and 17.3 (the
+top one slips) where 15.1 (the top two) lies 0.003 away in the unit box, along the thin valley of stiffnesses that
+keep the measured stuck frequency; neither coordinate scans nor a screen of the whole box finds it. So the best
+compromise is also compared with clouds of ``CLOUD_POINTS`` points (the unscrambled Sobol sequence) within each of
+``CLOUD_RADII`` of it in the joint's unit coordinates, each point moved onto that valley (``anchored_points``: its
+stiffnesses scaled by one factor so that the frequency at the lowest measured level is the measured one, zeta_0
+at its least-squares value); a cloud point of lower chi^2 is polished and scanned, and replaces the best
+compromise where it stays lower, at most ``ESCAPES`` times.
 
 Result. The calibrated front is the non-dominated set, in the two L-infinity errors, of every point the
 calibration evaluated (``calibration.objectives.FrontArchive``: the global phase's, every local fit's and the
@@ -42,9 +58,12 @@ from pymoo.termination.default import DefaultMultiObjectiveTermination
 from scipy.stats import qmc
 
 from calibration.local_fit import LocalFit, Uncertainty, local_fit, residual_rows, uncertainty
-from calibration.objectives import (FitSpace, FrontArchive, fit_space, linf_errors, model_curves, plain_errors,
-                                   unit_zeta0)
+from calibration.objectives import (FitSpace, FrontArchive, fit_space, linf_errors, model_curves, physical,
+                                   plain_errors, profiled_zeta0, unit_zeta0)
 from nonlinear.condensation import modal_split
+from nonlinear.friction_models import STIFFNESS_PARAMETERS
+from nonlinear.joint import to_unit
+from nonlinear.qsma_vectorised import qsma_designs
 from study.errors import structure_damping
 from study.pareto import nsga2_front
 from study.structures import Structure
@@ -60,7 +79,11 @@ ZETA0_SEEDS = 4
 MULTISTART_POINTS = 4096
 """Points of the Sobol sequence over the unit box whose chi^2 the multistart ranks (a power of two)."""
 MULTISTARTS = 8
-"""Points of lowest chi^2 among them that w = 1/2 is polished from."""
+"""Points of lowest chi^2 among them (and among the anchored screen's) that w = 1/2 is polished from."""
+ANCHORED_POINTS = 16384
+"""Points of the anchored screen (a power of two)."""
+PIN = 0.2
+"""Share of the anchored screen's values of each coordinate at each of its two limits."""
 SCAN_POINTS = 33
 """Values of each coordinate, evenly over its unit range, of one scan."""
 SCAN_SWEEPS = 6
@@ -68,9 +91,19 @@ SCAN_GAIN = 1e-6
 """Relative fall of chi^2 a scan must find to be polished from."""
 CONTINUATIONS = 9
 """Restarts of the best compromise's fit from where its evaluation budget (400 each) stopped it."""
+CLOUD_POINTS = 256
+"""Points of one cloud around the best compromise (a power of two)."""
+CLOUD_RADII = (0.1, 0.03, 0.01)
+"""Half-widths of the clouds in unit coordinates, widest first."""
+ESCAPES = 6
+"""Moves of the best compromise to a cloud's lower basin."""
+ANCHOR_ITERATIONS = 10
+"""Secant steps on the stiffness factor's logarithm."""
 METHOD = {"weights": WEIGHTS, "starts": STARTS, "population": POPULATION, "zeta0_seeds": ZETA0_SEEDS,
-          "multistart_points": MULTISTART_POINTS, "multistarts": MULTISTARTS, "scan_points": SCAN_POINTS,
+          "multistart_points": MULTISTART_POINTS, "multistarts": MULTISTARTS,
+          "anchored_points": ANCHORED_POINTS, "pin": PIN, "scan_points": SCAN_POINTS,
           "scan_sweeps": SCAN_SWEEPS, "scan_gain": SCAN_GAIN, "continuations": CONTINUATIONS,
+          "cloud_points": CLOUD_POINTS, "cloud_radii": CLOUD_RADII, "escapes": ESCAPES,
           "seeds_at_the_rule_s_zeta0": True}
 """The settings a calibration's result depends on besides its inputs (part of a record's key)."""
 
@@ -154,13 +187,90 @@ def scanned(structure: Structure, space: FitSpace, fit: LocalFit, split, archive
     return fit
 
 
+def anchored_points(structure: Structure, space: FitSpace, joint_unit, split) -> tuple[np.ndarray, np.ndarray]:
+    """Unit joint points (n, d) moved onto the measured stuck frequency (module docstring, Escape): each point's
+    stiffnesses (``STIFFNESS_PARAMETERS``, N/m) times one factor s, found by the secant method on ln s
+    (``ANCHOR_ITERATIONS`` steps, all points at once, s kept where every stiffness stays within its limits) so
+    that QSMA's frequency at the lowest measured level equals the measured one within its standard uncertainty;
+    zeta_0 at its least-squares value (``calibration.objectives.profiled_zeta0``). Returns the points anchored
+    within the limits, unit (m, d + 1), and their plain chi^2 (m,)."""
+    measurement = structure.measurement
+    designs, _ = physical(space, np.column_stack([joint_unit, np.zeros(len(joint_unit))]))
+    stiffness = np.array([name.split("[")[0] in STIFFNESS_PARAMETERS for name in space.names[:-1]])
+
+    def frequency_error(log_factor):
+        scaled = designs.copy()
+        scaled[:, stiffness] *= np.exp(log_factor)[:, None]
+        result = qsma_designs(structure.space, space.model, scaled, amplitudes=measurement.amplitude[:1],
+                              linear_damping=0.0, split=split)
+        return result.frequency[:, 0] / (2.0 * np.pi) - measurement.frequency_hz[0], scaled
+
+    # the factors that keep every stiffness within its Table 3 limits
+    smallest = np.max(np.log(space.lower[:-1][stiffness] / designs[:, stiffness]), axis=1)
+    largest = np.min(np.log(space.upper[:-1][stiffness] / designs[:, stiffness]), axis=1)
+    previous, current = np.zeros(len(designs)), np.clip(0.1, smallest, largest)
+    previous_error, _ = frequency_error(previous)
+    error, scaled = frequency_error(current)
+    for _ in range(ANCHOR_ITERATIONS):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            following = current - error * (current - previous) / (error - previous_error)
+        following = np.clip(np.where(np.isfinite(following), following, current), smallest, largest)
+        previous, previous_error = current, error
+        current = following
+        error, scaled = frequency_error(current)
+    held = np.abs(error) <= measurement.sigma_frequency[0]
+    joint = to_unit(scaled[held], space.lower[:-1], space.upper[:-1], space.logarithmic[:-1])
+    curves = model_curves(structure, space, np.column_stack([joint, np.zeros(len(joint))]), split)
+    joint_damping = curves.damping - space.lower[-1]
+    zeta0 = profiled_zeta0(space, measurement, joint_damping)
+    chi_squared_values = (np.sum(((curves.frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency) ** 2,
+                                 axis=1)
+                          + np.sum(((joint_damping + zeta0[:, None] - measurement.damping)
+                                    / measurement.sigma_damping) ** 2, axis=1))
+    return (np.column_stack([joint, unit_zeta0(space, zeta0)]),
+            np.where(curves.converged, chi_squared_values, np.inf))
+
+
+def pinned_screen(n_points: int, dimension: int) -> np.ndarray:
+    """The first ``n_points`` of the unscrambled Sobol sequence in ``dimension`` unit coordinates, each mapped by
+    u -> clip((u - PIN) / (1 - 2 PIN), 0, 1): a share PIN of each coordinate's values at 0, as many at 1, the rest
+    spread evenly between (n_points, dimension)."""
+    points = qmc.Sobol(dimension, scramble=False).random(n_points)
+    return np.clip((points - PIN) / (1.0 - 2.0 * PIN), 0.0, 1.0)
+
+
 def multistart(structure: Structure, space: FitSpace, split, archive: FrontArchive) -> list[LocalFit]:
     """The multistart's w = 1/2 fits (module docstring): from the MULTISTARTS points of lowest chi^2 among the
-    first MULTISTART_POINTS of the unscrambled Sobol sequence over the unit box, each scanned."""
+    first MULTISTART_POINTS of the unscrambled Sobol sequence over the unit box and from the MULTISTARTS of the
+    anchored screen, each scanned."""
     points = qmc.Sobol(len(space.names), scramble=False).random(MULTISTART_POINTS)
     values = chi_squared(structure, space, points, split, archive)
-    return [scanned(structure, space, local_fit(structure, space, points[start], 0.5, split, archive=archive),
-                    split, archive) for start in np.argsort(values)[:MULTISTARTS]]
+    anchored, anchored_values = anchored_points(structure, space, pinned_screen(ANCHORED_POINTS, len(space.names) - 1),
+                                                split)
+    starts = [*points[np.argsort(values)[:MULTISTARTS]], *anchored[np.argsort(anchored_values)[:MULTISTARTS]]]
+    return [scanned(structure, space, local_fit(structure, space, start, 0.5, split, archive=archive), split, archive)
+            for start in starts]
+
+
+def escaped(structure: Structure, space: FitSpace, fit: LocalFit, split, archive: FrontArchive) -> LocalFit:
+    """``fit`` (w = 1/2) moved to the lower basin of an anchored cloud around it while one is found (module
+    docstring, Escape), each new fit polished and scanned with ``CONTINUATIONS``."""
+    offsets = 2.0 * qmc.Sobol(len(space.names) - 1, scramble=False).random(CLOUD_POINTS) - 1.0
+    for _ in range(ESCAPES):
+        for radius in CLOUD_RADII:
+            points, values = anchored_points(structure, space, np.clip(fit.unit[:-1] + radius * offsets, 0.0, 1.0),
+                                             split)
+            if not (values.size and values.min() < fit.chi_squared * (1.0 - SCAN_GAIN)):
+                continue
+            candidate = scanned(structure, space, local_fit(structure, space, points[np.argmin(values)], 0.5, split,
+                                                            continuations=CONTINUATIONS, archive=archive),
+                                split, archive, CONTINUATIONS)
+            if candidate.chi_squared < fit.chi_squared * (1.0 - SCAN_GAIN):
+                fit = candidate
+                break
+        else:
+            return fit
+    return fit
 
 
 def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study_zeta0: float, seed: int = 0,
@@ -209,6 +319,7 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
     best = min((fit for fit in fits if fit.weight == 0.5), key=lambda fit: fit.chi_squared)
     best = scanned(structure, space, local_fit(structure, space, best.unit, 0.5, split, continuations=CONTINUATIONS,
                                                archive=archive), split, archive, CONTINUATIONS)
+    best = escaped(structure, space, best, split, archive)
     fits.append(best)
     best_curves = model_curves(structure, space, best.unit[None, :], split)
     front_unit, front_errors, front_source = archive.front()

@@ -78,6 +78,15 @@ class Curves(NamedTuple):
     converged: np.ndarray
 
 
+def profiled_zeta0(space: FitSpace, measurement: Measurement, joint_damping) -> np.ndarray:
+    """zeta_0 (n,) of least plain chi^2 for the joint's own damping ratios (n, levels): the damping residuals
+    (zeta_j + zeta_0 - zeta_m) / sigma_zeta are linear in zeta_0, so the optimum is the sigma^-2 weighted mean of
+    zeta_m - zeta_j, clipped to zeta_0's limits (chi^2 is a parabola in zeta_0)."""
+    weights = measurement.sigma_damping ** -2.0
+    optimum = np.sum((measurement.damping - np.atleast_2d(joint_damping)) * weights, axis=1) / np.sum(weights)
+    return np.clip(optimum, space.lower[-1], space.upper[-1])
+
+
 def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None,
                  archive: FrontArchive | None = None) -> Curves:
     """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring); the points

@@ -45,6 +45,8 @@ TABLE3_LIMITS = {**TABLE3, "K_c": TABLE3["K_T"]}
 or dimensionless); the core stiffness K_c, not in the paper, takes K_T's limits (module docstring)."""
 STUCK_GROUP_PARAMETERS = ("K_T", "K_z")
 """Parameters of a stuck patch group: its tangential and normal stiffness (N/m)."""
+STIFFNESS_PARAMETERS = ("K_T", "K_z", "K_c")
+"""The element parameters that are stiffnesses (N/m): one factor on all of them scales the stuck joint."""
 ELEMENT_DEFAULTS = {"F_S": 1.0, "K_T": 1.0, "chi": -0.5, "beta": 0.0, "theta": 1.0, "K_z": 1.0, "K_c": 0.0}
 """Values of the element parameters a model does not have (chi of Jenkins, F_S of a stuck patch): they make every
 slip law well defined and are never read for those elements; K_c = 0 is no core."""
