@@ -12,8 +12,10 @@
 - ``springs``: ``patch_couplings``, ``joint_stiffness``, linear joint springs between patches.
 - ``prestress``: ``prestressed_beam`` -> ``PrestressedBeam``, the whole stage for one beam in memory.
 - ``render``: ``render_fe`` (contact pressure, first bending).
-- ``convergence``, ``frequency_tuning``, ``calculix``: mesh convergence, the joint springs and the LBRB/SBRB geometry
-  tuned to the measured frequencies, a CalculiX cross-check.
-- ``fe_files``: ``make_fe`` (one beam's result files, cached), ``read_csr``, ``beam_inputs``, ``FeInputError``.
+- ``convergence``, ``frequency_tuning``, ``calculix``: mesh convergence (``write_study``: its table and record), the
+  joint springs and the LBRB/SBRB geometry tuned to the measured frequencies (``write_tuning``: its record), a
+  CalculiX cross-check.
+- ``fe_files``: ``make_fe`` (one beam's result files, cached), ``check_fe_inputs``, ``read_csr``, ``beam_inputs``,
+  ``FeInputError``.
 - ``commands``: ``surrogacy fe``, ``fe-convergence``, ``tune-frequencies``.
 """

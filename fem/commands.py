@@ -11,7 +11,7 @@ from tqdm import tqdm
 
 from geometry.parameters import BEAMS, MeshParameters
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import check_output_folder, stage_folder, write_json
+from pipeline.files import stage_folder
 
 from . import convergence, fe_files, frequency_tuning
 from .bolts import Bolt
@@ -21,23 +21,16 @@ from .elasticity import Material
 MATERIAL_OPTIONS = ("youngs_modulus", "poissons_ratio", "density")  # --youngs-modulus ...: material.<field>
 
 
-
 def run_fe(arguments: argparse.Namespace) -> None:
     options = [("material", field, getattr(arguments, field)) for field in MATERIAL_OPTIONS
                if getattr(arguments, field) is not None]
     resolved = configuration(arguments, {"material": Material(), "bolt": Bolt()}, options)
-    if arguments.modes < 7:
-        raise fe_files.FeInputError(f"option --modes = {arguments.modes}: expected at least 7 (six rigid-body modes and "
-                           "first bending)")
-    check_output_folder(arguments.out)
-    for name in arguments.beam:  # every beam's geometry checked before the output folder is touched
-        fe_files.beam_inputs(arguments.beams, name)
+    fe_files.check_fe_inputs(arguments.beam, arguments.beams, arguments.out, arguments.modes)
     with stage_folder(arguments.out):
         for name in tqdm(arguments.beam, desc="FE models", unit="beam"):
             sidecar = fe_files.make_fe(name, arguments.beams, arguments.out, resolved["material"], resolved["bolt"],
-                              arguments.modes)
+                                       arguments.modes)
             tqdm.write(f"{name}: {sidecar}")
-
 
 
 def register(subparsers) -> None:
@@ -61,23 +54,12 @@ def register(subparsers) -> None:
 
 
 def run_convergence(arguments: argparse.Namespace) -> None:
-    if not 0.0 < arguments.tolerance < 1.0:
-        raise ValueError(f"option --tolerance = {arguments.tolerance!r}: expected a relative change in (0, 1)")
-    if not all(0.0 < factor < 100.0 for factor in arguments.factors):
-        raise ValueError(f"option --factors = {arguments.factors}: expected positive mesh-size factors below 100")
-    beam, sizes = BEAMS[arguments.beam], MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
-    for factor in arguments.factors:
-        convergence.check_mesh_factor("--factors", factor, [beam], sizes)
-    check_output_folder(arguments.out)  # the table is written after every mesh is solved
+    sizes = MeshParameters(arguments.size, arguments.lap_size, arguments.hole_size)
     material = Material(arguments.youngs_modulus, arguments.poissons_ratio, arguments.density)
-    rows = convergence.convergence_study(beam, sizes, sorted(arguments.factors, reverse=True), material, progress=True)
-    table = Path(arguments.out) / f"{beam.name}.csv"
-    convergence.write_table(rows, table)
-    record = convergence.study_record(beam, sizes, material, rows, arguments.tolerance)
-    write_json(table.with_suffix(".json"), record)
+    table, record = convergence.write_study(BEAMS[arguments.beam], sizes, arguments.factors, arguments.out, material,
+                                            arguments.tolerance, progress=True)
     tqdm.write(f"{table}: coarsest mesh within {arguments.tolerance:g} of every finer one: "
                f"s = {record['converged_factor']}, {record['converged_dof']} DOF")
-
 
 
 def register_convergence(subparsers) -> None:
@@ -100,30 +82,11 @@ def register_convergence(subparsers) -> None:
     command.set_defaults(run=run_convergence)
 
 
-def tuning_sizes(arguments: argparse.Namespace) -> MeshParameters:
-    """The tuning meshes' sizes, after refusing, before any mesh is made, options that cannot give a
-    tuning: a --mesh-factor that is not a positive finite scale, or whose element sizes would not fit in
-    memory on any of the beams (``geometry.parameters.check_mesh_size``); a --stiffness outside the bracket
-    step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no bending mode
-    of the beams); an --out that cannot be written. Raises ValueError naming the option as typed."""
-    sizes = convergence.check_mesh_factor("--mesh-factor", arguments.mesh_factor, BEAMS.values(), MeshParameters())
-    low, high = (10 ** bound for bound in frequency_tuning.LOG_STIFFNESS_BRACKET)
-    if arguments.stiffness is not None and not low <= arguments.stiffness <= high:
-        raise ValueError(f"option --stiffness = {arguments.stiffness!r}: expected a patch stiffness from {low:g} "
-                         f"to {high:g} N/m")
-    check_output_folder(arguments.out)
-    return sizes
-
-
-
 def run_tuning(arguments: argparse.Namespace) -> None:
-    sizes = tuning_sizes(arguments)
-    record = frequency_tuning.tune_frequencies(sizes, stiffness=arguments.stiffness, progress=True)
-    path = Path(arguments.out) / "frequency_tuning.json"
-    write_json(path, record)
+    path, record = frequency_tuning.write_tuning(arguments.out, arguments.mesh_factor, arguments.stiffness,
+                                                 progress=True)
     tqdm.write(f"{path}: LBRB.body_length = {record['LBRB']['body_length']:.6g} m, "
                f"SBRB.spring_height = {record['SBRB']['spring_height']:.6g} m")
-
 
 
 def register_tuning(subparsers) -> None:

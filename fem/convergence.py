@@ -27,7 +27,7 @@ from tqdm import tqdm
 from geometry.beam_mesh import BeamMesh, interface_partners, read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BeamParameters, GeometryError, MeshParameters, check_mesh_size
-from pipeline.files import atomic_path
+from pipeline.files import atomic_path, check_output_folder, write_json
 
 from .bolts import Bolt, bolts_mass, washer_couplings
 from .elasticity import Material, mass_matrix, solid_mesh, stiffness_matrix
@@ -154,3 +154,32 @@ def study_record(beam: BeamParameters, sizes: MeshParameters, material: Material
             "bolt_mass_included": True, "tolerance": tolerance, "table": f"{beam.name}.csv",
             "converged_factor": factor, "converged_dof": None if chosen is None else rows[chosen]["dof"],
             "converged_mesh": None if chosen is None else dataclasses.asdict(scaled_sizes(sizes, factor))}
+
+
+def check_study_inputs(beam: BeamParameters, sizes: MeshParameters, factors, tolerance: float) -> None:
+    """Refuse, before any mesh is made, a study that cannot run: a ``tolerance`` (relative) outside (0, 1), a
+    factor that is not a positive mesh-size factor below 100, or one whose element sizes would not fit in memory on
+    ``beam`` (``check_mesh_factor``). Raises ValueError naming the option as typed."""
+    if not 0.0 < tolerance < 1.0:
+        raise ValueError(f"option --tolerance = {tolerance!r}: expected a relative change in (0, 1)")
+    if not all(0.0 < factor < 100.0 for factor in factors):
+        raise ValueError(f"option --factors = {factors}: expected positive mesh-size factors below 100")
+    for factor in factors:
+        check_mesh_factor("--factors", factor, [beam], sizes)
+
+
+def write_study(beam: BeamParameters, sizes: MeshParameters, factors, out: Path, material: Material = Material(),
+                tolerance: float = TOLERANCE, progress: bool = False) -> tuple[Path, dict]:
+    """The convergence study of ``beam`` at ``sizes`` scaled by each factor, coarse to fine (``convergence_study``),
+    written to ``<out>/<beam>.csv`` (``write_table``) and its record to ``<out>/<beam>.json`` (``study_record``: the
+    mesh converged within ``tolerance``, relative). Its inputs and the folder ``out`` are checked before any mesh
+    is made (``check_study_inputs``; the table is written after every mesh is solved). Returns the table's path and
+    the record."""
+    check_study_inputs(beam, sizes, factors, tolerance)
+    check_output_folder(out)
+    rows = convergence_study(beam, sizes, sorted(factors, reverse=True), material, progress=progress)
+    table = Path(out) / f"{beam.name}.csv"
+    write_table(rows, table)
+    record = study_record(beam, sizes, material, rows, tolerance)
+    write_json(table.with_suffix(".json"), record)
+    return table, record

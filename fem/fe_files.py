@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from geometry.beam_mesh import read_beam_mesh
 from geometry.parameters import BeamParameters
 from pipeline.cache import StageInputError, is_current, sidecar_record, stage_versions, upstream_file
-from pipeline.files import atomic_paths, sha256_json, write_json
+from pipeline.files import atomic_paths, check_output_folder, sha256_json, write_json
 
 from .bolts import Bolt
 from .elasticity import Material
@@ -98,6 +98,19 @@ def read_csr(arrays, name: str) -> sp.csr_matrix:
     """A CSR matrix stored by ``fe_arrays`` under ``name`` in a loaded .npz."""
     return sp.csr_matrix((arrays[f"{name}_data"], arrays[f"{name}_indices"], arrays[f"{name}_indptr"]),
                          shape=tuple(arrays[f"{name}_shape"]))
+
+
+def check_fe_inputs(names, beams_folder: Path, folder: Path, n_modes: int = N_MODES) -> None:
+    """Refuse, before the output ``folder`` is touched, FE runs of the beams ``names`` that cannot run: fewer than 7
+    modes (six rigid-body modes and first bending), a folder that cannot be written, a beam whose geometry is
+    missing or changed since the geometry stage (``beam_inputs``). Raises FeInputError naming the option as typed
+    or the file, OutputFolderError for the folder."""
+    if n_modes < 7:
+        raise FeInputError(f"option --modes = {n_modes}: expected at least 7 (six rigid-body modes and first "
+                           "bending)")
+    check_output_folder(folder)
+    for name in names:
+        beam_inputs(beams_folder, name)
 
 
 def make_fe(name: str, beams_folder: Path, folder: Path, material: Material = Material(), bolt: Bolt = Bolt(),

@@ -36,10 +36,11 @@ from tqdm import tqdm
 from geometry.beam_mesh import read_beam_mesh
 from geometry.beams import make_beam
 from geometry.parameters import BEAMS, BeamParameters, MeshParameters
+from pipeline.files import check_output_folder, write_json
 from pipeline.published import TABLE1
 
 from .bolts import Bolt
-from .convergence import N_MODES, dynamic_matrices, first_bending
+from .convergence import N_MODES, check_mesh_factor, dynamic_matrices, first_bending
 from .elasticity import Material
 from .solver import natural_modes
 from .springs import joint_stiffness, patch_couplings
@@ -169,3 +170,31 @@ def tune_frequencies(sizes: MeshParameters, material: Material = Material(), bol
                         "measured_ratio": measured_ratio, "measured_hz": MEASURED_HZ[name], "trials": trials}
     record["seconds"] = time.perf_counter() - start
     return record
+
+
+def tuning_sizes(mesh_factor: float, stiffness: float | None) -> MeshParameters:
+    """The tuning meshes' sizes, ``mesh_factor`` times the default ones, after refusing, before any mesh is made,
+    inputs that cannot give a tuning: a factor that is not a positive finite scale, or whose element sizes would
+    not fit in memory on any of the beams (``geometry.parameters.check_mesh_size``); a ``stiffness`` (N/m) outside
+    the bracket step 1 searches (``LOG_STIFFNESS_BRACKET``: the first bending of a stiffness outside it is no
+    bending mode of the beams). Raises ValueError naming the option as typed."""
+    sizes = check_mesh_factor("--mesh-factor", mesh_factor, BEAMS.values(), MeshParameters())
+    low, high = (10 ** bound for bound in LOG_STIFFNESS_BRACKET)
+    if stiffness is not None and not low <= stiffness <= high:
+        raise ValueError(f"option --stiffness = {stiffness!r}: expected a patch stiffness from {low:g} "
+                         f"to {high:g} N/m")
+    return sizes
+
+
+def write_tuning(out: Path, mesh_factor: float = MESH_FACTOR, stiffness: float | None = None,
+                 progress: bool = False) -> tuple[Path, dict]:
+    """Steps 1-3 (``tune_frequencies``) on meshes of ``mesh_factor`` times the default sizes, the BRB's patch
+    stiffness (N/m) given or found in step 1, written to ``<out>/frequency_tuning.json``. The inputs
+    (``tuning_sizes``) and the folder ``out`` are checked before any mesh is made. Returns the file's path and
+    the record."""
+    sizes = tuning_sizes(mesh_factor, stiffness)
+    check_output_folder(out)
+    record = tune_frequencies(sizes, stiffness=stiffness, progress=progress)
+    path = Path(out) / "frequency_tuning.json"
+    write_json(path, record)
+    return path, record
