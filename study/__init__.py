@@ -19,7 +19,8 @@ Answers (:mod:`study.surrogacy`, :mod:`study.subset_simulation`, :mod:`study.par
     surrogacy_matrix            SC_IJ (Eq. 29) with binomial intervals; replicate spread; bounds sweep
     subset_simulation           SC_IJ and P(accepted by I) at tight bounds, sampled inside I's region
     surrogacy_confidence        a study's SC_IJ at given bounds (:mod:`study.confidence`): subset simulation of each
-                                surrogate beside the sample counted there; read_bounds, the bounds CSV reader
+                                surrogate beside the sample counted there; estimate_inputs, the study, damping
+                                case and bounds an estimate runs on; read_bounds, the bounds CSV reader
     non_dominated, nsga2_front  Pareto fronts of the sample and of NSGA-II seeded from it (Fig. 6)
     surrogacy_anova             Table 6's four-way ANOVA (statsmodels)
     compare                     the SBRB with and without prestress (Fig. 12)

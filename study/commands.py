@@ -25,13 +25,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from pipeline.config import add_config_arguments, configuration
-from pipeline.files import check_output_file, check_output_folder, stage_folder
+from pipeline.files import stage_folder
 from study import workflow
-from study.confidence import read_bounds, surrogacy_confidence
-from study.datasets import dataset
+from study.confidence import estimate_inputs, surrogacy_confidence
 from study.parameters import defaults
 from study.subset_simulation import Settings
 
@@ -93,35 +90,20 @@ times at most); the CSV says how many each run used, and a surrogate still not r
 def run_confidence(arguments: argparse.Namespace) -> None:
     """Subset simulation of each surrogate; writes the CSV (with the study's own sample counted at the same
     bounds beside it where the sample exists) and prints its main columns."""
-    given = [option for option, value in (("--frequency-bound", arguments.frequency_bound),
-                                          ("--damping-bound", arguments.damping_bound)) if value is not None]
-    if arguments.bounds is not None and given:
-        raise ValueError(f"options --bounds and {given[0]}: mutually exclusive; give either --bounds FILE or both "
-                         "--frequency-bound and --damping-bound")
-    if arguments.bounds is None and len(given) < 2:
-        raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
-    out = Path(arguments.out)
-    check_output_file(out)
-    check_output_folder(out.with_name(out.name + ".levels"))
-    folder = workflow.read_study(arguments.study)
-    exploration = folder.exploration
-    case = arguments.damping_case or dataset(folder.parameters["study"].dataset).default_damping_case
-    if arguments.bounds is not None:
-        frequency_bounds, damping_bounds = read_bounds(arguments.bounds, arguments.model, exploration.names, case)
-    else:
-        frequency_bounds, damping_bounds = (np.full(len(exploration.names), value)
-                                            for value in (arguments.frequency_bound, arguments.damping_bound))
+    estimate = estimate_inputs(arguments.study, arguments.model, arguments.out, arguments.damping_case,
+                               arguments.bounds, arguments.frequency_bound, arguments.damping_bound)
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
-    table, figure = surrogacy_confidence(folder, arguments.model, case, frequency_bounds, damping_bounds, settings,
-                                         out, arguments.surrogate, arguments.scheduler)
+    table, figure = surrogacy_confidence(estimate.folder, arguments.model, estimate.case, estimate.frequency_bounds,
+                                         estimate.damping_bounds, settings, arguments.out, arguments.surrogate,
+                                         arguments.scheduler)
     for row in table[table["runs"].isna()].drop_duplicates("surrogate").itertuples():  # the region not reached
         print(f"{row.surrogate}: not estimated: {row.note}")
     if figure is not None:
         print(f"wrote {figure}")
     print(table[["surrogate", "real", "confidence", "lower", "upper", "sample_confidence", "families",
                  "surrogate_probability", "designs_per_level", "evaluations"]].to_string(index=False))
-    print(f"wrote {out}")
+    print(f"wrote {arguments.out}")
 
 
 def register_confidence(subparsers) -> None:

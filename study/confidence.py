@@ -2,26 +2,29 @@
 model by subset simulation (``study.subset_simulation``) for each surrogate I, beside the study's own sample counted
 at the same bounds, and the reader of a bounds CSV (``surrogacy fit``'s bounds.csv, docs/formats.md).
 
-:func:`surrogacy_confidence` is what ``surrogacy confidence`` runs: it writes the CSV (one row per surrogate I and
-real structure J) and, where the study's exploration holds the model, the figure of the sample's SC against a
-factor on the bounds.
+:func:`surrogacy_confidence` is what ``surrogacy confidence`` runs, on the study, damping case and bounds that
+:func:`estimate_inputs` chooses: it writes the CSV (one row per surrogate I and real structure J) and, where the
+study's exploration holds the model, the figure of the sample's SC against a factor on the bounds.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 import pandas as pd
 
+from pipeline.files import check_output_file, check_output_folder
 from pipeline.runners import runner
 from study.analysis import chunk_errors
+from study.datasets import dataset
 from study.errors import accepted
 from study.figures import plot_confidence_against_scale
 from study.subset_simulation import (RegionNotReached, Settings, study_subset_simulation, subset_table,
                                      write_subset_csv)
 from study.surrogacy import SurrogacyMatrix, joint_counts, matrix_from_counts
+from study import workflow
 from study.workflow import StudyFolder
 
 
@@ -55,6 +58,60 @@ def read_bounds(path: Path, model: str, names: list[str], case: str) -> tuple[np
     if not (np.all(frequency > 0) and np.all(damping > 0)):
         raise ValueError(f"{path}: fields frequency_bound_hz, damping_bound: expected positive values")
     return frequency, damping
+
+
+def check_bounds_given(bounds: Path | None, frequency_bound: float | None, damping_bound: float | None) -> None:
+    """Refuse acceptance bounds not given exactly one way: a bounds CSV ``bounds``, or both ``frequency_bound``
+    (Hz) and ``damping_bound`` (-) on every structure. Raises ValueError naming the options as typed."""
+    given = [option for option, value in (("--frequency-bound", frequency_bound), ("--damping-bound", damping_bound))
+             if value is not None]
+    if bounds is not None and given:
+        raise ValueError(f"options --bounds and {given[0]}: mutually exclusive; give either --bounds FILE or both "
+                         "--frequency-bound and --damping-bound")
+    if bounds is None and len(given) < 2:
+        raise ValueError("give either --bounds FILE or both --frequency-bound and --damping-bound")
+
+
+def damping_case(folder: StudyFolder, case: str | None = None) -> str:
+    """The linear damping case an estimate on the study ``folder`` uses: ``case`` where given, else the default of
+    the study's dataset (``study.datasets.Dataset.default_damping_case``)."""
+    return case or dataset(folder.parameters["study"].dataset).default_damping_case
+
+
+def acceptance_bounds(folder: StudyFolder, model: str, case: str, bounds: Path | None = None,
+                      frequency_bound: float | None = None, damping_bound: float | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Each structure's acceptance bounds (S,) Hz and (S,) -, in the order of the study's structures: from the
+    bounds CSV ``bounds`` for ``model`` in the damping case ``case`` (``read_bounds``), else ``frequency_bound``
+    (Hz) and ``damping_bound`` (-) on every structure (``check_bounds_given``)."""
+    names = folder.exploration.names
+    if bounds is not None:
+        return read_bounds(bounds, model, names, case)
+    return np.full(len(names), frequency_bound), np.full(len(names), damping_bound)
+
+
+class Estimate(NamedTuple):
+    """What a confidence estimate runs on: the study, its linear damping case and each structure's acceptance
+    bounds, (S,) Hz and (S,) -."""
+
+    folder: StudyFolder
+    case: str
+    frequency_bounds: np.ndarray
+    damping_bounds: np.ndarray
+
+
+def estimate_inputs(study: Path, model: str, out: Path, case: str | None = None, bounds: Path | None = None,
+                    frequency_bound: float | None = None, damping_bound: float | None = None) -> Estimate:
+    """The study in the folder ``study`` (``study.workflow.read_study``), the damping case (``damping_case``) and the
+    bounds (``acceptance_bounds``) of an estimate of ``model`` to be written to the CSV ``out``, checked in this
+    order before anything is computed: the bounds given one way (``check_bounds_given``), ``out`` and its levels
+    folder ``<out>.levels`` writable, the study readable, the bounds CSV holding the model's rows for that case."""
+    check_bounds_given(bounds, frequency_bound, damping_bound)
+    check_output_file(out)
+    check_output_folder(out.with_name(out.name + ".levels"))
+    folder = workflow.read_study(study)
+    chosen = damping_case(folder, case)
+    return Estimate(folder, chosen, *acceptance_bounds(folder, model, chosen, bounds, frequency_bound, damping_bound))
 
 
 BOUND_SCALES = np.geomspace(0.5, 8.0, 25)  # factors on the chosen bounds of the figure's sample curves
