@@ -4,7 +4,6 @@ import itertools
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from geometry.parameters import BEAM_NAMES
 from study.anova import anova_markdown, paper_anova, surrogacy_anova, write_anova_markdown

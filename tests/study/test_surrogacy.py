@@ -4,7 +4,6 @@ intervals and their coverage, replicate spread, the acceptance-bounds sweep, and
 
 import numpy as np
 import pandas as pd
-import pytest
 from scipy import stats
 
 from geometry.parameters import BEAM_NAMES
