@@ -128,7 +128,10 @@ def test_a_stuck_core_is_named_with_the_microslip_it_comes_with(brb):
     candidates = candidates_with(brb, "iwan4_core", ("jenkins", "iwan4", "iwan4_core"))
     verdict = structure_discrepancy_loop(measured(brb, "iwan4_core"), candidates, ZETA0, brb)
     assert sorted(verdict.effects) == ["microslip", "stuck_core"] and not verdict.unexplained
-    assert verdict.steps[-1].fit.parameters["design"] == "iwan4_core, refitted from design 0"
+    # refitted from the true design (design 0), then scanned where a coordinate scan lowers chi^2
+    assert verdict.steps[-1].fit.parameters["design"] in ("iwan4_core, refitted from design 0",
+                                                          "iwan4_core, refitted from design 0, scanned")
+    assert verdict.steps[-1].reduced_chi_squared < 1.5
 
 
 def test_two_effects_are_both_named(brb):
