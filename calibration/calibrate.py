@@ -98,7 +98,7 @@ CLOUD_RADII = (0.1, 0.03, 0.01)
 ESCAPES = 6
 """Moves of the best compromise to a cloud's lower basin."""
 ANCHOR_ITERATIONS = 10
-"""Secant steps on the stiffness factor's logarithm."""
+"""Most secant steps on the stiffness factor's logarithm."""
 METHOD = {"weights": WEIGHTS, "starts": STARTS, "population": POPULATION, "zeta0_seeds": ZETA0_SEEDS,
           "multistart_points": MULTISTART_POINTS, "multistarts": MULTISTARTS,
           "anchored_points": ANCHORED_POINTS, "pin": PIN, "scan_points": SCAN_POINTS,
@@ -189,37 +189,45 @@ def scanned(structure: Structure, space: FitSpace, fit: LocalFit, split, archive
 
 def anchored_points(structure: Structure, space: FitSpace, joint_unit, split) -> tuple[np.ndarray, np.ndarray]:
     """Unit joint points (n, d) moved onto the measured stuck frequency (module docstring, Escape): each point's
-    stiffnesses (``STIFFNESS_PARAMETERS``, N/m) times one factor s, found by the secant method on ln s
-    (``ANCHOR_ITERATIONS`` steps, all points at once, s kept where every stiffness stays within its limits) so
-    that QSMA's frequency at the lowest measured level equals the measured one within its standard uncertainty;
+    stiffnesses (``STIFFNESS_PARAMETERS``, N/m) times one factor s, found by the secant method on ln s (at most
+    ``ANCHOR_ITERATIONS`` steps, the points still off at once, s kept where every stiffness stays within its limits)
+    so that QSMA's frequency at the lowest measured level equals the measured one within its standard uncertainty;
     zeta_0 at its least-squares value (``calibration.objectives.profiled_zeta0``). Returns the points anchored
     within the limits, unit (m, d + 1), and their plain chi^2 (m,)."""
     measurement = structure.measurement
     designs, _ = physical(space, np.column_stack([joint_unit, np.zeros(len(joint_unit))]))
     stiffness = np.array([name.split("[")[0] in STIFFNESS_PARAMETERS for name in space.names[:-1]])
 
-    def frequency_error(log_factor):
-        scaled = designs.copy()
+    def frequency_error(log_factor, rows):
+        scaled = designs[rows]
         scaled[:, stiffness] *= np.exp(log_factor)[:, None]
         result = qsma_designs(structure.space, space.model, scaled, amplitudes=measurement.amplitude[:1],
                               linear_damping=0.0, split=split)
-        return result.frequency[:, 0] / (2.0 * np.pi) - measurement.frequency_hz[0], scaled
+        return result.frequency[:, 0] / (2.0 * np.pi) - measurement.frequency_hz[0]
 
     # the factors that keep every stiffness within its Table 3 limits
     smallest = np.max(np.log(space.lower[:-1][stiffness] / designs[:, stiffness]), axis=1)
     largest = np.min(np.log(space.upper[:-1][stiffness] / designs[:, stiffness]), axis=1)
+    every = np.arange(len(designs))
     previous, current = np.zeros(len(designs)), np.clip(0.1, smallest, largest)
-    previous_error, _ = frequency_error(previous)
-    error, scaled = frequency_error(current)
-    for _ in range(ANCHOR_ITERATIONS):
+    previous_error, error = frequency_error(previous, every), frequency_error(current, every)
+    tolerance = measurement.sigma_frequency[0]
+    for _ in range(ANCHOR_ITERATIONS):  # only the points still off by more than the tolerance, and moving
+        active = np.flatnonzero((np.abs(error) > tolerance) & (current != previous))
+        if not active.size:
+            break
         with np.errstate(divide="ignore", invalid="ignore"):
-            following = current - error * (current - previous) / (error - previous_error)
-        following = np.clip(np.where(np.isfinite(following), following, current), smallest, largest)
-        previous, previous_error = current, error
-        current = following
-        error, scaled = frequency_error(current)
-    held = np.abs(error) <= measurement.sigma_frequency[0]
-    joint = to_unit(scaled[held], space.lower[:-1], space.upper[:-1], space.logarithmic[:-1])
+            following = current[active] - error[active] * (current[active] - previous[active]) / (
+                error[active] - previous_error[active])
+        following = np.clip(np.where(np.isfinite(following), following, current[active]), smallest[active],
+                            largest[active])
+        previous[active], previous_error[active] = current[active], error[active]
+        current[active] = following
+        error[active] = frequency_error(following, active)
+    held = np.abs(error) <= tolerance
+    scaled = designs[held]
+    scaled[:, stiffness] *= np.exp(current[held])[:, None]
+    joint = to_unit(scaled, space.lower[:-1], space.upper[:-1], space.logarithmic[:-1])
     curves = model_curves(structure, space, np.column_stack([joint, np.zeros(len(joint))]), split)
     joint_damping = curves.damping - space.lower[-1]
     zeta0 = profiled_zeta0(space, measurement, joint_damping)
