@@ -20,12 +20,14 @@ Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
     mode_backbone            ringdown_backbone's result -> ModeBackbone (structure, provenance) for a study
     write_backbone, read_backbone
                              the documented backbone CSV
+    write_freevib            freevib's files: the backbone CSV, both estimators' table and plot, the JSON sidecar
     read_asb_backbone        measured ASB backbone (.mat) -> ModeBackbone
 What a backbone hides (:mod:`experiment.signal_checks`)
     ringdown_findings        a second mode, a drift over the hits, clipping, no pre-trigger, a truncated record
 Ring-downs to a study's backbone in one call (:mod:`experiment.ringdown_analysis`)
     analyse_ringdown         ringdown_backbone, ringdown_findings and mode_backbone: what freevib, the examples and
                              the virtual experiments run
+    analyse_ringdown_file    the same on one file's hits, the file's SHA-256 recorded with the backbone
 Settings (:mod:`experiment.backbone`)
     checked_settings, check_nyquist   the band, grid and time scales refused before any signal is read
 Command (:mod:`experiment.commands`)

@@ -45,7 +45,7 @@ import numpy as np
 import scipy.io
 
 from experiment.backbone import PROVENANCES, Backbone, MeasuredBackbone, ModeBackbone, low_amplitude_reference
-from pipeline.files import atomic_path, json_text
+from pipeline.files import atomic_path, json_text, write_json
 
 BACKBONE_TITLE = "backbone: natural frequency and damping ratio of one mode against its amplitude"
 """First comment line of a backbone CSV."""
@@ -260,3 +260,28 @@ def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
     with atomic_path(destination) as temporary:
         figure.savefig(temporary, dpi=120, format="png")
     plt.close(figure)
+
+
+def freevib_record(source: Path, mode: ModeBackbone, backbone: MeasuredBackbone) -> dict:
+    """The JSON sidecar of ``surrogacy freevib``'s files for the ring-down file ``source``: the file and its SHA-256,
+    the settings the backbone ``mode`` was estimated with (``experiment.ringdown_analysis.analyse_ringdown_file``),
+    the amplitude unit, the records averaged, the mode shape at the channels, the signal checks' findings and the
+    points left out of the backbone; ``backbone`` holds both estimators."""
+    settings = {key: value for key, value in mode.settings.items() if key != "source_sha256"}
+    return {"source": str(source), "source_sha256": mode.settings["source_sha256"], "settings": settings,
+            "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
+            "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": mode.findings,
+            "dropped": mode.dropped}
+
+
+def write_freevib(out: Path, source: Path, mode_hz: float, mode: ModeBackbone, backbone: MeasuredBackbone) -> str:
+    """``surrogacy freevib``'s files for the mode near ``mode_hz`` (Hz) of the ring-down file ``source`` into
+    ``out``: the backbone CSV of ``mode`` (``write_backbone``), both estimators of ``backbone`` as a table
+    (``write_freevib_table``) and a plot (``plot_backbone``), and the JSON sidecar (``freevib_record``). Returns the
+    files' stem (``freevib_stem``)."""
+    stem = freevib_stem(source, mode_hz)
+    write_backbone(mode, out / f"{stem}_backbone.csv")
+    write_freevib_table(backbone, out / f"{stem}.csv")
+    plot_backbone(backbone, out / f"{stem}.png")
+    write_json(out / f"{stem}.json", freevib_record(source, mode, backbone))
+    return stem

@@ -13,12 +13,12 @@ import inspect
 from pathlib import Path
 
 from experiment.backbone import BackboneSettingError, check_nyquist, checked_settings, ringdown_backbone
-from experiment.backbone_files import freevib_stem, plot_backbone, write_backbone, write_freevib_table
+from experiment.backbone_files import write_freevib
 from experiment.hilbert import freevib
 from experiment.measured_files import RING_DOWN, known_formats, read_ringdown, stated_provenance
-from experiment.ringdown_analysis import analyse_ringdown
+from experiment.ringdown_analysis import analyse_ringdown_file
 from experiment.ringdown_files import read_mode_shapes
-from pipeline.files import check_output_folder, sha256_file, write_json
+from pipeline.files import check_output_folder
 
 
 def keyword_defaults(function) -> dict:
@@ -67,24 +67,15 @@ def run_freevib(arguments: argparse.Namespace) -> None:
     check_nyquist(hits, band, "--mode-hz / --band")
     settings = {key: value for key, value in vars(arguments).items()  # how, not what or where
                 if key not in ("run", "run_log", "command", "file", "out")}
-    source_sha256 = sha256_file(source)
-    labelled, backbone = analyse_ringdown(
-        hits, arguments.mode_hz, source.stem, provenance, settings=settings | {"source_sha256": source_sha256},
-        band_hz=band, mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
+    labelled, backbone = analyse_ringdown_file(
+        source, hits, arguments.mode_hz, provenance, settings, band_hz=band,
+        mode_shapes=read_mode_shapes(arguments.mode_shapes) if arguments.mode_shapes else None,
         mode_index=arguments.mode_index - 1, per_channel=arguments.per_channel, channels=arguments.channels,
         grid_points=arguments.grid_points, cycles=arguments.cycles, smoothing_periods=arguments.smoothing_periods,
         trim_periods=arguments.trim_periods, feldman=arguments.feldman, seed=arguments.seed)
     findings = labelled.findings
     out = Path(arguments.out)
-    stem = freevib_stem(source, arguments.mode_hz)
-    write_backbone(labelled, out / f"{stem}_backbone.csv")
-    write_freevib_table(backbone, out / f"{stem}.csv")
-    plot_backbone(backbone, out / f"{stem}.png")
-    write_json(out / f"{stem}.json", {
-        "source": str(source), "source_sha256": source_sha256, "settings": settings,
-        "amplitude_unit": backbone.amplitude_unit, "records": [record.label for record in backbone.records],
-        "mode_shape": {name: float(value) for name, value in backbone.shape.items()}, "findings": findings,
-        "dropped": labelled.dropped})
+    stem = write_freevib(out, source, arguments.mode_hz, labelled, backbone)
     for entry in labelled.dropped:
         print(f"left out of the backbone: the point at amplitude {entry['amplitude']:.4g} {backbone.amplitude_unit} "
               f"({entry['records']} record(s)): {entry['reason']}")

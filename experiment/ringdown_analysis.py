@@ -5,14 +5,18 @@ experiments share (docs/design.md section 6).
 every hit's Nyquist frequency), the checks of the signals for what a backbone hides
 (:func:`experiment.signal_checks.ringdown_findings`, on the channels the backbone is made of), and labels the Hilbert
 backbone for a study (:func:`experiment.backbone.mode_backbone`: structure, provenance, settings, findings, the
-points no free decay gives left out).
+points no free decay gives left out); :func:`analyse_ringdown_file` does so for the hits of one file, with the
+file's SHA-256 recorded in the backbone's settings.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from experiment.backbone import MeasuredBackbone, ModeBackbone, mode_backbone, ringdown_backbone
 from experiment.ringdown import RingDown, selected_channels
 from experiment.signal_checks import ringdown_findings
+from pipeline.files import sha256_file
 
 
 def analyse_ringdown(hits: list[RingDown], mode_frequency_hz: float, structure: str, provenance: str, *,
@@ -37,3 +41,12 @@ def analyse_ringdown(hits: list[RingDown], mode_frequency_hz: float, structure: 
     used = [selected_channels(hit, channels) for hit in hits] if channels else hits
     findings = ringdown_findings(used, measured, measured.band_hz) if check_signals else None
     return mode_backbone(measured, structure, provenance, settings, findings), measured
+
+
+def analyse_ringdown_file(source: Path, hits: list[RingDown], mode_frequency_hz: float, provenance: str,
+                          settings: dict, **options) -> tuple[ModeBackbone, MeasuredBackbone]:
+    """:func:`analyse_ringdown` on the ``hits`` read from the file ``source``, the backbone labelled with the file's
+    stem and its ``settings`` joined by the file's SHA-256 (``source_sha256``), so that the backbone names the
+    bytes it was estimated from. options: as :func:`analyse_ringdown`'s."""
+    return analyse_ringdown(hits, mode_frequency_hz, Path(source).stem, provenance,
+                            settings=settings | {"source_sha256": sha256_file(source)}, **options)
