@@ -1,17 +1,19 @@
 """The discrepancy loop's files: what it writes for a verdict (the backbone it reads is any backbone format of
 ``experiment.measured_files``): ``discrepancy.md`` (the effect found at each step, the evidence, the errors before
 and after), ``discrepancy.png`` (measurement and the model before and after) and ``discrepancy.json`` (the same
-numbers and the fitted parameters)."""
+numbers and the fitted parameters); the final one-mode model read back from discrepancy.json and its curve with
+the band written as CSV."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from matplotlib.ticker import NullFormatter
 
 import numpy as np
 
-from discrepancy.fitted_model import evaluate
+from discrepancy.fitted_model import check_record, evaluate
 from discrepancy.loop import EVIDENCE, Verdict, residual_features
 from discrepancy.nominal import nominal_statement
 from pipeline.files import atomic_path, write_json
@@ -199,3 +201,32 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
                    "undetermined_parameters": step.fit.undetermined, "held_parameters": step.fit.held,
                    "converged": step.fit.converged}
                   for step in verdict.steps]})
+
+
+def read_final_model(path: Path) -> dict:
+    """The final one-mode model (``final_model``, ``discrepancy.fitted_model``) of the discrepancy.json at
+    ``path``; ValueError naming the file and the field where it holds none or not the record written."""
+    try:
+        record = json.loads(Path(path).read_text())["final_model"]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ValueError(f"{path}: field final_model: expected the discrepancy.json of a one-mode run of "
+                         f"surrogacy discrepancy ({type(error).__name__}: {error})") from None
+    check_record(record, str(path))
+    return record
+
+
+def write_model_curve(record: dict, source: Path, amplitude, destination: Path) -> dict:
+    """The final model ``record`` (read from ``source``) at ``amplitude`` (n,) in its unit, with its 95 % bands
+    and whether each amplitude is extrapolation (``discrepancy.fitted_model.evaluate``), written as CSV to
+    ``destination``; returns the curve."""
+    curve = evaluate(record, amplitude)
+    table = np.column_stack([amplitude, curve["frequency_hz"], *curve["frequency_band"], curve["damping"],
+                             *curve["damping_band"], curve["extrapolated"]])
+    with atomic_path(destination) as temporary:
+        np.savetxt(temporary, table, delimiter=",", fmt="%.10g", comments="",
+                   header=f"# model of {source} (effects: {', '.join(record['effects']) or 'none'}), fitted over "
+                          f"amplitudes {record['fitted_range'][0]:.6g} to {record['fitted_range'][1]:.6g}; bands: "
+                          "95 % of the parameters' uncertainty, linearised\n"
+                          "amplitude,frequency [Hz],frequency low [Hz],frequency high [Hz],damping ratio [-],"
+                          "damping low [-],damping high [-],extrapolation")
+    return curve

@@ -197,3 +197,22 @@ def nominal_statement(record: dict) -> list[str]:
     caveat = record.get("nominal_caveat")
     return [f"Nominal of the reference model: f_0 = {record['nominal_frequency_hz']:.8g}{errors[0]} Hz, zeta_0 = "
             f"{record['nominal_damping']:.4g}{errors[1]}; {source}.", "", *([caveat, ""] if caveat else [])]
+
+
+def nominal_record(measurement: Measurement, frequency_hz: float | None, damping: float | None) -> dict:
+    """The nominal the loop starts from: the given values (``frequency_hz`` Hz, ``damping`` the linear damping
+    ratio), and for any not given (None) the measurement's low-amplitude estimate (``low_amplitude_nominal``), with
+    standard errors (0 for a given value), a ``nominal_source`` saying where they came from and a ``nominal_caveat``
+    saying which offsets an estimated nominal holds (``offset_caveat``; None where both were given)."""
+    estimate = (low_amplitude_nominal(measurement) if frequency_hz is None or damping is None else None)
+    given = [name for name, value in (("frequency", frequency_hz), ("damping", damping)) if value is not None]
+    source = ("given" if len(given) == 2 else estimate.source if not given else
+              f"{given[0]} given; {'damping' if given[0] == 'frequency' else 'frequency'} {estimate.source}")
+    return {"nominal_frequency_hz": frequency_hz if frequency_hz is not None else estimate.frequency_hz,
+            "nominal_frequency_standard_error_hz": 0.0 if frequency_hz is not None
+            else estimate.frequency_standard_error_hz,
+            "nominal_damping": damping if damping is not None else estimate.damping,
+            "nominal_damping_standard_error": 0.0 if damping is not None else estimate.damping_standard_error,
+            "nominal_source": source,
+            "nominal_caveat": offset_caveat([name for name, value in (("frequency", frequency_hz),
+                                                                        ("damping", damping)) if value is None])}

@@ -265,7 +265,7 @@ def test_a_point_with_negative_damping_is_left_out_not_the_backbone(tmp_path, ca
     zero; freevib leaves that point out with its cause (printed and in the file's dropped line), keeps the second
     mode's finding, and the loop's levels read the backbone without refusing it."""
     from cli.console import main as surrogacy
-    from discrepancy.commands import backbone_levels
+    from discrepancy.workflow import backbone_levels
     from discrepancy.virtual_data import write_undeclared_ringdown
 
     path = tmp_path / "ring.csv"
