@@ -2,8 +2,10 @@
 explains the residual; the effect added, the model refitted, the errors before and after; "unexplained" rather than
 a guess. ``surrogacy discrepancy`` runs it (:mod:`discrepancy.commands`).
 
+The effects (:mod:`discrepancy.effects`)
+    EFFECTS, effect                          the registry: each effect's parameters, in the joint's law or outside it
 The loop and the one-mode route (:mod:`discrepancy.loop`)
-    EFFECTS, model_backbone, fit             the effect library, the one-mode joint model, weighted least squares
+    model_backbone, fit                      the one-mode joint model, weighted least squares
     discrepancy_loop, select_effects         forward selection by BIC, stepwise swap and drop; Verdict
     with_findings                            the ring-down's signal findings beside the verdict
 The superelement route (:mod:`discrepancy.superelement_route`)

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from discrepancy.loop import BASE, EFFECTS, Fit, _to_parameters, _to_vector, model_backbone
+from discrepancy.effects import EFFECTS
+from discrepancy.loop import BASE, Fit, _to_parameters, _to_vector, model_backbone
 from study.structures import Measurement
 
 KIND = {name: kind for name, kind, _ in (*BASE, *(p for effect in EFFECTS.values() for p in effect.parameters))}

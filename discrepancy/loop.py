@@ -5,17 +5,8 @@ find which missing effect explains the residual, add it, refit, and report the e
 Model. The one-mode joint model of ``nonlinear.modal_joint`` (a linear mode plus a Jenkins element, the
 macroslip reference) with the structure's nominal low-amplitude frequency f_0 and linear damping zeta_0 fixed
 (from the structure's model and its borrowed damping, as the paper did), and the joint's stiffness share kappa and
-slip force F_S fitted. Each effect of the library adds a documented term and its parameters (``EFFECTS``); the
-first two belong to the joint's friction law (the law a joint is characterised by: the verdict names them as the
-joint law), the others lie outside the joint (what the structure's model lacks besides the joint):
-
-    microslip          Iwan instead of Jenkins (chi, beta): damping from the first amplitude, no kink
-    stiction           static slip force above the dynamic one (theta < 1): a drop in frequency at slip
-    linear_damping     a structure-specific zeta_0 (free): an offset of the damping at every amplitude
-    amplitude_damping  damping outside the joint growing with amplitude (air, suspension): + c q / q_max
-    stiffness_change   a linear stiffness or mass change outside the joint (sensor mass, a mis-set constant,
-                       prestress on a modal model): f_0 free, an offset of the frequency at every amplitude
-    cubic_stiffening   geometric stiffening: omega^2 + gamma omega_0^2 (q / q_max)^2, frequency rising with q
+slip force F_S fitted. Each effect of the one-mode library (``discrepancy.effects``: microslip and stiction in the
+joint's friction law, the others outside the joint) adds a documented term and its parameters.
 
 q_max is the largest fitted amplitude (the model's amplitude scale, recorded with the final model:
 ``discrepancy.fitted_model``).
@@ -72,6 +63,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit, logit
 
+from discrepancy.effects import EFFECTS, ONE_MODE_EFFECTS
 from nonlinear.modal_joint import modal_joint_backbone
 from study.structures import Measurement
 
@@ -89,32 +81,7 @@ ZETA_START = 1e-6  # least start of a fitted linear damping (a nominal of 0 woul
 LIMIT_TEST = 2.706  # likelihood ratio above which a parameter is away from its law's limit (5 %, 50:50 chi^2_0/chi^2_1)
 
 
-class Effect(NamedTuple):
-    """An effect of the library: its parameters ((name, kind, start): kind "log" (positive), "unit" (0, 1), "chi"
-    (-1, 0), "shift" (-MAX_SHIFT, MAX_SHIFT); a start None takes the fit's default) and whether it belongs to the
-    joint's friction law (``in_joint``: the law the joint is characterised by) or lies outside the joint."""
-
-    parameters: tuple
-    in_joint: bool
-
-
-EFFECTS = {
-    "microslip": Effect((("chi", "chi", -0.5), ("beta", "log", 0.1)), True),
-    "stiction": Effect((("theta", "unit", 0.7),), True),
-    "linear_damping": Effect((("zeta_0", "log", None),), False),
-    "amplitude_damping": Effect((("air_damping", "log", 1e-4),), False),
-    "stiffness_change": Effect((("frequency_shift", "shift", 0.0),), False),
-    "cubic_stiffening": Effect((("cubic", "log", 1e-4),), False),
-}
-"""Effect -> its parameters and where it acts (module docstring)."""
-OUTSIDE_JOINT = tuple(name for name, effect in EFFECTS.items() if not effect.in_joint)
 BASE = (("kappa", "unit", 0.3), ("slip_force", "log", None))
-
-
-def in_joint(effect: str) -> bool:
-    """Whether an effect belongs to the joint's friction law: the library's own flag, and every effect a friction
-    model brings that the library does not hold (the superelement route's stuck core)."""
-    return effect not in EFFECTS or EFFECTS[effect].in_joint
 
 
 def model_backbone(parameters: dict, amplitude, nominal_frequency_hz: float, nominal_damping: float,
@@ -414,13 +381,13 @@ class Verdict:
 
     @property
     def joint_law(self) -> list:
-        """The effects found that belong to the joint's friction law (``in_joint``)."""
-        return [effect for effect in self.effects if in_joint(effect)]
+        """The effects found that belong to the joint's friction law (``discrepancy.effects``)."""
+        return [effect for effect in self.effects if EFFECTS[effect].in_joint]
 
     @property
     def added(self) -> list:
         """The effects found outside the joint: what the structure's model lacks besides the joint's law."""
-        return [effect for effect in self.effects if not in_joint(effect)]
+        return [effect for effect in self.effects if not EFFECTS[effect].in_joint]
 
 
 def with_findings(verdict: Verdict, findings: list) -> Verdict:
@@ -440,7 +407,7 @@ def errors(measurement: Measurement, model: Fit) -> dict:
 
 
 def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float,
-                     library=tuple(EFFECTS), nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Verdict:
+                     library=ONE_MODE_EFFECTS, nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Verdict:
     """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
     then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
     forward steps can take a look-alike first when two effects are in the data). ``nominal_uncertainty``: the
@@ -562,7 +529,7 @@ def final_model(accepted: list, n: int) -> tuple:
 def flagged(trial: Fit, effects) -> list[str]:
     """The reasons ``trial`` gives for parameters of ``effects`` at a bound or undetermined (an effect that lives
     in a friction model's design, as the superelement route's stuck core, has no parameter of the library)."""
-    return [f"{name} {trial.undetermined[name]}" for effect in effects if effect in EFFECTS
+    return [f"{name} {trial.undetermined[name]}" for effect in effects
             for name, _, _ in EFFECTS[effect].parameters if name in trial.undetermined]
 
 

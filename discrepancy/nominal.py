@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from discrepancy.effects import offset_effect
 from study.structures import Measurement
 
 DECADES = 1.0  # the low-amplitude window: levels within this many decades of the lowest one
@@ -159,11 +160,9 @@ def ratio(line: LineFit) -> str:
     return f"{line.chi_squared / line.dof:.2g}" if line.dof > 0 else "-"
 
 
-OFFSET_EFFECTS = {"frequency": ("f_0", "stiffness_change", "a stiffness or mass change outside the joint",
-                                 "--nominal-frequency-hz"),
-                  "damping": ("zeta_0", "linear_damping", "a linear damping not from the joint", "--nominal-damping")}
-"""Nominal value -> (its symbol, the offset effect of ``discrepancy.loop.EFFECTS`` it stands in for, what that
-effect is, the option that gives it): an offset at every amplitude and the nominal are one number."""
+NOMINAL_VALUES = {"frequency": ("f_0", "--nominal-frequency-hz"), "damping": ("zeta_0", "--nominal-damping")}
+"""Nominal value -> (its symbol, the option that gives it); the offset effect it stands in for is the registry's
+(``discrepancy.effects.offset_effect``): an offset at every amplitude and the nominal are one number."""
 
 
 def offset_caveat(estimated) -> str | None:
@@ -172,15 +171,15 @@ def offset_caveat(estimated) -> str | None:
     measurement's low-amplitude limit exactly as a different nominal does, so the estimate holds it, within its
     standard errors, and the loop's offset effects only test whether the measurement departs from its own
     low-amplitude extrapolation. ``estimated``: the nominal values estimated, "frequency" and/or "damping"."""
-    entries = [OFFSET_EFFECTS[name] for name in ("frequency", "damping") if name in estimated]
+    entries = [(*NOMINAL_VALUES[name], offset_effect(name)) for name in ("frequency", "damping") if name in estimated]
     if not entries:
         return None
-    return (f"The nominal {' and '.join(symbol for symbol, _, _, _ in entries)} is estimated from this measurement, "
-            f"so an offset at every amplitude ({'; '.join(f'{what}, {effect}' for _, effect, what, _ in entries)}) "
+    return (f"The nominal {' and '.join(symbol for symbol, _, _ in entries)} is estimated from this measurement, "
+            f"so an offset at every amplitude ({'; '.join(f'{e.what}, {e.name}' for _, _, e in entries)}) "
             "cannot be told from it: the estimate holds such an offset within its standard errors, and "
-            f"{' and '.join(effect for _, effect, _, _ in entries)} {'are' if len(entries) > 1 else 'is'} named only "
+            f"{' and '.join(e.name for _, _, e in entries)} {'are' if len(entries) > 1 else 'is'} named only "
             "where the fit pulls the nominal beyond them. Against the structure's model, the offset is this "
-            f"nominal minus the model's; give the model's ({', '.join(option for _, _, _, option in entries)}) "
+            f"nominal minus the model's; give the model's ({', '.join(option for _, option, _ in entries)}) "
             "to test for it.")
 
 

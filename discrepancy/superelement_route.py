@@ -56,16 +56,14 @@ from nonlinear.friction_models import FRICTION_MODELS
 from nonlinear.joint import contained_unit_designs, from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from study.datasets import dataset
-from discrepancy.loop import (EFFECTS, OUTSIDE_JOINT, UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic,
-                              determinacy, outside_joint, select_effects, weighted_misfit)
+from discrepancy.effects import EFFECTS, FRICTION_EFFECTS, OUTSIDE_JOINT
+from discrepancy.loop import (UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic, determinacy,
+                              outside_joint, select_effects, weighted_misfit)
 from study.errors import structure_damping
 from study.pareto import non_dominated
 from study.structures import Measurement
 from study.workflow import read_study
 
-FRICTION_EFFECTS = {name: model.discrepancy_effects for name, model in FRICTION_MODELS.items()
-                    if model.discrepancy_effects is not None}
-"""Friction model -> the friction effects it adds to the macroslip reference (``nonlinear.friction_models``)."""
 REFERENCE_MODEL = next(name for name, effects in FRICTION_EFFECTS.items() if not effects)  # macroslip only
 SCREEN_POINTS = 16384
 """Points of the unscrambled Sobol sequence over a friction model's unit box its fits' starts are screened from."""

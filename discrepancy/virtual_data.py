@@ -27,17 +27,13 @@ from experiment.backbone import Backbone, ModeBackbone
 from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
 from experiment.ringdown import RingDown
 from experiment.ringdown_files import write_ringdown_csv
-from discrepancy.loop import EFFECTS, model_backbone
+from discrepancy.effects import EFFECTS
+from discrepancy.loop import model_backbone
 
 REFERENCE_FREQUENCY_HZ = 169.48  # the BRB's Table 1 frequency and damping
 REFERENCE_DAMPING = 1.666e-3
 REFERENCE_JOINT = {"kappa": 0.15, "slip_force": 0.15 * (2 * np.pi * REFERENCE_FREQUENCY_HZ) ** 2 * 5e-5}
 AMPLITUDES = np.geomspace(5e-6, 3e-4, 20)  # m kg^0.5: stuck to well into macroslip of the reference joint
-# One instance of each library effect, large enough to matter at the study's tolerances, small enough to be real.
-EFFECT_INSTANCES = {"microslip": {"chi": -0.4, "beta": 0.2}, "stiction": {"theta": 0.6},
-                    "linear_damping": {"zeta_0": 3.5e-3}, "amplitude_damping": {"air_damping": 2e-3},
-                    "stiffness_change": {"frequency_shift": -0.01}, "cubic_stiffening": {"cubic": 0.01}}
-assert set(EFFECT_INSTANCES) == set(EFFECTS)
 
 
 def true_backbone(effects=(), outside_library=None, amplitudes=AMPLITUDES):
@@ -45,7 +41,7 @@ def true_backbone(effects=(), outside_library=None, amplitudes=AMPLITUDES):
     optionally an effect outside the library (a function of amplitude returning a frequency offset in Hz)."""
     parameters = dict(REFERENCE_JOINT)
     for effect in effects:
-        parameters.update(EFFECT_INSTANCES[effect])
+        parameters.update(EFFECTS[effect].instance)
     frequency, damping = model_backbone(parameters, amplitudes, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING,
                                         amplitudes[-1])
     if outside_library is not None:

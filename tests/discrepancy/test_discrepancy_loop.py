@@ -18,9 +18,9 @@ import scipy.io
 
 from experiment.backbone_files import read_backbone
 from nonlinear.modal_joint import modal_joint_backbone
-from discrepancy.loop import EFFECTS, discrepancy_loop
-from discrepancy.virtual_data import (EFFECT_INSTANCES, REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ,
-                                    write_undeclared_backbone)
+from discrepancy.effects import EFFECTS, ONE_MODE_EFFECTS
+from discrepancy.loop import discrepancy_loop
+from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_backbone
 from reduction.superelement import StructureError
 from study.structures import measured_levels
 
@@ -32,12 +32,12 @@ def loop_on_file(tmp_path, effects=(), **options):
     path = tmp_path / "measured.csv"
     write_undeclared_backbone(path, effects, **options)
     text = path.read_text()
-    assert "virtual" in text and not any(effect in text for effect in EFFECT_INSTANCES)
+    assert "virtual" in text and not any(effect in text for effect in ONE_MODE_EFFECTS)
     measurement = measured_levels(read_backbone(path), path=str(path))
     return discrepancy_loop(measurement, REFERENCE_FREQUENCY_HZ, REFERENCE_DAMPING)
 
 
-@pytest.mark.parametrize("effect", sorted(EFFECT_INSTANCES))
+@pytest.mark.parametrize("effect", sorted(ONE_MODE_EFFECTS))
 def test_each_effect_is_named_and_halves_the_error(tmp_path, effect):
     verdict = loop_on_file(tmp_path, (effect,))
     assert verdict.effects == [effect] and not verdict.unexplained
@@ -165,7 +165,7 @@ def test_undeclared_effect_through_a_ring_down(tmp_path, effects):
     path = tmp_path / "ring.csv"
     write_undeclared_ringdown(path, effects)
     text = path.read_text()
-    assert text.startswith("# VIRTUAL data") and not any(effect in text for effect in EFFECT_INSTANCES)
+    assert text.startswith("# VIRTUAL data") and not any(effect in text for effect in ONE_MODE_EFFECTS)
     assert surrogacy(["freevib", str(path), "--mode-hz", "169", "--out", str(tmp_path / "freevib")]) == 0
     backbone = tmp_path / "freevib" / "ring_mode_169Hz_backbone.csv"
     assert read_backbone(backbone).settings["mode_hz"] == 169

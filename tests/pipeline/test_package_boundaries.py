@@ -5,7 +5,7 @@ nonlinear/ reads no measured-data files (it may build the ring-down type, experi
 only the packages before it in the data's flow, and no module of a package imports itself back through others; the
 command line (cli/) comes after every stage and no module imports it; no library module imports a command module; no
 module but the friction-model registry decides on a model's name, nor on a dataset's but the dataset registry; no
-module but the runners starts workers.
+module but the effect registry names an effect of the discrepancy loop; no module but the runners starts workers.
 """
 
 import ast
@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from locations import REPOSITORY
+from discrepancy.effects import EFFECT_NAMES
 from nonlinear.friction_models import MODEL_NAMES
 from study.datasets import DATASET_NAMES
 
@@ -259,14 +260,18 @@ def dataset_strings(path: Path, names) -> list[str]:
     ``fit-asb``, also as a component of a path such as ``results/study-asb``), as 'line: source'; docstrings and
     "beams" alone (the geometry stage's folder, build/beams) aside."""
     named = {f"{prefix}{name}" for name in names for prefix in ("study-", "fit-")} | set(names) - {"beams"}
+    return [place for place, value in string_constants(path) if named & set(value.split("/"))]
+
+
+def string_constants(path: Path) -> list[tuple[str, str]]:
+    """('line: source', value) of every string constant of a module but its docstrings (module, class, function)."""
     source = path.read_text()
     tree = ast.parse(source, filename=str(path))
     docstrings = {id(node.body[0].value) for node in ast.walk(tree)
                   if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef)) and node.body
                   and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
-    return [f"{node.lineno}: {ast.get_source_segment(source, node)}" for node in ast.walk(tree)
-            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings
-            and named & set(node.value.split("/"))]
+    return [(f"{node.lineno}: {ast.get_source_segment(source, node)}", node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings]
 
 
 def test_the_report_finds_the_datasets_through_the_registry():
@@ -283,3 +288,31 @@ def test_a_planted_dataset_string_is_found(tmp_path):
                        'folder = results / "fit-asb"\nlog = "results/study-beams/study.json"\n'
                        'meshes = build / "beams"\nfolder = results / f"study-{name}"\n')
     assert sorted(place.split(":")[0] for place in dataset_strings(planted, DATASET_NAMES)) == ["2", "2", "2", "3", "4"]
+
+
+EFFECT_PACKAGES = PACKAGES[PACKAGES.index("discrepancy"):]
+"""The packages that know the discrepancy loop's effects (below it "linear_damping" is a design's zeta_0 and
+"microslip" a regime of a joint; the friction-model registry names the effects each model brings, and
+tests/discrepancy/test_effects.py checks them against the effect registry)."""
+
+
+def effect_strings(path: Path, names) -> list[str]:
+    """String constants of a module that are an effect's name, as 'line: source'; docstrings aside."""
+    return [place for place, value in string_constants(path) if value in names]
+
+
+@pytest.mark.parametrize("package", EFFECT_PACKAGES)
+def test_no_effect_is_named_outside_the_registry(package):
+    offending = {path.name: effect_strings(path, EFFECT_NAMES) for path in sorted((ROOT / package).glob("*.py"))
+                 if path != ROOT / "discrepancy" / "effects.py"}
+    offending = {module: places for module, places in offending.items() if places}
+    assert not offending, offending
+
+
+def test_a_planted_effect_name_is_found(tmp_path):
+    planted = tmp_path / "nominal.py"
+    planted.write_text('"""Offsets: stiffness_change and linear_damping."""\n'
+                       'OFFSETS = {"frequency": "stiffness_change"}\n'
+                       'if effect in ("microslip", "other"):\n    pass\nmessage = "a stiffness_change here"\n'
+                       'core = effects[-1] == "stuck_core"\n')
+    assert sorted(place.split(":")[0] for place in effect_strings(planted, EFFECT_NAMES)) == ["2", "3", "6"]
