@@ -23,7 +23,7 @@ from locations import SHARED
 from study.structures import measured_levels
 
 CHEN = SHARED / "data" / "chen2022-brb-hammer" / "HammerImpact.mat"
-HAMMER_TOP = 29.8  # m/s^2, the hammer ring-down's largest acceleration amplitude (issue 35)
+HAMMER_TOP = 29.8  # m/s^2, the hammer ring-down's largest acceleration amplitude
 
 
 def virtual_record(unit):
