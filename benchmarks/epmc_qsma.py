@@ -1,9 +1,13 @@
 """QSMA against EPMC over Table 3: how far QSMA's frequency and damping are from the nonlinear mode by harmonic
-balance, by regime, on a beam's superelement.
+balance, by regime, on a beam's superelement or an ASB configuration's reduced model.
 
-Run as ``python -m benchmarks.epmc_qsma [--beam BRB] [--models jenkins iwan4 ...] [--designs N] [--seed S]
-[--out FILE.csv]``. Designs are drawn uniformly in Table 3's box (``nonlinear.joint.random_designs``); those
-whose stuck target mode has a negative stiffness (prestressed halves on too soft a joint) are left out; each is
+Run as ``python -m benchmarks.epmc_qsma [--structure BRB] [--models jenkins iwan4 ...] [--designs N] [--seed S]
+[--out FILE.csv]``. The structure (``sampled_structure``) is a beam's prestressed superelement (``--rom``) with
+its first tied elastic mode as the target, or an ASB configuration's reduced model (``--structure "ASB CD1"``, from
+``--data``: every patch in one parameter group, the target mode the one its measured backbone saw, as the ASB
+study takes them); one whose files are absent is skipped with a line saying so. Designs are drawn uniformly in
+Table 3's box (``nonlinear.joint.random_designs``); those whose stuck target mode has a negative stiffness
+(prestressed halves on too soft a joint) are left out; each is
 evaluated at ``LEVELS`` modal amplitudes from 0.01 to 2 times its slip amplitude (``nonlinear.epmc.slip_amplitude``:
 where its first element reaches macroslip in the stuck mode), by QSMA (``qsma_reference``) and by EPMC
 (``nonlinear_mode``, the Iwan elements' sliders resolving the design's lowest amplitude, ``nonlinear.epmc
@@ -42,6 +46,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from experiment.backbone_files import read_asb_backbone  # noqa: E402
 from experiment.measured_files import read_mode_backbone  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.epmc import (compare_with_qsma, converged_harmonics, joint_system, nonlinear_mode,  # noqa: E402
@@ -50,7 +55,7 @@ from nonlinear.friction_models import models_for  # noqa: E402
 from nonlinear.joint import parameter_names, patch_elements, random_designs, stuck_stiffness  # noqa: E402
 from nonlinear.qsma import qsma_reference, stuck_target_mode  # noqa: E402
 from geometry.parameters import BEAM_NAMES  # noqa: E402
-from reduction.superelement import ASB_CONFIGURATIONS, beam_superelement  # noqa: E402
+from reduction.superelement import ASB_CONFIGURATIONS, StructureError, beam_superelement  # noqa: E402
 from study.analysis import Front, design_rows, representative_designs  # noqa: E402
 from study.structures import asb_superelement, structure  # noqa: E402
 
@@ -65,6 +70,26 @@ STUDY_COLUMNS = ("dataset", "structure", "model", "source", "design", "parameter
                  "qsma_frequency_hz", "qsma_damping", "qsma_converged", "epmc_frequency_hz", "epmc_damping",
                  "epmc_converged", "harmonics", "harmonics_converged", "seconds", "note")
 """The columns of the --study file, one row per design and level (frequencies in Hz; seconds: the design's CPU)."""
+
+
+def sampled_structure(name: str, rom: Path, data: Path):
+    """(superelement, joint space) of the structure ``name`` for the Table 3 sampling (module docstring): a beam
+    of BEAM_NAMES from ``rom`` (``<beam>.npz``), or ``"ASB <configuration>"`` from the ASB data folder ``data``
+    (``asb-reduced-models/MAT_NULLRED_<configuration>.mat`` and ``asb-backbones/ASB_<configuration>_20Nm_BB.mat``,
+    whose low-amplitude frequency, Hz, picks the target mode: ``study.structures.structure``). Raises
+    StructureError naming a missing file, or a name that is neither."""
+    if name in BEAM_NAMES:
+        superelement = beam_superelement(rom / f"{name}.npz")
+        return superelement, joint_space(superelement)
+    configuration = name.removeprefix("ASB ")
+    if not name.startswith("ASB ") or configuration not in ASB_CONFIGURATIONS:
+        raise StructureError(f"{name}: not a structure (expected one of {', '.join(BEAM_NAMES)} or "
+                             f"{', '.join(f'ASB {c}' for c in ASB_CONFIGURATIONS)})")
+    backbone = data / "asb-backbones" / f"ASB_{configuration}_20Nm_BB.mat"
+    if not backbone.exists():
+        raise StructureError(f"{backbone}: missing (the ASB measured backbones: surrogacy data fetch downloads them)")
+    superelement = asb_superelement(data / "asb-reduced-models" / f"MAT_NULLRED_{configuration}.mat")
+    return superelement, structure(name, superelement, read_asb_backbone(backbone), 0.0).space
 
 
 def design_levels(space, model: str, design, harmonics: int) -> pd.DataFrame:
@@ -228,7 +253,9 @@ def compare_study(study: Path, structures, models, representatives: int, levels:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--beam", default="BRB")
+    parser.add_argument("--structure", "--beam", dest="structure", default="BRB",
+                        help="the sampled structure: BRB, LBRB, SBRB (from --rom) or 'ASB <configuration>' (from "
+                             "--data)")
     parser.add_argument("--rom", type=Path, default=Path("build/rom"))
     parser.add_argument("--models", nargs="+", default=["jenkins", "iwan4"])
     parser.add_argument("--designs", type=int, default=200)
@@ -240,7 +267,8 @@ def main() -> None:
     parser.add_argument("--structures", nargs="+", help="with --study: the structures (default all)")
     parser.add_argument("--representatives", type=int, default=3, help="with --study: designs per front")
     parser.add_argument("--levels", type=int, default=5, help="with --study: measured amplitudes per design")
-    parser.add_argument("--data", type=Path, default=Path("../shared/data"), help="with --study: the ASB data")
+    parser.add_argument("--data", type=Path, default=Path("../shared/data"),
+                        help="the ASB data (asb-reduced-models/, asb-backbones/) for --study or --structure 'ASB ...'")
     arguments = parser.parse_args()
     if arguments.study is not None:
         dataset = json.loads((arguments.study / "study.json").read_text())["configuration"]["study"]["dataset"]
@@ -250,8 +278,11 @@ def main() -> None:
                       arguments.seed, out, arguments.rom, arguments.data)
         return
     arguments.out = arguments.out or Path("results/epmc/epmc_qsma.csv")
-    superelement = beam_superelement(arguments.rom / f"{arguments.beam}.npz")
-    space = joint_space(superelement)
+    try:
+        superelement, space = sampled_structure(arguments.structure, arguments.rom, arguments.data)
+    except StructureError as error:
+        print(f"{arguments.structure}: skipped: {error}")
+        return
     n_groups = max(superelement.patch_groups) + 1
     frames = []
     for model in arguments.models:
@@ -274,7 +305,7 @@ def main() -> None:
         levels = pd.concat([frame for frame in frames if frame.model.iloc[0] == model])
         arguments.out.parent.mkdir(parents=True, exist_ok=True)
         pd.concat(frames, ignore_index=True).to_csv(arguments.out, index=False)  # each model's levels kept at once
-        print(f"{arguments.beam} {model}: {len(designs)} designs ({arguments.designs - len(designs)} without a "
+        print(f"{arguments.structure} {model}: {len(designs)} designs ({arguments.designs - len(designs)} without a "
               f"slipping element or unstable stuck), {harmonics} harmonics (check {checked:.0f} s), {seconds:.0f} s CPU; levels: "
               f"QSMA flagged {int((~levels.qsma_converged).sum())}, EPMC not converged "
               f"{int((~levels.epmc_converged).sum())} of {len(levels)}", flush=True)
