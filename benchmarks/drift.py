@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from discrepancy.virtual_data import AMPLITUDES, undeclared_ringdown
-from experiment.backbone import MeasuredBackbone, ModeRecord, amplitude_grid, average_backbones, mode_signals
+from experiment.backbone import ModeRecord, RingDownBackbones, amplitude_grid, average_backbones, mode_signals
 from experiment.hilbert import freevib
 from experiment.signal_checks import FALSE_ALARM, drift_findings
 
@@ -42,7 +42,7 @@ def noisy(clean, seed: int, stamped: bool, noise_db: float = NOISE_DB):
     return hits if stamped else [replace(hit, time=hit.time - hit.time[0]) for hit in hits]
 
 
-def drift_backbone(hits) -> MeasuredBackbone:
+def drift_backbone(hits) -> RingDownBackbones:
     """FreeVib on each hit's band-passed signal and the backbone's amplitude grid: what the drift check reads."""
     records = []
     for hit in hits:
@@ -51,7 +51,7 @@ def drift_backbone(hits) -> MeasuredBackbone:
         records.append(ModeRecord(label, estimate, estimate))
     grid = amplitude_grid([record.hilbert for record in records], 25)
     backbone = average_backbones([record.hilbert for record in records], grid)
-    return MeasuredBackbone("benchmark", MODE_HZ, "m", {"sensor": 1.0}, records, backbone, backbone)
+    return RingDownBackbones("benchmark", MODE_HZ, "m", {"sensor": 1.0}, records, backbone, backbone)
 
 
 def false_alarms(files: int, stamped: bool, noise_db: float = NOISE_DB, levels=(FALSE_ALARM, 1e-2, 5e-2)) -> dict:

@@ -5,7 +5,7 @@ Rule. With e_f*, e_zeta* the errors of the calibrated best compromise (``calibra
 chi^2 of frequency and damping together, so one design reaches both at once) as the study evaluates a design (its
 joint parameters with the study's zeta_0 for the damping case and its damping rule, ``study.errors.design_errors``:
 the calibration fits its own zeta_0, and the study's damping errors are up to twice the calibrated ones where the
-two differ) and sigma_f, sigma_zeta the measurement's standard uncertainties (``study.structures.Measurement``),
+two differ) and sigma_f, sigma_zeta the measurement's standard uncertainties (``study.structures.BackboneLevels``),
 
     f_b    = max(MULTIPLE e_f*,    NOISE_MULTIPLE max_i sigma_f,i)       (Hz)
     zeta_b = max(MULTIPLE e_zeta*, NOISE_MULTIPLE max_i sigma_zeta,i)    (-)
@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.files import atomic_path
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 MULTIPLE = 2.0
 """Bound as a multiple of the calibrated best compromise's L-infinity error."""
@@ -38,7 +38,7 @@ BOUNDS_COLUMNS = ("model", "structure", "damping_case", "frequency_bound_hz", "d
                   "calibrated_damping_error", "noise_frequency_hz", "noise_damping", "multiple", "noise_multiple")
 
 
-def acceptance_bounds(study_errors: tuple[float, float], measurement: Measurement) -> dict:
+def acceptance_bounds(study_errors: tuple[float, float], measurement: BackboneLevels) -> dict:
     """The bounds of one model on one structure from its best compromise's L-infinity errors as the study evaluates
     it, ``study_errors`` = (e_f Hz, e_zeta -), and the structure's measurement (module docstring)."""
     frequency_error, damping_error = study_errors
@@ -54,7 +54,7 @@ def acceptance_bounds(study_errors: tuple[float, float], measurement: Measuremen
 def bounds_table(records: list[dict], study_errors: list[tuple[float, float]], measurements: dict,
                  damping_case: str) -> pd.DataFrame:
     """One row per calibration record (``BOUNDS_COLUMNS``): study_errors, each record's best compromise's errors as
-    the study evaluates it for ``damping_case`` (e_f Hz, e_zeta -); measurements: structure name -> Measurement."""
+    the study evaluates it for ``damping_case`` (e_f Hz, e_zeta -); measurements: structure name -> BackboneLevels."""
     return pd.DataFrame([{"model": record["model"], "structure": record["structure"], "damping_case": damping_case,
                           **acceptance_bounds(errors, measurements[record["structure"]]),
                           "calibrated_frequency_error_hz": record["best"]["errors"]["frequency_linf_hz"],

@@ -14,7 +14,7 @@ alone) gives omega_j(q) and zeta_j(q); the model's frequency is omega_j / 2 pi a
 Errors. The L-infinity errors of paper Eqs. 26-27, e_f = max |f - f_m| (Hz) and e_zeta = max |zeta - zeta_m|, are
 the objectives of the global search (the study's, so fronts compare). The residuals of the local fit are the same
 differences divided by the measurement's standard uncertainty at each level
-(``study.structures.Measurement.sigma_frequency``, ``sigma_damping``).
+(``study.structures.BackboneLevels.sigma_frequency``, ``sigma_damping``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_uni
 from nonlinear.qsma_vectorised import qsma_designs
 from study.errors import curve_errors
 from study.pareto import non_dominated
-from study.structures import Measurement, Structure
+from study.structures import BackboneLevels, Structure
 
 ZETA0_FLOOR = 1e-6
 """Lower bound of zeta_0 (-): no damping outside the joint, to the precision that matters."""
@@ -49,7 +49,7 @@ class FitSpace(NamedTuple):
     names: tuple[str, ...]
 
 
-def fit_space(model: str, n_groups: int, measurement: Measurement) -> FitSpace:
+def fit_space(model: str, n_groups: int, measurement: BackboneLevels) -> FitSpace:
     """The box of ``model`` with ``n_groups`` parameter groups for the structure that made ``measurement``."""
     lower, upper, logarithmic = parameter_limits(model, n_groups)
     ceiling = max(ZETA0_CEILING * float(np.min(measurement.damping)), 10.0 * ZETA0_FLOOR)
@@ -78,7 +78,7 @@ class Curves(NamedTuple):
     converged: np.ndarray
 
 
-def profiled_zeta0(space: FitSpace, measurement: Measurement, joint_damping) -> np.ndarray:
+def profiled_zeta0(space: FitSpace, measurement: BackboneLevels, joint_damping) -> np.ndarray:
     """zeta_0 (n,) of least plain chi^2 for the joint's own damping ratios (n, levels): the damping residuals
     (zeta_j + zeta_0 - zeta_m) / sigma_zeta are linear in zeta_0, so the optimum is the sigma^-2 weighted mean of
     zeta_m - zeta_j, clipped to zeta_0's limits (chi^2 is a parabola in zeta_0)."""
@@ -135,7 +135,7 @@ class FrontArchive:
         return self.unit[order], self.errors[order], tuple(self.sources[i] for i in order)
 
 
-def linf_errors(measurement: Measurement, curves: Curves) -> np.ndarray:
+def linf_errors(measurement: BackboneLevels, curves: Curves) -> np.ndarray:
     """(n, 2): e_f (Hz) and e_zeta (-), paper Eqs. 26-27 (``study.errors.curve_errors``, zeta_0 already in the
     curves); NaN rows where QSMA did not converge."""
     frequency, damping = curve_errors(curves.frequency_hz, curves.damping, measurement.frequency_hz,
@@ -143,7 +143,7 @@ def linf_errors(measurement: Measurement, curves: Curves) -> np.ndarray:
     return np.column_stack([frequency, damping[:, 0]])
 
 
-def plain_errors(measurement: Measurement, curves: Curves) -> dict:
+def plain_errors(measurement: BackboneLevels, curves: Curves) -> dict:
     """Relative errors of one backbone (the first row of ``curves``): max and RMS of |f - f_m| / f_m and of
     |zeta - zeta_m| / zeta_m over the levels, and the L-infinity errors in Hz and in damping ratio."""
     frequency = np.abs(curves.frequency_hz[0] - measurement.frequency_hz) / measurement.frequency_hz
@@ -156,7 +156,7 @@ def plain_errors(measurement: Measurement, curves: Curves) -> dict:
             "damping_linf": float(np.max(np.abs(curves.damping[0] - measurement.damping)))}
 
 
-def normalised_residuals(measurement: Measurement, curves: Curves) -> tuple[np.ndarray, np.ndarray]:
+def normalised_residuals(measurement: BackboneLevels, curves: Curves) -> tuple[np.ndarray, np.ndarray]:
     """(n, levels) each: (f - f_m) / sigma_f and (zeta - zeta_m) / sigma_zeta (module docstring)."""
     return ((curves.frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency,
             (curves.damping - measurement.damping) / measurement.sigma_damping)

@@ -18,12 +18,12 @@ from discrepancy.loop import EVIDENCE, Verdict, residual_features
 from discrepancy.nominal import nominal_statement
 from pipeline.files import atomic_path, write_json
 from study.figures import plt, save
-from study.structures import DAMPING_FLOOR, FREQUENCY_FLOOR, Measurement
+from study.structures import DAMPING_FLOOR, FREQUENCY_FLOOR, BackboneLevels
 
 
-def assumed_noise(measurement: Measurement) -> list[str]:
+def assumed_noise(measurement: BackboneLevels) -> list[str]:
     """A sentence saying at how many levels the measurement states no uncertainty and what the fit divided by
-    there (the floors of ``study.structures.Measurement``); nothing where every level states one."""
+    there (the floors of ``study.structures.BackboneLevels``); nothing where every level states one."""
     silent = np.isnan(measurement.frequency_uncertainty_hz) | np.isnan(measurement.damping_uncertainty)
     if not silent.any():
         return []
@@ -47,7 +47,7 @@ def findings_markdown(findings: list, checked: list) -> list[str]:
     return lines
 
 
-def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: Measurement,
+def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: BackboneLevels,
                      checked: list = (), nominal: list = ()) -> str:
     """The nominal's lines (``discrepancy.nominal.nominal_statement``), the noise the fit assumed where the
     measurement states none, the signal checks' findings, then the loop's

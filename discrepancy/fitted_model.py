@@ -20,7 +20,7 @@ import numpy as np
 
 from discrepancy.effects import EFFECTS
 from discrepancy.loop import BASE, Fit, _to_parameters, _to_vector, model_backbone
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 KIND = {name: kind for name, kind, _ in (*BASE, *(p for effect in EFFECTS.values() for p in effect.parameters))}
 """Parameter of the one-mode model -> the kind of its fitted variable (``discrepancy.loop.TRANSFORMS``)."""
@@ -28,7 +28,7 @@ Z_95 = 1.959963984540054  # two-sided 95 % point of the standard normal
 STEP = 1e-6  # central-difference step of the gradient, relative to each variable (at least 1e-6 absolute)
 
 
-def model_record(final: Fit, measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float) -> dict:
+def model_record(final: Fit, measurement: BackboneLevels, nominal_frequency_hz: float, nominal_damping: float) -> dict:
     """The JSON-ready record of a final one-mode fit (module docstring)."""
     variables = [(name, KIND[name], None) for name in final.parameters]
     return {"effects": list(final.effects),

@@ -65,7 +65,7 @@ from scipy.special import expit, logit
 
 from discrepancy.effects import EFFECTS, ONE_MODE_EFFECTS
 from nonlinear.modal_joint import modal_joint_backbone
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 EVIDENCE = 10.0  # BIC decrease an effect must bring to be added
 AT_NOISE = 1.5  # chi^2 per degree of freedom at which the residual is the measurement's noise
@@ -185,7 +185,7 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
     return reasons
 
 
-def weighted_misfit(measurement: Measurement, frequency_hz, damping) -> np.ndarray:
+def weighted_misfit(measurement: BackboneLevels, frequency_hz, damping) -> np.ndarray:
     """Residuals (2n,) of a model's frequency (Hz) and damping (n,) against the measurement, each in units of the
     measurement's uncertainty; UNDEFINED_MISFIT where the model is undefined (e.g. a start past a law's range)."""
     misfit = np.concatenate([(frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency,
@@ -219,7 +219,7 @@ def best_least_squares(residual, starts, held: dict):
     return best
 
 
-def fit(measurement: Measurement, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
+def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float, nominal_damping: float,
         starts: list[dict], nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Fit:
     """Weighted least-squares fit of the model with ``effects`` from each of ``starts`` (parameter dicts; missing
     entries take the library's start values); the best fit. Each effect parameter with a limit of its law
@@ -320,7 +320,7 @@ def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:
     return chi_squared + n_parameters * np.log(n_residuals)
 
 
-def base_starts(measurement: Measurement, nominal_frequency_hz: float) -> list[dict]:
+def base_starts(measurement: BackboneLevels, nominal_frequency_hz: float) -> list[dict]:
     """Starts of the reference fit: joint stiffness shares and slip forces that put macroslip across the
     measured amplitudes."""
     omega_squared = (2 * np.pi * nominal_frequency_hz) ** 2
@@ -331,7 +331,7 @@ def base_starts(measurement: Measurement, nominal_frequency_hz: float) -> list[d
     return starts
 
 
-def residual_features(measurement: Measurement, model: Fit) -> dict:
+def residual_features(measurement: BackboneLevels, model: Fit) -> dict:
     """Features of a fit's residual (measurement minus model) of frequency and damping, each in units of the
     measurement's uncertainty: offset (mean over the three lowest levels), slope and curvature of a quadratic in
     log amplitude (per decade, per decade squared), sign changes along the amplitude, and the largest kink (second
@@ -399,14 +399,14 @@ def with_findings(verdict: Verdict, findings: list) -> Verdict:
                    unexplained=verdict.unexplained or any(entry["outside_library"] for entry in findings))
 
 
-def errors(measurement: Measurement, model: Fit) -> dict:
+def errors(measurement: BackboneLevels, model: Fit) -> dict:
     """L-infinity and RMS errors of frequency (Hz) and damping of a fit."""
     frequency, damping = model.frequency_hz - measurement.frequency_hz, model.damping - measurement.damping
     return {"frequency_linf_hz": float(np.max(np.abs(frequency))), "frequency_rms_hz": float(np.sqrt(np.mean(frequency ** 2))),
             "damping_linf": float(np.max(np.abs(damping))), "damping_rms": float(np.sqrt(np.mean(damping ** 2)))}
 
 
-def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nominal_damping: float,
+def discrepancy_loop(measurement: BackboneLevels, nominal_frequency_hz: float, nominal_damping: float,
                      library=ONE_MODE_EFFECTS, nominal_uncertainty: tuple[float, float] = (0.0, 0.0)) -> Verdict:
     """Run the loop (module docstring) on ``measurement`` from the reference model: forward selection by BIC,
     then a stepwise check that no effect found can be swapped for another or dropped at a lower BIC (greedy
@@ -423,7 +423,7 @@ def discrepancy_loop(measurement: Measurement, nominal_frequency_hz: float, nomi
     return select_effects(measurement, fitted, library)
 
 
-def select_effects(measurement: Measurement, fitted, library) -> Verdict:
+def select_effects(measurement: BackboneLevels, fitted, library) -> Verdict:
     """The loop's decisions, for any model family: ``fitted(effects, previous)`` gives the best Fit of the
     reference model with ``effects`` added (None where the family cannot hold that combination; a Fit whose
     effects hold more where an effect comes only with another, as a stuck core with microslip on a superelement:
@@ -533,7 +533,7 @@ def flagged(trial: Fit, effects) -> list[str]:
             for name, _, _ in EFFECTS[effect].parameters if name in trial.undetermined]
 
 
-def admissible(measurement: Measurement, trial: Fit, reference: dict, effects) -> list[str]:
+def admissible(measurement: BackboneLevels, trial: Fit, reference: dict, effects) -> list[str]:
     """Why a trial fit cannot be accepted whatever its BIC (empty if it can): parameters of ``effects`` at a
     bound or undetermined, or an L-infinity error worse than the reference model's (``reference``: its
     ``errors``) by more than the measurement's largest standard uncertainty (module docstring)."""

@@ -6,7 +6,7 @@ rise grow about linearly with amplitude (the four-parameter Iwan law, whose diss
 F^(3 + chi) in microslip, makes both go as q^(1 + chi), chi near 0: Segalman, J. Appl. Mech. 72, 2005; and to first
 order any smooth backbone), and the nominal is their limit at zero amplitude. Over the measurement's lowest decade
 of amplitude a straight line in amplitude is fitted to frequency and to damping by weighted least squares, each
-level weighted by its stated uncertainty (``Measurement.sigma_frequency``, ``sigma_damping``), so that the
+level weighted by its stated uncertainty (``BackboneLevels.sigma_frequency``, ``sigma_damping``), so that the
 noise-dominated lowest levels weigh little; the intercepts are the nominal and
 their standard errors come from the fit's covariance, scaled up by sqrt(chi^2/dof) where the levels scatter more
 than stated. A level more than :data:`OUTLIER_SIGMAS` standard deviations off a Huber-weighted first fit is left
@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from discrepancy.effects import offset_effect
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 DECADES = 1.0  # the low-amplitude window: levels within this many decades of the lowest one
 MIN_LEVELS = 4  # the fewest levels a window holds (all of them where the measurement has fewer)
@@ -122,7 +122,7 @@ def bends(amplitude: np.ndarray, values: np.ndarray, sigma: np.ndarray) -> bool:
     return abs(coefficients[2]) > BEND_SIGMAS * np.sqrt(covariance[2, 2]) * inflation
 
 
-def low_amplitude_nominal(measurement: Measurement, decades: float = DECADES) -> Nominal:
+def low_amplitude_nominal(measurement: BackboneLevels, decades: float = DECADES) -> Nominal:
     """The nominal f_0 (Hz) and zeta_0 of a measurement with their standard errors: weighted lines in amplitude
     through its levels within ``decades`` of the lowest amplitude (at least :data:`MIN_LEVELS`), extrapolated to
     zero amplitude (module docstring). A damping intercept below zero is set to zero, as the source says."""
@@ -198,7 +198,7 @@ def nominal_statement(record: dict) -> list[str]:
             f"{record['nominal_damping']:.4g}{errors[1]}; {source}.", "", *([caveat, ""] if caveat else [])]
 
 
-def nominal_record(measurement: Measurement, frequency_hz: float | None, damping: float | None) -> dict:
+def nominal_record(measurement: BackboneLevels, frequency_hz: float | None, damping: float | None) -> dict:
     """The nominal the loop starts from: the given values (``frequency_hz`` Hz, ``damping`` the linear damping
     ratio), and for any not given (None) the measurement's low-amplitude estimate (``low_amplitude_nominal``), with
     standard errors (0 for a given value), a ``nominal_source`` saying where they came from and a ``nominal_caveat``

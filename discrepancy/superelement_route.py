@@ -61,7 +61,7 @@ from discrepancy.loop import (UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _t
                               outside_joint, select_effects, weighted_misfit)
 from study.errors import structure_damping
 from study.pareto import non_dominated
-from study.structures import Measurement
+from study.structures import BackboneLevels
 from study.workflow import read_study
 
 REFERENCE_MODEL = next(name for name, effects in FRICTION_EFFECTS.items() if not effects)  # macroslip only
@@ -119,7 +119,7 @@ class StructureModel(NamedTuple):
     """What a fit on a structure's superelement needs: the measurement, the joint space, the borrowed damping
     case's value and the rule that makes it each design's zeta_0 (``study.errors.DAMPING_RULES``)."""
 
-    measurement: Measurement
+    measurement: BackboneLevels
     space: JointSpace
     borrowed_damping: float
     damping_rule: str = "added"
@@ -148,7 +148,7 @@ def augmented(frequency_hz, joint_damping, parameters: dict, amplitude, structur
     return outside_joint(frequency, damping, amplitude, parameters, float(frequency[0]), amplitude[-1])
 
 
-def shortlist(measurement: Measurement, candidates: Candidates, k: int, front: int = 0) -> np.ndarray:
+def shortlist(measurement: BackboneLevels, candidates: Candidates, k: int, front: int = 0) -> np.ndarray:
     """Indices of the candidates a friction model's fits start from: the k best by chi^2 of frequency, of
     damping and of both (an effect outside the joint acts on one of the two, so a design that misses only the
     other can become the best), and the ``front`` of lowest chi^2 among the candidates non-dominated in the
@@ -280,7 +280,7 @@ def contained_design(fit: Fit, model: str, n_groups: int) -> tuple:
     return f"{inner} {label}", from_unit(unit, *parameter_limits(model, n_groups))[0], values
 
 
-def structure_discrepancy_loop(measurement: Measurement, candidates: dict, borrowed_damping: float,
+def structure_discrepancy_loop(measurement: BackboneLevels, candidates: dict, borrowed_damping: float,
                                space: JointSpace, damping_rule: str = "added") -> Verdict:
     """The loop (``discrepancy.loop.select_effects``) on a structure's superelement (``space``): ``candidates``
     maps friction models (at least the reference, Jenkins) to their ``Candidates`` (``screened_candidates``); the
@@ -342,7 +342,7 @@ class StudyStructure(NamedTuple):
     provenance and source), the screened candidates of each friction model the study explored, the borrowed damping
     case's value, the structure's joint space and the study's damping rule."""
 
-    measurement: Measurement
+    measurement: BackboneLevels
     candidates: dict
     borrowed_damping: float
     space: JointSpace

@@ -17,7 +17,7 @@ from discrepancy.superelement_route import from_study, structure_discrepancy_loo
 from experiment.backbone import ModeBackbone, unphysical_points
 from experiment.measured_files import read_mode_backbone
 from reduction.superelement import StructureError
-from study.structures import Measurement, measured_levels
+from study.structures import BackboneLevels, measured_levels
 
 
 class LoopInput(NamedTuple):
@@ -26,7 +26,7 @@ class LoopInput(NamedTuple):
     signal checks' ``findings`` (``found``, ``checked``; empty for a study's structure) and the amplitude unit of the
     one-mode model's final record (None for a study's structure: the superelement route writes no final model)."""
 
-    measurement: Measurement
+    measurement: BackboneLevels
     source: str
     record: dict
     loop: Callable[[], Verdict]
@@ -34,7 +34,7 @@ class LoopInput(NamedTuple):
     amplitude_unit: str | None
 
 
-def backbone_levels(measured: ModeBackbone, levels: int, path: Path) -> Measurement:
+def backbone_levels(measured: ModeBackbone, levels: int, path: Path) -> BackboneLevels:
     """The measured backbone binned to ``levels`` (``study.structures.measured_levels``). A point no free decay
     gives (``experiment.backbone.unphysical_points``: negative damping, no estimate, a frequency outside the band
     the settings name) raises StructureError naming the point and its cause; ``surrogacy freevib`` leaves such

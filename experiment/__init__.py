@@ -14,7 +14,8 @@ Estimators on one filtered decay (:mod:`experiment.hilbert`, :mod:`experiment.de
     freevib                  Hilbert transform (paper Eqs. 1-4, Feldman's corrections optional)
     decay_cycles             zero-crossing period and logarithmic decrement, cycle by cycle
 Backbones (:mod:`experiment.backbone`, :mod:`experiment.backbone_files`)
-    ringdown_backbone        hits (and channels, mode shapes when known) -> both estimators averaged with spread
+    ringdown_backbone        hits (and channels, mode shapes when known) -> RingDownBackbones: both estimators
+                             averaged with spread
     twin_standard_errors     standard errors of the bin means: FreeVib on twin decays (:mod:`experiment.twin_decays`)
     average_backbones        records -> mean, spread and standard error on an amplitude grid
     mode_backbone            ringdown_backbone's result -> ModeBackbone (structure, provenance) for a study

@@ -8,8 +8,14 @@ amplitude, and the hits are averaged on one amplitude grid with their spread. Th
 :func:`ringdown_backbone` is the one path from signals to a backbone, for measured files (read by
 :mod:`experiment.ringdown_files`) and simulated decays (:func:`nonlinear.transient.ring_down`) alike. Problems
 with a record or one of its channels raise :class:`~experiment.ringdown.RingDownError` naming its source and
-the record. :class:`ModeBackbone` is the backbone with what a study needs to use it (structure, low-amplitude
-frequency, provenance); its file format is in :mod:`experiment.backbone_files`.
+the record.
+
+The types, from one decay to a study's input: :class:`~experiment.hilbert.InstantaneousBackbone` (one decay's
+estimates, before averaging), :class:`Backbone` (the points of a backbone with their spread and standard error),
+:class:`RingDownBackbones` (what :func:`ringdown_backbone` gives: both estimators' backbones and their records),
+:class:`ModeBackbone` (one structure's backbone labelled for a study: structure, low-amplitude frequency,
+provenance, source; its file format is in :mod:`experiment.backbone_files`); the study reduces the last to
+levels (``study.structures.BackboneLevels``).
 """
 
 from __future__ import annotations
@@ -31,7 +37,12 @@ PROVENANCES = ("measured", "virtual", "unknown")
 
 @dataclass(frozen=True)
 class Backbone:
-    """Natural frequency and damping on an amplitude grid, averaged over records (hits or channels).
+    """The points of a backbone: natural frequency and damping against amplitude, each with its spread and
+    standard error, unlabelled (the structure, provenance and source are :class:`ModeBackbone`'s).
+
+    From ring-downs (:func:`average_backbones`) the points are the bins of an amplitude grid averaged over the
+    records (hits or channels); from a file or a model (an ASB backbone, QSMA, the nonlinear mode) they are the
+    points as given, one record each, their spread and standard error NaN where not known.
 
     amplitude: (n_grid,) grid amplitudes. natural_frequency_hz, damping_ratio: (n_grid,) means over the records
     that reach that amplitude (NaN where none does). *_spread: (n_grid,) sample standard deviations of the
@@ -152,8 +163,10 @@ class ModeRecord:
 
 
 @dataclass(frozen=True)
-class MeasuredBackbone:
-    """Backbones of one mode from ring-downs, averaged over their records (:func:`ringdown_backbone`).
+class RingDownBackbones:
+    """What :func:`ringdown_backbone` gives: both estimators' backbones of one mode of ring-downs on one grid
+    (Hilbert, which a study reads through :func:`mode_backbone`, and the cycle-by-cycle check), the per-decay
+    records they average and how the signals were filtered; for measured and simulated ring-downs alike.
 
     source: the ring-downs' sources. mode_frequency_hz: the guess the processing was set up with, Hz.
     amplitude_unit: unit of the grid (displacement of the sensor that moves most when the shape is
@@ -292,7 +305,7 @@ def check_nyquist(hits: list[RingDown], band_hz: tuple[float, float],
 def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                       band_hz: tuple[float, float] | None = None, mode_shapes: np.ndarray | None = None,
                       mode_index: int = 0, per_channel: bool = False, channels: list[str] | None = None,
-                      grid_points: int = 25, cycles: int = 4, seed: int = 0, **freevib_options) -> MeasuredBackbone:
+                      grid_points: int = 25, cycles: int = 4, seed: int = 0, **freevib_options) -> RingDownBackbones:
     """Backbone of one mode from ring-downs (several hits, each with one or more channels), with its spread.
 
     hits: ring-downs of one structure with the same channels, measured or simulated. mode_frequency_hz: guess
@@ -327,12 +340,12 @@ def ringdown_backbone(hits: list[RingDown], mode_frequency_hz: float, *,
                                            cycles, freevib_options, band_hz, seed + len(records)))
             check_identified(records[-1], band_hz, hit.source)
     grid = amplitude_grid([record.hilbert for record in records], grid_points)
-    return MeasuredBackbone(", ".join(dict.fromkeys(hit.source for hit in hits)), mode_frequency_hz,
-                            "m" if mode_shapes is None else "m / shape unit",
-                            dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
-                            average_backbones([record.hilbert for record in records], grid,
-                                              twin_standard_errors(records, grid)),
-                            average_backbones([record.cycles for record in records], grid), tuple(band_hz))
+    return RingDownBackbones(", ".join(dict.fromkeys(hit.source for hit in hits)), mode_frequency_hz,
+                             "m" if mode_shapes is None else "m / shape unit",
+                             dict(zip(hits[0].channels, np.mean(shapes, axis=0))), records,
+                             average_backbones([record.hilbert for record in records], grid,
+                                               twin_standard_errors(records, grid)),
+                             average_backbones([record.cycles for record in records], grid), tuple(band_hz))
 
 
 def low_amplitude_reference(values: np.ndarray) -> float:
@@ -342,7 +355,10 @@ def low_amplitude_reference(values: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class ModeBackbone:
-    """The backbone of one mode of one structure, with what a study needs to compare it with a model.
+    """The backbone of one mode of one structure, labelled with what a study needs to compare it with a model:
+    what a backbone file holds (:func:`experiment.backbone_files.read_backbone`, ``read_asb_backbone``), what
+    :func:`mode_backbone` makes of a ring-down's Hilbert backbone and what the study and the discrepancy loop read
+    (reduced to their levels, :class:`study.structures.BackboneLevels`).
 
     structure: name of the structure (e.g. "ASB C1", "BRB"). low_amplitude_frequency_hz: the mode's natural
     frequency at the lowest amplitude with data, Hz. amplitude_unit: unit of ``backbone.amplitude`` (a
@@ -403,7 +419,7 @@ def physical_backbone(backbone: Backbone, band_hz: tuple[float, float] | None = 
     return Backbone(*(np.asarray(values)[kept] for values in astuple(backbone))), dropped
 
 
-def mode_backbone(measured: MeasuredBackbone, structure: str, provenance: str, settings: dict | None = None,
+def mode_backbone(measured: RingDownBackbones, structure: str, provenance: str, settings: dict | None = None,
                   findings: dict | None = None) -> ModeBackbone:
     """The Hilbert (FreeVib) backbone of a :func:`ringdown_backbone` result, labelled for a study, with the
     ``settings`` it was estimated with and the ``findings`` of the signal checks beside it. The points no free

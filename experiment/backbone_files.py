@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-from experiment.backbone import PROVENANCES, Backbone, MeasuredBackbone, ModeBackbone, low_amplitude_reference
+from experiment.backbone import PROVENANCES, Backbone, ModeBackbone, RingDownBackbones, low_amplitude_reference
 from pipeline.files import atomic_path, json_text, write_json
 
 BACKBONE_TITLE = "backbone: natural frequency and damping ratio of one mode against its amplitude"
@@ -212,7 +212,7 @@ FREEVIB_COLUMNS = (
 """Columns of the freevib table: name, unit, value."""
 
 
-def write_freevib_table(backbone: MeasuredBackbone, destination: Path) -> None:
+def write_freevib_table(backbone: RingDownBackbones, destination: Path) -> None:
     """Write both estimators' averaged backbones as CSV, header ``name [unit]`` (the freevib command's table).
 
     spread: standard deviation over records (hits, channels); uncertainty: spread and the estimator's
@@ -224,7 +224,7 @@ def write_freevib_table(backbone: MeasuredBackbone, destination: Path) -> None:
         writer.writerows(zip(*(np.asarray(value(backbone)) for _, _, value in FREEVIB_COLUMNS)))
 
 
-def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
+def plot_backbone(backbone: RingDownBackbones, destination: Path) -> None:
     """Paper Fig. 3 style PNG: frequency deviation (%) and damping deviation from the low-amplitude values
     against amplitude on a log axis; Hilbert mean with its spread shaded, cycle estimates with error bars."""
     import matplotlib
@@ -262,7 +262,7 @@ def plot_backbone(backbone: MeasuredBackbone, destination: Path) -> None:
     plt.close(figure)
 
 
-def freevib_record(source: Path, mode: ModeBackbone, backbone: MeasuredBackbone) -> dict:
+def freevib_record(source: Path, mode: ModeBackbone, backbone: RingDownBackbones) -> dict:
     """The JSON sidecar of ``surrogacy freevib``'s files for the ring-down file ``source``: the file and its SHA-256,
     the settings the backbone ``mode`` was estimated with (``experiment.ringdown_analysis.analyse_ringdown_file``),
     the amplitude unit, the records averaged, the mode shape at the channels, the signal checks' findings and the
@@ -274,7 +274,7 @@ def freevib_record(source: Path, mode: ModeBackbone, backbone: MeasuredBackbone)
             "dropped": mode.dropped}
 
 
-def write_freevib(out: Path, source: Path, mode_hz: float, mode: ModeBackbone, backbone: MeasuredBackbone) -> str:
+def write_freevib(out: Path, source: Path, mode_hz: float, mode: ModeBackbone, backbone: RingDownBackbones) -> str:
     """``surrogacy freevib``'s files for the mode near ``mode_hz`` (Hz) of the ring-down file ``source`` into
     ``out``: the backbone CSV of ``mode`` (``write_backbone``), both estimators of ``backbone`` as a table
     (``write_freevib_table``) and a plot (``plot_backbone``), and the JSON sidecar (``freevib_record``). Returns the

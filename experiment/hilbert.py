@@ -40,7 +40,10 @@ OPTION_MINIMA = {"smoothing_periods": 0.5, "trim_periods": 0.0, "block_periods":
 
 @dataclass(frozen=True)
 class InstantaneousBackbone:
-    """Instantaneous modal properties along one decay.
+    """One decay's estimates before any averaging: natural frequency and damping at each sample (FreeVib) or
+    each window of cycles (:func:`experiment.decay_cycles.decay_cycles`), not binned and without an uncertainty;
+    :func:`experiment.backbone.average_backbones` averages records of them into a
+    :class:`~experiment.backbone.Backbone`.
 
     time: (n,) s. amplitude: (n,) displacement amplitude, unit of the displacement the signal stands for
     (m for a sensor in SI units; modal amplitude for a modal coordinate). natural_frequency_hz: (n,) Hz.

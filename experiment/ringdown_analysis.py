@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from experiment.backbone import MeasuredBackbone, ModeBackbone, mode_backbone, ringdown_backbone
+from experiment.backbone import ModeBackbone, RingDownBackbones, mode_backbone, ringdown_backbone
 from experiment.ringdown import RingDown, selected_channels
 from experiment.signal_checks import ringdown_findings
 from pipeline.files import sha256_file
@@ -21,7 +21,7 @@ from pipeline.files import sha256_file
 
 def analyse_ringdown(hits: list[RingDown], mode_frequency_hz: float, structure: str, provenance: str, *,
                      settings: dict | None = None, check_signals: bool = True, **options
-                     ) -> tuple[ModeBackbone, MeasuredBackbone]:
+                     ) -> tuple[ModeBackbone, RingDownBackbones]:
     """The backbone of one mode of ring-downs, labelled for a study, and both estimators behind it.
 
     hits: ring-downs of one structure with the same channels, measured or simulated. mode_frequency_hz: guess of
@@ -33,7 +33,7 @@ def analyse_ringdown(hits: list[RingDown], mode_frequency_hz: float, structure: 
     mode_index, per_channel, channels, grid_points, cycles, seed, and FreeVib's smoothing_periods, trim_periods,
     feldman).
 
-    Returns (the labelled Hilbert backbone, ``ModeBackbone``; both estimators on one grid, ``MeasuredBackbone``).
+    Returns (the labelled Hilbert backbone, ``ModeBackbone``; both estimators on one grid, ``RingDownBackbones``).
     Raises BackboneSettingError for a setting out of range, RingDownError for a record that gives no backbone.
     """
     measured = ringdown_backbone(hits, mode_frequency_hz, **options)
@@ -44,7 +44,7 @@ def analyse_ringdown(hits: list[RingDown], mode_frequency_hz: float, structure: 
 
 
 def analyse_ringdown_file(source: Path, hits: list[RingDown], mode_frequency_hz: float, provenance: str,
-                          settings: dict, **options) -> tuple[ModeBackbone, MeasuredBackbone]:
+                          settings: dict, **options) -> tuple[ModeBackbone, RingDownBackbones]:
     """:func:`analyse_ringdown` on the ``hits`` read from the file ``source``, the backbone labelled with the file's
     stem and its ``settings`` joined by the file's SHA-256 (``source_sha256``), so that the backbone names the
     bytes it was estimated from. options: as :func:`analyse_ringdown`'s."""

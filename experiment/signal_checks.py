@@ -87,7 +87,7 @@ import scipy.stats
 import scipy.optimize
 from scipy.optimize import least_squares
 
-from experiment.backbone import MeasuredBackbone, amplitude_bins, binned_means
+from experiment.backbone import RingDownBackbones, amplitude_bins, binned_means
 from experiment.hilbert import analytic_signal, slow_part
 from experiment.modal_filter import band_pass, dominant_shape
 from experiment.ringdown import DISPLACEMENT_ORDER, RingDown
@@ -501,7 +501,7 @@ def level_regression(values: np.ndarray, clocks: list[np.ndarray], durations: np
     return solution[levels.size:], np.sqrt(np.diag(covariance)[levels.size:]), dof
 
 
-def drift_findings(hits: list[RingDown], measured: MeasuredBackbone, false_alarm: float = FALSE_ALARM
+def drift_findings(hits: list[RingDown], measured: RingDownBackbones, false_alarm: float = FALSE_ALARM
                    ) -> list[dict]:
     """Non-stationarity (module docstring): frequency and damping at fixed amplitude regressed on the time since
     each hit's impact (a drift within each hit) and on the hits' clock (a drift across hits), one level per
@@ -648,7 +648,7 @@ def record_findings(hits: list[RingDown], mode_frequency_hz: float, band_hz) -> 
             for name, channels in seen.items() if channels]
 
 
-def ringdown_findings(hits: list[RingDown], measured: MeasuredBackbone, band_hz) -> dict:
+def ringdown_findings(hits: list[RingDown], measured: RingDownBackbones, band_hz) -> dict:
     """Every check that applies to the hits and their backbone (module docstring): ``{"checked": [...],
     "found": [...]}``; drift is checked with three hits or more."""
     checked = ["second_mode", "clipping", "no_pretrigger", "truncated_record", "flat_channel"]

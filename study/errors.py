@@ -5,7 +5,7 @@ levels q_i (amplitude control, ``nonlinear.qsma_vectorised``), and
 
     e_f = max_i |f_i - f_m,i|   (Hz)            e_zeta = max_i |zeta_J,i + zeta_0 - zeta_m,i|   (-)
 
-with f_m, zeta_m the measurement at the levels (``study.structures.Measurement``) and zeta_0 the linear damping of
+with f_m, zeta_m the measurement at the levels (``study.structures.BackboneLevels``) and zeta_0 the linear damping of
 the structure's other mechanisms (paper Eq. 25). zeta_0 enters only as an offset, so the damping error is
 formed for several zeta_0 at once from one QSMA solve. Where zeta_0 comes from (``DAMPING_RULES``):
 

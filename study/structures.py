@@ -35,9 +35,11 @@ DAMPING_FLOOR = 2e-2  # relative floor of a level's damping uncertainty in fits 
 
 
 @dataclass(frozen=True)
-class Measurement:
-    """A measured (or virtual) backbone at the levels where models are compared with it: the one record of a
-    measurement that the study and the discrepancy loop read (made by :func:`measured_levels`).
+class BackboneLevels:
+    """A structure's measured (or virtual) backbone reduced to the levels where models are compared with it: one
+    median point per amplitude bin with the median's uncertainty, the one record of a measurement that the study,
+    the calibration and the discrepancy loop compute with (made by :func:`measured_levels` from a
+    :class:`~experiment.backbone.ModeBackbone`).
 
     amplitude: (n,) modal amplitudes q (m kg^0.5), positive and increasing, n >= MIN_POINTS; frequency_hz: (n,)
     natural frequency (Hz); damping: (n,) damping ratio; frequency_uncertainty_hz, damping_uncertainty: (n,)
@@ -81,12 +83,12 @@ class Structure:
 
     name: str
     space: JointSpace
-    measurement: Measurement
+    measurement: BackboneLevels
     linear_damping: float
     mode_choice: str
 
 
-def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> Measurement:
+def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str = "backbone") -> BackboneLevels:
     """The measured backbone's medians in up to ``n_levels`` log-spaced amplitude bins (module docstring).
     Raises StructureError naming ``path`` and the field for NaN values, a non-positive frequency, a negative
     damping ratio, fewer than MIN_POINTS amplitudes (or filled bins), a non-positive or non-increasing amplitude."""
@@ -120,8 +122,8 @@ def measured_levels(measured: ModeBackbone, n_levels: int = N_LEVELS, path: str 
     levels, frequency, damping = (np.array([np.median(values[bins == i]) for i in filled]) for values in columns.values())
     uncertainties = (median_uncertainty(columns[name], stated, bins, filled) for name, stated in (
         ("natural_frequency", backbone.natural_frequency_uncertainty_hz), ("damping_ratio", backbone.damping_ratio_uncertainty)))
-    return Measurement(levels, frequency, damping, *uncertainties, float(measured.low_amplitude_frequency_hz),
-                       measured.provenance, measured.source)
+    return BackboneLevels(levels, frequency, damping, *uncertainties, float(measured.low_amplitude_frequency_hz),
+                          measured.provenance, measured.source)
 
 
 def median_uncertainty(values, stated, bins, filled) -> np.ndarray:

@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from experiment.backbone import MeasuredBackbone, ModeBackbone
+from experiment.backbone import ModeBackbone, RingDownBackbones
 from experiment.ringdown_analysis import analyse_ringdown
 from experiment.backbone_files import ASB_MODAL_AMPLITUDE_UNIT, write_backbone
 from experiment.ringdown import RingDown
@@ -181,14 +181,14 @@ class VirtualExperiment:
 
     beam: str
     backbone: ModeBackbone
-    measured: MeasuredBackbone = field(repr=False)
+    measured: RingDownBackbones = field(repr=False)
     records: HammerHits = field(repr=False)
     stuck_frequency_hz: float
     configuration: dict = field(repr=False)
 
 
 def analysed_hits(space: JointSpace, beam: str, design, records: HammerHits, model: str = MODEL
-                  ) -> tuple[ModeBackbone, MeasuredBackbone]:
+                  ) -> tuple[ModeBackbone, RingDownBackbones]:
     """The hits processed as a measurement (:func:`experiment.ringdown_analysis.analyse_ringdown`, labelled
     virtual) with the low-level mode shapes of :func:`modal_test_shapes` (modal filter, band-pass 0.7-1.3 f,
     FreeVib, mean over hits); the signal checks are not run (the simulated hits start at the impact and pass

@@ -17,7 +17,7 @@ import pytest
 from discrepancy.fitted_model import evaluate, model_record
 from discrepancy.loop import EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone
 from cli.console import main
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 F0, ZETA0 = 169.86, 1.666e-3
 JOINT = {"kappa": 0.12, "slip_force": 0.12 * (2 * np.pi * F0) ** 2 * 6e-5}
@@ -25,15 +25,15 @@ AMPLITUDES = np.geomspace(2e-6, 1.5e-4, 20)
 
 
 def virtual_measurement(parameters: dict, seed: int, amplitude=AMPLITUDES, frequency_noise=2e-4,
-                        damping_noise=0.03) -> tuple[Measurement, tuple]:
+                        damping_noise=0.03) -> tuple[BackboneLevels, tuple]:
     """A virtual backbone of the one-mode model with ``parameters`` (its q_max the largest amplitude) and seeded
     Gaussian noise stated as the points' uncertainty; and the true (frequency, damping)."""
     truth = model_backbone({**JOINT, **parameters}, amplitude, F0, ZETA0, amplitude[-1])
     rng = np.random.default_rng(seed)
     sigma_f, sigma_z = frequency_noise * truth[0], damping_noise * truth[1]
-    measurement = Measurement(amplitude, truth[0] + sigma_f * rng.standard_normal(amplitude.size),
-                              truth[1] + sigma_z * rng.standard_normal(amplitude.size), sigma_f, sigma_z,
-                              float(truth[0][0]), "virtual", f"virtual backbone, seed {seed}")
+    measurement = BackboneLevels(amplitude, truth[0] + sigma_f * rng.standard_normal(amplitude.size),
+                                 truth[1] + sigma_z * rng.standard_normal(amplitude.size), sigma_f, sigma_z,
+                                 float(truth[0][0]), "virtual", f"virtual backbone, seed {seed}")
     return measurement, truth
 
 

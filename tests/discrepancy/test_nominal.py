@@ -15,7 +15,7 @@ import numpy as np
 
 from discrepancy.nominal import MIN_LEVELS, low_amplitude_nominal
 from locations import challenge_ringdown
-from study.structures import Measurement
+from study.structures import BackboneLevels
 
 F0, Z0 = 169.86, 1.666e-3  # zero-amplitude frequency (Hz) and linear damping
 
@@ -34,7 +34,7 @@ def iwan_measurement(seed=None, amplitude=np.geomspace(1.2e-6, 3e-4, 20), outlie
             size=amplitude.size)
     if outlier is not None:
         frequency[outlier[0]] += outlier[1] * sigma_f[outlier[0]]
-    return Measurement(amplitude, frequency, damping, sigma_f, sigma_z, float(frequency[0]), "virtual", "Iwan law")
+    return BackboneLevels(amplitude, frequency, damping, sigma_f, sigma_z, float(frequency[0]), "virtual", "Iwan law")
 
 
 def test_stated_errors_cover_the_zero_amplitude_values_over_noise_draws():

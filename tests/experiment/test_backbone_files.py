@@ -124,7 +124,7 @@ def test_points_no_free_decay_gives_are_left_out_with_their_reason(tmp_path):
     ratio (noise at the end of the decays) and whose top point lies at 230 Hz (outside the band-pass: leakage, not
     the mode): the written backbone holds the other points only, the two are listed with their cause, the
     low-amplitude frequency is that of the lowest point kept, and the study's levels read it without refusal."""
-    from experiment.backbone import Backbone, MeasuredBackbone, unphysical_points
+    from experiment.backbone import Backbone, RingDownBackbones, unphysical_points
     from study.structures import measured_levels
 
     amplitude = np.geomspace(1e-6, 1e-4, 8)
@@ -133,7 +133,7 @@ def test_points_no_free_decay_gives_are_left_out_with_their_reason(tmp_path):
     frequency[-1], damping[0] = 230.0, -7e-4
     spread = np.full(8, 0.1)
     hilbert = Backbone(amplitude, frequency, spread, spread, damping, spread * 1e-3, spread * 1e-3, np.full(8, 7))
-    measured = MeasuredBackbone("ring.csv", 170.0, "m", {"acc1": 1.0}, [], hilbert, hilbert, (119.0, 221.0))
+    measured = RingDownBackbones("ring.csv", 170.0, "m", {"acc1": 1.0}, [], hilbert, hilbert, (119.0, 221.0))
     assert sorted(unphysical_points(hilbert, (119.0, 221.0))) == [0, 7]
     written = mode_backbone(measured, "beam", "virtual")
     np.testing.assert_array_equal(written.backbone.amplitude, amplitude[1:7])

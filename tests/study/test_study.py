@@ -29,7 +29,7 @@ from study.errors import accepted, design_errors
 from study.exploration import Exploration, Sample, StudyError, explore
 from study.analysis import model_errors
 from reduction.superelement import StructureError, beam_superelement, target_mode
-from study.structures import Measurement, measured_levels, qsma_measurement, structure
+from study.structures import BackboneLevels, measured_levels, qsma_measurement, structure
 from study.surrogacy import surrogacy_matrix
 from study.workflow import Paths
 
@@ -187,8 +187,8 @@ def test_a_measurement_record_that_breaks_its_invariants_is_refused(amplitude, f
     than three increasing amplitudes are refused naming its source and the field."""
     unknown = np.full(len(amplitude), np.nan)
     with pytest.raises(StructureError, match=f"ring.csv: field {field}"):
-        Measurement(np.array(amplitude), np.array(frequency), np.full(len(amplitude), 1e-3), unknown, unknown,
-                    100.0, "measured", "ring.csv")
+        BackboneLevels(np.array(amplitude), np.array(frequency), np.full(len(amplitude), 1e-3), unknown, unknown,
+                       100.0, "measured", "ring.csv")
 
 
 def test_unknown_model_and_inverted_bounds_are_refused(beams, tmp_path):
