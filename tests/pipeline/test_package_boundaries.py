@@ -6,6 +6,8 @@ only the packages before it in the data's flow, and no module of a package impor
 command line (cli/) comes after every stage and no module imports it; no library module imports a command module; no
 module but the friction-model registry decides on a model's name, nor on a dataset's but the dataset registry; no
 module but the effect registry names an effect of the discrepancy loop; no module but the runners starts workers.
+Each check is also run on a planted package that breaks its rule (``PLANTED``), so that a check that finds nothing
+cannot pass unnoticed.
 """
 
 import ast
@@ -101,23 +103,6 @@ def test_the_library_imports_no_command_module(package):
     assert not offending, offending
 
 
-def plant(tmp_path, monkeypatch, package: str, modules: dict) -> None:
-    """A package ``package`` of ``modules`` (file name -> source) under ``tmp_path``, made the checks' ROOT."""
-    (tmp_path / package).mkdir()
-    for name, source in modules.items():
-        (tmp_path / package / name).write_text(source)
-    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
-
-
-def test_a_planted_command_import_is_found(tmp_path, monkeypatch):
-    plant(tmp_path, monkeypatch, "study",
-          {"exploration.py": "from study.commands import defaults\nfrom study import workflow\n",
-           "analysis.py": "import cli.console\n",
-           "commands.py": "from study import workflow\n"})
-    assert command_imports("study") == {"analysis.py": ["cli.console"],
-                                        "exploration.py": ["study.commands", "study.commands.defaults"]}
-
-
 def upward_imports(package: str) -> dict[str, list[str]]:
     """Module file name -> the modules of later packages (``PACKAGES``) it imports, for the modules that import
     any."""
@@ -131,14 +116,6 @@ def upward_imports(package: str) -> dict[str, list[str]]:
 def test_packages_import_only_the_packages_before_them(package):
     offending = upward_imports(package)
     assert not offending, offending
-
-
-def test_a_planted_upward_import_is_found(tmp_path, monkeypatch):
-    plant(tmp_path, monkeypatch, "pipeline",
-          {"commands.py": "from cli import demo\nfrom pipeline import public_data\n",
-           "config.py": "from study.datasets import DEFAULT_MODELS\n"})
-    assert upward_imports("pipeline") == {"commands.py": ["cli", "cli.demo"],
-                                          "config.py": ["study.datasets", "study.datasets.DEFAULT_MODELS"]}
 
 
 def name_branches(path: Path, names) -> list[str]:
@@ -168,13 +145,6 @@ def test_no_branch_on_a_friction_model_name_outside_the_registry(package):
     assert not offending, offending
 
 
-def test_a_planted_branch_on_a_model_name_is_found(tmp_path):
-    planted = tmp_path / "transient.py"
-    planted.write_text('law = {"jenkins": 1, "iwan4": 2}\nif model == "iwan5":\n    pass\n'
-                       'stuck = model in ("iwan4_stuck", "other")\nname = "iwan4"\n')
-    assert [place.split(":")[0] for place in name_branches(planted, MODEL_NAMES)] == ["1", "2", "4"]
-
-
 def module_graph(package: str) -> dict[str, set[str]]:
     """Module stem -> the stems of the same package's modules it imports, absolute or relative, at module level
     or inside a function (``from .a import b``, ``from package.a import b``, ``from package import a``)."""
@@ -196,17 +166,19 @@ def module_graph(package: str) -> dict[str, set[str]]:
     return graph
 
 
+def import_cycle(package: str) -> list[str]:
+    """The module stems of an import cycle within a package, the first repeated last; [] where there is none."""
+    try:
+        graphlib.TopologicalSorter(module_graph(package)).prepare()
+    except graphlib.CycleError as error:
+        return error.args[1]
+    return []
+
+
 @pytest.mark.parametrize("package", PACKAGES)
 def test_no_import_cycle_within_a_package(package):
-    graphlib.TopologicalSorter(module_graph(package)).prepare()
-
-
-def test_a_planted_import_cycle_is_found(tmp_path, monkeypatch):
-    plant(tmp_path, monkeypatch, "reduction",
-          {"craig_bampton.py": "from .superelement import DOFS_PER_PATCH\n",
-           "superelement.py": "def f():\n    from reduction.craig_bampton import g\n"})
-    with pytest.raises(graphlib.CycleError):
-        graphlib.TopologicalSorter(module_graph("reduction")).prepare()
+    cycle = import_cycle(package)
+    assert not cycle, " -> ".join(cycle)
 
 
 PARALLEL_BACKENDS = ("distributed", "dask", "multiprocessing", "concurrent.futures")
@@ -228,14 +200,6 @@ def test_only_the_runners_start_workers(package):
     assert not offending, offending
 
 
-def test_a_planted_pool_is_found(tmp_path, monkeypatch):
-    plant(tmp_path, monkeypatch, "virtual_experiment",
-          {"hammer_test.py": "import multiprocessing\nfrom pipeline.runners import SERIAL\n",
-           "commands.py": "def run():\n    from distributed import Client\n"})
-    assert parallel_imports("virtual_experiment") == {"commands.py": ["distributed", "distributed.Client"],
-                                                      "hammer_test.py": ["multiprocessing"]}
-
-
 DATASET_PACKAGES = PACKAGES[PACKAGES.index("study"):]
 """The packages that know the study's datasets (below the study, "beams" is the geometry stage's name)."""
 
@@ -246,13 +210,6 @@ def test_no_branch_on_a_dataset_name_outside_the_registry(package):
                  if path != ROOT / "study" / "datasets.py"}
     offending = {module: places for module, places in offending.items() if places}
     assert not offending, offending
-
-
-def test_a_planted_branch_on_a_dataset_name_is_found(tmp_path):
-    planted = tmp_path / "workflow.py"
-    planted.write_text('if study.dataset == "asb":\n    pass\ncases = {"beams": "BRB"}\nname = "beams"\n'
-                       'paper = dataset in ("beams", "other")\n')
-    assert [place.split(":")[0] for place in name_branches(planted, DATASET_NAMES)] == ["1", "3", "5"]
 
 
 def dataset_strings(path: Path, names) -> list[str]:
@@ -282,14 +239,6 @@ def test_the_report_finds_the_datasets_through_the_registry():
     assert not offending, offending
 
 
-def test_a_planted_dataset_string_is_found(tmp_path):
-    planted = tmp_path / "document.py"
-    planted.write_text('"""The studies of study-asb."""\nSTUDIES = (("beams", "study-beams"), ("asb", "study-asb"))\n'
-                       'folder = results / "fit-asb"\nlog = "results/study-beams/study.json"\n'
-                       'meshes = build / "beams"\nfolder = results / f"study-{name}"\n')
-    assert sorted(place.split(":")[0] for place in dataset_strings(planted, DATASET_NAMES)) == ["2", "2", "2", "3", "4"]
-
-
 EFFECT_PACKAGES = PACKAGES[PACKAGES.index("discrepancy"):]
 """The packages that know the discrepancy loop's effects (below it "linear_damping" is a design's zeta_0 and
 "microslip" a regime of a joint; the friction-model registry names the effects each model brings, and
@@ -309,10 +258,59 @@ def test_no_effect_is_named_outside_the_registry(package):
     assert not offending, offending
 
 
-def test_a_planted_effect_name_is_found(tmp_path):
-    planted = tmp_path / "nominal.py"
-    planted.write_text('"""Offsets: stiffness_change and linear_damping."""\n'
-                       'OFFSETS = {"frequency": "stiffness_change"}\n'
-                       'if effect in ("microslip", "other"):\n    pass\nmessage = "a stiffness_change here"\n'
-                       'core = effects[-1] == "stuck_core"\n')
-    assert sorted(place.split(":")[0] for place in effect_strings(planted, EFFECT_NAMES)) == ["2", "3", "6"]
+
+def module_lines(finder, names, module: str):
+    """A check of one module against ``names`` (``name_branches``, ``dataset_strings``, ``effect_strings``) as a
+    check of a package: package -> the sorted line numbers of its findings in ``module`` of that package."""
+    return lambda package: sorted(int(place.split(":")[0]) for place in finder(ROOT / package / module, names))
+
+
+PLANTED = {
+    "command import": ("study", {"exploration.py": "from study.commands import defaults\nfrom study import workflow\n",
+                                 "analysis.py": "import cli.console\n",
+                                 "commands.py": "from study import workflow\n"},
+                       command_imports, {"analysis.py": ["cli.console"],
+                                         "exploration.py": ["study.commands", "study.commands.defaults"]}),
+    "upward import": ("pipeline", {"commands.py": "from cli import demo\nfrom pipeline import public_data\n",
+                                   "config.py": "from study.datasets import DEFAULT_MODELS\n"},
+                      upward_imports, {"commands.py": ["cli", "cli.demo"],
+                                       "config.py": ["study.datasets", "study.datasets.DEFAULT_MODELS"]}),
+    "import cycle": ("reduction", {"craig_bampton.py": "from .superelement import DOFS_PER_PATCH\n",
+                                   "superelement.py": "def f():\n    from reduction.craig_bampton import g\n"},
+                     import_cycle, ["craig_bampton", "superelement", "craig_bampton"]),
+    "pool": ("virtual_experiment", {"hammer_test.py": "import multiprocessing\nfrom pipeline.runners import SERIAL\n",
+                                    "commands.py": "def run():\n    from distributed import Client\n"},
+             parallel_imports, {"commands.py": ["distributed", "distributed.Client"],
+                                "hammer_test.py": ["multiprocessing"]}),
+    "branch on a model name": ("nonlinear", {"transient.py": 'law = {"jenkins": 1, "iwan4": 2}\nif model == "iwan5":\n'
+                                                             '    pass\nstuck = model in ("iwan4_stuck", "other")\n'
+                                                             'name = "iwan4"\n'},
+                               module_lines(name_branches, MODEL_NAMES, "transient.py"), [1, 2, 4]),
+    "branch on a dataset name": ("study", {"workflow.py": 'if study.dataset == "asb":\n    pass\n'
+                                                          'cases = {"beams": "BRB"}\nname = "beams"\n'
+                                                          'paper = dataset in ("beams", "other")\n'},
+                                 module_lines(name_branches, DATASET_NAMES, "workflow.py"), [1, 3, 5]),
+    "dataset string": ("report", {"document.py": '"""The studies of study-asb."""\n'
+                                                 'STUDIES = (("beams", "study-beams"), ("asb", "study-asb"))\n'
+                                                 'folder = results / "fit-asb"\n'
+                                                 'log = "results/study-beams/study.json"\n'
+                                                 'meshes = build / "beams"\nfolder = results / f"study-{name}"\n'},
+                       module_lines(dataset_strings, DATASET_NAMES, "document.py"), [2, 2, 2, 3, 4]),
+    "effect name": ("discrepancy", {"nominal.py": '"""Offsets: stiffness_change and linear_damping."""\n'
+                                                  'OFFSETS = {"frequency": "stiffness_change"}\n'
+                                                  'if effect in ("microslip", "other"):\n    pass\n'
+                                                  'message = "a stiffness_change here"\n'
+                                                  'core = effects[-1] == "stuck_core"\n'},
+                    module_lines(effect_strings, EFFECT_NAMES, "nominal.py"), [2, 3, 6]),
+}
+"""Each check on a planted package with violations: name -> (package, its modules (file name -> source), the check
+(package -> findings), the findings it must report)."""
+
+
+@pytest.mark.parametrize(("package", "modules", "check", "expected"), PLANTED.values(), ids=PLANTED.keys())
+def test_a_planted_violation_is_found(tmp_path, monkeypatch, package, modules, check, expected):
+    (tmp_path / package).mkdir()
+    for name, source in modules.items():
+        (tmp_path / package / name).write_text(source)
+    monkeypatch.setattr(__import__(__name__), "ROOT", tmp_path)
+    assert check(package) == expected
