@@ -20,10 +20,12 @@ Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once
-Harmonic balance and EPMC (:mod:`nonlinear.harmonic_balance`, :mod:`nonlinear.hysteresis_kernel`, :mod:`nonlinear.epmc`)
+Harmonic balance, EPMC and forced response (:mod:`nonlinear.harmonic_balance`, :mod:`nonlinear.hysteresis_kernel`,
+:mod:`nonlinear.epmc`, :mod:`nonlinear.forced_response`)
     JointSystem, slip_deficit_harmonics, pseudo_arclength   the joint space's harmonic balance with AFT of the sliders
     joint_system, nonlinear_mode, converged_harmonics        EPMC: the amplitude-dependent nonlinear mode
     compare_with_qsma                                        EPMC beside QSMA at the same amplitudes
+    forced_response, stepped_sine                            the periodic response to a harmonic force at a drive point
 Transient (:mod:`nonlinear.transient`)
     ring_down                   Newmark free decay; its sensors are an ``experiment.ringdown.RingDown``
     Hammer, hammer_impulse, sensor_modes

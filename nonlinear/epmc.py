@@ -29,8 +29,9 @@ import numpy as np
 
 from nonlinear.condensation import JointSpace
 from nonlinear.harmonic_balance import (JointSystem, compliance_operator, dynamic_compliance,
-                                        element_jacobian, fourier_basis, harmonic_count, newton, pseudo_arclength,
-                                        slip_deficit_harmonics, stacked_sliders, static_equilibrium)
+                                        element_jacobian, fourier_basis, harmonic_count, modal_harmonics, newton,
+                                        pseudo_arclength, slip_deficit_harmonics, stacked_sliders,
+                                        static_equilibrium)
 from nonlinear.friction_models import SMALLEST_SLIDER
 from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_dissipation,
                              tangential_elements, tangential_rows)
@@ -158,21 +159,12 @@ class ModeEquations:
 
     def modal_harmonics(self, y: np.ndarray, log_amplitude: float) -> np.ndarray:
         """Harmonics (2H+1, n_modes) of the stuck modes' coordinates p_j (m kg^0.5) of the solution y: the
-        target's fundamental q cos, every other harmonic and mode c_j^T G_k / (d_jk - i e_k) (+ load_j / mu_j)."""
+        target's fundamental q cos, every other harmonic and mode c_j^T G_k / (d_jk - i e_k) (+ load_j / mu_j)
+        (``nonlinear.harmonic_balance.modal_harmonics``)."""
         q, n_t, size = np.exp(log_amplitude), self.n_t, self.size
         omega, xi = self.omega_0 * y[size], self.omega_0 * y[size + 1]
         g = self.deficit(q * y[:size].reshape(-1, n_t)).harmonics
-        modal_g = g @ self.system.joint_shapes.T  # (2H+1, n_modes): c_j^T G
-        k = np.arange(1, self.harmonics + 1)[:, None]
-        d = self.system.eigenvalues[None, :] - (k * omega) ** 2
-        if self.harmonics >= 1:
-            d[0, self.system.target] = 1.0  # prescribed below
-        e = k * omega * xi
-        denominator = d ** 2 + e ** 2
-        modal = np.empty_like(modal_g)
-        modal[0] = (modal_g[0] + self.load) / self.system.eigenvalues
-        modal[1::2] = (d * modal_g[1::2] + e * modal_g[2::2]) / denominator
-        modal[2::2] = (d * modal_g[2::2] - e * modal_g[1::2]) / denominator
+        modal = modal_harmonics(self.system, g, omega, xi, self.load)
         if self.harmonics >= 1:
             modal[1, self.system.target], modal[2, self.system.target] = q, 0.0
         return modal

@@ -10,17 +10,19 @@ motion of the modal coordinate p_j = v_j^T eta is
     p_j'' - xi p_j' + mu_j p_j = c_j^T g(r_t(t)),       r_t = sum_j c_j p_j,
 
 where -xi p' is the negative mass-proportional damping of the extended periodic motion concept (``nonlinear.epmc``;
-xi = 0 for a forced or conservative system). A periodic motion r_t(tau), tau = omega t, is written as the real
-Fourier series r_t = U_0 + sum_k (U_ak cos k tau + U_bk sin k tau), k = 1..H; in complex form R_k = U_ak - i U_bk
-and d/dt -> i k omega, so that harmonic k of mode j is
+xi = 0 for a conservative system), or, one xi_j = -2 zeta_j sqrt(mu_j) per mode, the viscous modal damping of a
+forced structure (``nonlinear.forced_response``, whose harmonic force adds to harmonic 1 of the right-hand side).
+A periodic motion r_t(tau), tau = omega t, is written as the real Fourier series r_t = U_0 + sum_k (U_ak cos k tau
++ U_bk sin k tau), k = 1..H; in complex form R_k = U_ak - i U_bk and d/dt -> i k omega, so that harmonic k of mode
+j is
 
-    P_jk = c_j^T G_k / (d_jk - i e_k),   d_jk = mu_j - (k omega)^2,   e_k = k omega xi,
+    P_jk = c_j^T G_k / (d_jk - i e_jk),   d_jk = mu_j - (k omega)^2,   e_jk = k omega xi_j,
 
 G_k the harmonics of g. Summed over the modes, the tangential joint motion of harmonic k is the dynamic
 compliance of the stuck structure applied to the slip deficit (real form):
 
     U_ak = Hd_k G_ak + He_k G_bk,   U_bk = Hd_k G_bk - He_k G_ak,
-    Hd_k = sum_j c_j c_j^T d_jk / (d_jk^2 + e_k^2),   He_k = sum_j c_j c_j^T e_k / (d_jk^2 + e_k^2),
+    Hd_k = sum_j c_j c_j^T d_jk / (d_jk^2 + e_jk^2),   He_k = sum_j c_j c_j^T e_jk / (d_jk^2 + e_jk^2),
 
 Hd_0 the static compliance. Only the n_t tangential motions of the slipping elements are unknowns (10 on the BRB),
 whatever the superelement's size: the condensed joint space.
@@ -250,6 +252,44 @@ def static_equilibrium(system: JointSystem, load: np.ndarray, state: SliderState
     raise ValueError(f"static equilibrium under the load did not converge in {max_iterations} Newton iterations")
 
 
+class ModalReceptance(NamedTuple):
+    """1 / (d_jk - i e_jk) of every stuck mode j at every harmonic k = 0..H (module docstring), as its real part
+    d / (d^2 + e^2) and imaginary part e / (d^2 + e^2), arrays (H+1, n_modes) in s^2 (per unit mass), and their
+    derivatives with respect to omega and to the mode's own xi (``_omega``, ``_xi``), s^2 per rad/s."""
+
+    real: np.ndarray
+    imaginary: np.ndarray
+    real_omega: np.ndarray
+    imaginary_omega: np.ndarray
+    real_xi: np.ndarray
+    imaginary_xi: np.ndarray
+
+
+def modal_receptance(system: JointSystem, omega: float, xi, harmonics: int,
+                     resonant_target: bool = False) -> ModalReceptance:
+    """The stuck modes' receptances at k omega, k = 0..H, with the damping xi (rad/s): one value for every mode
+    (EPMC's negative mass-proportional damping) or one per mode (n_modes,) (viscous modal damping, negative:
+    xi_j = -2 zeta_j sqrt(mu_j)). resonant_target False: the target mode's harmonic 1 is zero, where the
+    nonlinear mode prescribes it (``nonlinear.epmc``)."""
+    k = np.arange(harmonics + 1)[:, None]
+    keep = np.ones((harmonics + 1, system.eigenvalues.size))
+    if not resonant_target and harmonics >= 1:
+        keep[1, system.target] = 0.0
+    d = np.where(keep > 0, system.eigenvalues[None, :] - (k * omega) ** 2, 1.0)  # left out: any nonzero value
+    xi = np.asarray(xi, dtype=float)
+    e = np.broadcast_to(k * omega * xi, d.shape)
+    denominator = d ** 2 + e ** 2
+    # chain rule: dd/domega = -2 k^2 omega, de/domega = k xi, de/dxi = k omega
+    real_d, real_e = (e ** 2 - d ** 2) / denominator ** 2, -2 * d * e / denominator ** 2
+    imaginary_d, imaginary_e = -2 * d * e / denominator ** 2, (d ** 2 - e ** 2) / denominator ** 2
+    weights = ModalReceptance(
+        real=d / denominator, imaginary=e / denominator,
+        real_omega=real_d * (-2 * k ** 2 * omega) + real_e * k * xi,
+        imaginary_omega=imaginary_d * (-2 * k ** 2 * omega) + imaginary_e * k * xi,
+        real_xi=real_e * k * omega, imaginary_xi=imaginary_e * k * omega)
+    return ModalReceptance(*(value * keep for value in weights))
+
+
 class DynamicCompliance(NamedTuple):
     """Hd, He (H+1, n_t, n_t) of the module docstring at (omega, xi), and their derivatives with respect to
     omega and xi (``_omega``, ``_xi``), m/N and m/N per rad/s."""
@@ -262,30 +302,34 @@ class DynamicCompliance(NamedTuple):
     imaginary_xi: np.ndarray
 
 
-def dynamic_compliance(system: JointSystem, omega: float, xi: float, harmonics: int,
+def dynamic_compliance(system: JointSystem, omega: float, xi, harmonics: int,
                        resonant_target: bool = False) -> DynamicCompliance:
     """The stuck structure's dynamic compliance at every harmonic k = 0..H (module docstring), by its modes (no
-    cancellation near a resonance). resonant_target False: the target mode is left out of harmonic 1, where the
-    nonlinear mode prescribes it (``nonlinear.epmc``)."""
-    k = np.arange(harmonics + 1)[:, None]
-    keep = np.ones((harmonics + 1, system.eigenvalues.size))
-    if not resonant_target and harmonics >= 1:
-        keep[1, system.target] = 0.0
-    d = np.where(keep > 0, system.eigenvalues[None, :] - (k * omega) ** 2, 1.0)  # left out: any nonzero value
-    e = np.broadcast_to(k * omega * xi, d.shape)
-    denominator = d ** 2 + e ** 2
-    # chain rule: dd/domega = -2 k^2 omega, de/domega = k xi, de/dxi = k omega
-    real_d, real_e = (e ** 2 - d ** 2) / denominator ** 2, -2 * d * e / denominator ** 2
-    imaginary_d, imaginary_e = -2 * d * e / denominator ** 2, (d ** 2 - e ** 2) / denominator ** 2
-    weights = {
-        "real": d / denominator, "imaginary": e / denominator,
-        "real_omega": real_d * (-2 * k ** 2 * omega) + real_e * k * xi,
-        "imaginary_omega": imaginary_d * (-2 * k ** 2 * omega) + imaginary_e * k * xi,
-        "real_xi": real_e * k * omega, "imaginary_xi": imaginary_e * k * omega,
-    }
+    cancellation near a resonance): the modal receptances (``modal_receptance``, xi one value or one per mode)
+    summed with c_j c_j^T. The ``_xi`` derivatives are with respect to adding the same amount to every mode's xi."""
     c = system.joint_shapes
-    return DynamicCompliance(**{name: np.einsum("km,me,mf->kef", value * keep, c, c)
-                                for name, value in weights.items()})
+    return DynamicCompliance(*(np.einsum("km,me,mf->kef", weights, c, c) for weights in
+                               modal_receptance(system, omega, xi, harmonics, resonant_target)))
+
+
+def modal_harmonics(system: JointSystem, deficit: np.ndarray, omega: float, xi, load: np.ndarray,
+                    excitation: np.ndarray | None = None, resonant_target: bool = False) -> np.ndarray:
+    """Harmonics (2H+1, n_modes) of the stuck modes' coordinates p_j (m kg^0.5) for the slip deficit's harmonics
+    G (2H+1, n_t) (N) at (omega, xi): P_jk = (c_j^T G_k + f_j [k = 1]) / (d_jk - i e_jk) in the real form of
+    ``compliance_operator``, P_j0 = (c_j^T G_0 + load_j) / mu_j; load (n_modes,) the static load and excitation
+    (n_modes,) f_j the amplitude of a force f_j cos(omega t) on each mode, N kg^-0.5 (default none).
+    resonant_target False: the target's harmonic 1 is left zero (``modal_receptance``)."""
+    harmonics = (deficit.shape[0] - 1) // 2
+    receptance = modal_receptance(system, omega, xi, harmonics, resonant_target)
+    modal = deficit @ system.joint_shapes.T  # (2H+1, n_modes): c_j^T G
+    modal[0] += load
+    if excitation is not None:
+        modal[1] += excitation
+    cosine, sine = modal[1::2].copy(), modal[2::2].copy()
+    modal[0] *= receptance.real[0]
+    modal[1::2] = receptance.real[1:] * cosine + receptance.imaginary[1:] * sine
+    modal[2::2] = receptance.real[1:] * sine - receptance.imaginary[1:] * cosine
+    return modal
 
 
 def compliance_operator(real: np.ndarray, imaginary: np.ndarray) -> np.ndarray:
@@ -351,30 +395,38 @@ def backtracked(residual: Residual, point: np.ndarray, correction: np.ndarray, m
     return point + correction, evaluated, correction
 
 
+def branch_tangent(jacobian: np.ndarray, derivative: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+    """The unit tangent t (n_unknowns + 1,) of a branch R(y, parameter) = 0 at a point with dR/dy (n, n) and
+    dR/dparameter (n,): [dR/dy dR/dp] t = 0, oriented as the ``previous`` tangent, or, where None, along the
+    increasing parameter."""
+    last = np.append(np.zeros(derivative.size), 1.0)
+    tangent = np.linalg.solve(np.vstack([np.column_stack([jacobian, derivative]),
+                                         last if previous is None else previous]), last)
+    tangent /= np.linalg.norm(tangent)
+    return -tangent if tangent @ (last if previous is None else previous) < 0 else tangent
+
+
 def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, stops, step: float,
                      admissible: Callable[[np.ndarray], bool] = lambda y: True, min_step: float = 1e-4,
                      max_step: float | None = None, tolerance: float = 1e-10, max_iterations: int = 12,
-                     max_points: int = 2000) -> Continuation:
+                     max_points: int = 2000, max_turn: float | None = None) -> Continuation:
     """Pseudo-arclength continuation of residual(y, parameter) = 0 from (y0, start), which must be a solution,
     through the increasing parameters ``stops`` (all above start). Predictor along the unit tangent t of the branch
     ([dR/dy dR/dp] t = 0, oriented as the previous one), corrector by Newton's method on R = 0 and
     t . ((y, p) - predicted) = 0; a predictor that would pass the next stop is shortened to reach it, and its
     corrector holds the parameter there instead, so that every stop is a point of the branch. The step (in the
     scaled unknowns and parameter) grows by 1.5 after a corrector of at most 3 iterations and halves after a
-    failed one, or one whose point is not ``admissible``; the branch ends where the step falls below ``min_step``
-    (``Continuation.reached`` False)."""
+    failed one, or one whose point is not ``admissible`` or, with ``max_turn`` (rad), whose tangent turned by more
+    than it from the step's (a step across a narrow resonance peak can land on the curve's far side; a turn that
+    persists down to the smallest step is a corner of the branch, such as the onset of slip, and is taken); the
+    branch ends where the step falls below ``min_step`` (``Continuation.reached`` False)."""
     stops = [float(stop) for stop in stops]
     max_step = 10.0 * step if max_step is None else max_step
     points, parameters, iterations, at_stops = [np.asarray(y0, dtype=float)], [float(start)], [0], []
     y, parameter, previous = points[0], float(start), None
     while len(at_stops) < len(stops) and len(points) < max_points:
         _, jacobian, derivative = residual(y, parameter)
-        augmented = np.vstack([np.column_stack([jacobian, derivative]),
-                               np.append(np.zeros(y.size), 1.0) if previous is None else previous])
-        tangent = np.linalg.solve(augmented, np.append(np.zeros(y.size), 1.0))
-        tangent /= np.linalg.norm(tangent)
-        if (previous is None and tangent[-1] < 0) or (previous is not None and tangent @ previous < 0):
-            tangent = -tangent
+        tangent = branch_tangent(jacobian, derivative, previous)
         stop = stops[len(at_stops)]
         while True:
             reaches = tangent[-1] > 0 and parameter + step * tangent[-1] >= stop
@@ -392,7 +444,8 @@ def pseudo_arclength(residual: Residual, y0: np.ndarray, start: float, stops, st
                 trial, (value, jacobian, derivative), correction = backtracked(residual, trial, correction,
                                                                                 np.linalg.norm(value))
                 if np.abs(correction).max() <= tolerance and np.abs(value).max() <= tolerance:
-                    converged = admissible(trial[:-1])
+                    converged = admissible(trial[:-1]) and (max_turn is None or length / 2.0 < min_step or np.arccos(
+                        min(1.0, branch_tangent(jacobian, derivative, tangent) @ tangent)) <= max_turn)
                     break
             if converged:
                 break
