@@ -93,6 +93,43 @@ def binned_means(amplitude: np.ndarray, values: np.ndarray, grid: np.ndarray) ->
     return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
 
 
+def values_at_grid(amplitudes: list[np.ndarray], values: list[np.ndarray], grid: np.ndarray) -> np.ndarray:
+    """Each record's value at each grid amplitude (n_records, n_grid), from its samples in the grid point's bin;
+    NaN where it has none.
+
+    amplitudes, values: one (n_r,) array per record. A record's bin mean is not its value at the grid point g
+    where it covers only part of the bin (the top and bottom bins always: the grid ends at the data's ends; a hit
+    whose kept decay starts inside a bin), where its samples crowd to one side (the decay is faster at one end),
+    or where the backbone curves across the bin. With u = ln a - ln g and the backbone near g the quadratic
+    c0 + c1 u + c2 u^2 (least squares over every record's samples in the bin and its two neighbours), the record's
+    value at g is its bin mean less c1 mean(u) + c2 mean(u^2) over its own samples in the bin.
+    """
+    edges = np.log(amplitude_bins(grid))
+    logs = [np.log(a) for a in amplitudes]
+    index = [np.digitize(u, edges) - 1 for u in logs]
+    pooled_log, pooled_values, pooled_index = (np.concatenate(arrays) for arrays in (logs, values, index))
+    at_grid = np.full((len(logs), grid.size), np.nan)
+    for k, centre in enumerate(np.log(grid)):
+        near = np.abs(pooled_index - k) <= 1
+        shape = _local_quadratic(pooled_log[near] - centre, pooled_values[near])
+        for r, (u, v, i) in enumerate(zip(logs, values, index)):
+            inside = i == k
+            if inside.any():
+                offset = u[inside] - centre
+                at_grid[r, k] = np.mean(v[inside] - shape[0] * offset - shape[1] * offset ** 2)
+    return at_grid
+
+
+def _local_quadratic(offset: np.ndarray, values: np.ndarray) -> tuple[float, float]:
+    """(c1, c2) of the least-squares c0 + c1 u + c2 u^2 through (offset u, values); of a straight line where the
+    offsets do not determine a curvature, and (0, 0) where they do not determine a slope."""
+    for degree in (2, 1):
+        if np.unique(offset).size > degree and np.ptp(offset) > 0:
+            coefficients = np.polynomial.polynomial.polyfit(offset, values, degree)
+            return float(coefficients[1]), float(coefficients[2]) if degree == 2 else 0.0
+    return 0.0, 0.0
+
+
 def binned_standard_error(amplitude: np.ndarray, values: np.ndarray, independent: np.ndarray,
                           grid: np.ndarray) -> np.ndarray:
     """Standard error of the mean of ``values`` (n,) within each grid bin of ``amplitude`` (n,); NaN if empty.
@@ -121,10 +158,10 @@ def average_backbones(records: list[InstantaneousBackbone], grid: np.ndarray, st
     amplitude, frequency_hz, damping_ratio = (np.concatenate([getattr(r, name) for r in records])
                                               for name in ("amplitude", "natural_frequency_hz", "damping_ratio"))
     independent = np.concatenate([np.full(r.amplitude.size, 1 / r.correlated_samples) for r in records])
+    amplitudes = [r.amplitude for r in records]
     frequency, frequency_spread, count = record_statistics(
-        np.array([binned_means(r.amplitude, r.natural_frequency_hz, grid) for r in records]))
-    damping, damping_spread, _ = record_statistics(
-        np.array([binned_means(r.amplitude, r.damping_ratio, grid) for r in records]))
+        values_at_grid(amplitudes, [r.natural_frequency_hz for r in records], grid))
+    damping, damping_spread, _ = record_statistics(values_at_grid(amplitudes, [r.damping_ratio for r in records], grid))
     pooled = [binned_standard_error(amplitude, values, independent, grid) for values in (frequency_hz, damping_ratio)]
     errors = pooled if standard_errors is None else [np.where(np.isfinite(given), given, fallback)
                                                     for given, fallback in zip(standard_errors, pooled)]
@@ -145,10 +182,13 @@ def record_statistics(values: np.ndarray):
 
 
 def amplitude_grid(records: list[InstantaneousBackbone], n_points: int) -> np.ndarray:
-    """Log-spaced grid (n_points,) over the amplitudes covered by any of the records."""
+    """Log-spaced grid (n_points,): the geometric centres of n_points equal bins in ln a that span the amplitudes
+    covered by any of the records, so that the end points lie inside the data, half a bin from its ends (where
+    the estimates carry the transform's end effects), not on them."""
     low = min(np.min(r.amplitude) for r in records)
     high = max(np.max(r.amplitude) for r in records)
-    return np.geomspace(low, high, n_points)
+    edges = np.geomspace(low, high, n_points + 1)
+    return np.sqrt(edges[1:] * edges[:-1])
 
 
 @dataclass(frozen=True)
@@ -228,7 +268,7 @@ def twin_standard_errors(records: list[ModeRecord], grid: np.ndarray) -> tuple[n
     over records, sqrt(sum se_r^2) / n. NaN where no record has two twins in the bin."""
     per_record = []
     for record in records:
-        binned = np.array([[binned_means(twin.amplitude, values, grid) for values in
+        binned = np.array([[values_at_grid([twin.amplitude], [values], grid)[0] for values in
                             (twin.natural_frequency_hz, twin.damping_ratio, frequency, damping)]
                            for twin, frequency, damping in record.twins]).reshape(-1, 4, grid.size)
         reached = np.sum(np.isfinite(binned[:, 0]), axis=0) >= 2
