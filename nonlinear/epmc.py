@@ -28,10 +28,9 @@ from typing import NamedTuple
 import numpy as np
 
 from nonlinear.condensation import JointSpace
-from nonlinear.harmonic_balance import (JointSystem, compliance_operator, dynamic_compliance,
-                                        element_jacobian, fourier_basis, harmonic_count, modal_harmonics, newton,
-                                        pseudo_arclength, slip_deficit_harmonics, stacked_sliders,
-                                        static_equilibrium)
+from nonlinear.harmonic_balance import (JointHarmonics, JointSystem, compliance_operator, dynamic_compliance,
+                                        element_jacobian, harmonic_count, modal_harmonics, newton, pseudo_arclength,
+                                        stacked_sliders)
 from nonlinear.friction_models import SMALLEST_SLIDER
 from nonlinear.joint import (patch_elements, slip_displacement, stuck_stiffness, tangential_dissipation,
                              tangential_elements, tangential_rows)
@@ -98,31 +97,18 @@ def joint_system(space: JointSpace, model: str, design, stuck_group: int | None 
                        stacked_sliders(sliders))
 
 
-class ModeEquations:
+class ModeEquations(JointHarmonics):
     """The EPMC residual of one JointSystem at H harmonics and N samples (module docstring), with its analytic
-    Jacobian, about the static state under ``load`` (n_modes,) in the stuck modes' coordinates (N kg^-0.5;
-    default none: the reduced models are linearised about their preloaded equilibrium, so the preload's static
-    state is the origin with virgin sliders)."""
+    Jacobian, about the static state under ``load`` (``JointHarmonics``)."""
 
     def __init__(self, system: JointSystem, harmonics: int, samples: int = SAMPLES, load=None):
-        self.system, self.harmonics = system, harmonics
-        self.basis = fourier_basis(harmonics, samples)
-        self.load = np.zeros(system.eigenvalues.size) if load is None else np.asarray(load, dtype=float)
-        self.static, self.state = static_equilibrium(system, self.load)
-        self.static_linear = system.joint_shapes.T @ (self.load / system.eigenvalues)
-        self.omega_0 = float(np.sqrt(system.eigenvalues[system.target]))
-        self.n_t = system.joint_shapes.shape[1]
-        self.size = harmonic_count(harmonics) * self.n_t
+        super().__init__(system, harmonics, samples, load)
 
     def linear_mode(self, amplitude: float) -> np.ndarray:
         """Scaled unknowns of the stuck mode at modal amplitude q: U = q b cos + static motion, omega_0, xi = 0."""
         motion = np.zeros((harmonic_count(self.harmonics), self.n_t))
         motion[0], motion[1] = self.static / amplitude, self.system.target_shape
         return np.concatenate([motion.ravel(), [1.0, 0.0]])
-
-    def deficit(self, motion: np.ndarray):
-        """AFT of the joint motion (2H+1, n_t) m from the static state (``slip_deficit_harmonics``)."""
-        return slip_deficit_harmonics(self.system, motion, self.basis, self.state)
 
     def __call__(self, y: np.ndarray, log_amplitude: float):
         """(R, dR/dy, dR/dlambda) at scaled unknowns y and lambda = ln q."""

@@ -48,10 +48,9 @@ import numpy as np
 
 from nonlinear.condensation import JointSpace
 from nonlinear.epmc import SAMPLES, joint_system
-from nonlinear.harmonic_balance import (MAX_PERIODS, JointSystem, SlipDeficit, compliance_operator,
-                                        dynamic_compliance, element_jacobian, fourier_basis, harmonic_count,
-                                        modal_harmonics, modal_receptance, newton, pseudo_arclength,
-                                        slip_deficit_harmonics, static_equilibrium)
+from nonlinear.harmonic_balance import (MAX_PERIODS, JointHarmonics, JointSystem, compliance_operator,
+                                        dynamic_compliance, element_jacobian, harmonic_count, modal_harmonics,
+                                        modal_receptance, newton, pseudo_arclength)
 
 RESIDUAL_TOLERANCE = 1e-10  # a converged point's largest residual, relative to its largest joint motion
 MAX_TURN = 0.3  # rad: the continuation's largest turn of the branch's tangent in one step (``pseudo_arclength``)
@@ -73,7 +72,7 @@ def fundamental_motion(system: JointSystem, excitation: np.ndarray, real: np.nda
     return np.stack([c.T @ (excitation * real), -c.T @ (excitation * imaginary)])
 
 
-class ForcedEquations:
+class ForcedEquations(JointHarmonics):
     """The forced harmonic-balance residual (module docstring) of one JointSystem at H >= 1 harmonics and N samples
     under the modal force amplitudes ``excitation`` (n_modes,) N kg^-0.5, with the viscous damping xi (n_modes,)
     rad/s (``viscous_damping``), about the static state under ``load`` (n_modes,) N kg^-0.5 (default none: the
@@ -84,14 +83,8 @@ class ForcedEquations:
                  frequencies, samples: int = SAMPLES, load=None):
         if harmonics < 1:
             raise ValueError(f"a forced response needs at least one harmonic; got {harmonics}")
-        self.system, self.harmonics, self.excitation, self.xi = system, harmonics, excitation, xi
-        self.basis = fourier_basis(harmonics, samples)
-        self.load = np.zeros(system.eigenvalues.size) if load is None else np.asarray(load, dtype=float)
-        self.static, self.state = static_equilibrium(system, self.load)
-        self.static_linear = system.joint_shapes.T @ (self.load / system.eigenvalues)
-        self.omega_0 = float(np.sqrt(system.eigenvalues[system.target]))
-        self.n_t = system.joint_shapes.shape[1]
-        self.size = harmonic_count(harmonics) * self.n_t
+        super().__init__(system, harmonics, samples, load)
+        self.excitation, self.xi = excitation, xi
         self.scale = max(float(np.abs(self.stuck_motion(omega)).max()) for omega in frequencies) or 1.0
 
     def stuck_motion(self, omega: float, derivative: bool = False) -> np.ndarray:
@@ -100,10 +93,6 @@ class ForcedEquations:
         real, imaginary = (receptance.real_omega, receptance.imaginary_omega) if derivative else \
             (receptance.real, receptance.imaginary)
         return fundamental_motion(self.system, self.excitation, real[1], imaginary[1])
-
-    def deficit(self, motion: np.ndarray) -> SlipDeficit:
-        """AFT of the joint motion (2H+1, n_t) m from the static state (``slip_deficit_harmonics``)."""
-        return slip_deficit_harmonics(self.system, motion, self.basis, self.state)
 
     def harmonic_rows(self, static: np.ndarray, fundamental: np.ndarray) -> np.ndarray:
         """(size,) the unknowns' layout (2H+1, n_t) raveled, holding harmonic 0 ``static`` (n_t,) and harmonic 1

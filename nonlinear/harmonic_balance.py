@@ -252,6 +252,29 @@ def static_equilibrium(system: JointSystem, load: np.ndarray, state: SliderState
     raise ValueError(f"static equilibrium under the load did not converge in {max_iterations} Newton iterations")
 
 
+
+class JointHarmonics:
+    """What every harmonic-balance residual of one JointSystem shares (EPMC's ``nonlinear.epmc.ModeEquations``, the
+    forced response's ``nonlinear.forced_response.ForcedEquations``): H harmonics sampled at N points a period, the
+    static state under ``load`` (n_modes,) N kg^-0.5 (default none: the reduced models are linearised about their
+    preloaded equilibrium, so the preload's static state is the origin with virgin sliders), its linear part
+    (n_t,) m, the stuck target mode's omega_0 (rad/s) and the unknowns' joint layout (2H+1, n_t)."""
+
+    def __init__(self, system: JointSystem, harmonics: int, samples: int, load=None):
+        self.system, self.harmonics = system, harmonics
+        self.basis = fourier_basis(harmonics, samples)
+        self.load = np.zeros(system.eigenvalues.size) if load is None else np.asarray(load, dtype=float)
+        self.static, self.state = static_equilibrium(system, self.load)
+        self.static_linear = system.joint_shapes.T @ (self.load / system.eigenvalues)
+        self.omega_0 = float(np.sqrt(system.eigenvalues[system.target]))
+        self.n_t = system.joint_shapes.shape[1]
+        self.size = harmonic_count(harmonics) * self.n_t
+
+    def deficit(self, motion: np.ndarray) -> SlipDeficit:
+        """AFT of the joint motion (2H+1, n_t) m from the static state (``slip_deficit_harmonics``)."""
+        return slip_deficit_harmonics(self.system, motion, self.basis, self.state)
+
+
 class ModalReceptance(NamedTuple):
     """1 / (d_jk - i e_jk) of every stuck mode j at every harmonic k = 0..H (module docstring), as its real part
     d / (d^2 + e^2) and imaginary part e / (d^2 + e^2), arrays (H+1, n_modes) in s^2 (per unit mass), and their
