@@ -137,11 +137,16 @@ def name_branches(path: Path, names) -> list[str]:
     return found
 
 
+def offending_modules(package: str, finder, names, registry: Path | None = None) -> dict:
+    """Module -> what ``finder(path, names)`` found in each module of ``package``, the ``registry``'s own module
+    aside; modules where it found nothing left out."""
+    found = {path.name: finder(path, names) for path in sorted((ROOT / package).glob("*.py")) if path != registry}
+    return {module: places for module, places in found.items() if places}
+
+
 @pytest.mark.parametrize("package", PACKAGES)
 def test_no_branch_on_a_friction_model_name_outside_the_registry(package):
-    offending = {path.name: name_branches(path, MODEL_NAMES) for path in sorted((ROOT / package).glob("*.py"))
-                 if path != ROOT / "nonlinear" / "friction_models.py"}
-    offending = {module: places for module, places in offending.items() if places}
+    offending = offending_modules(package, name_branches, MODEL_NAMES, ROOT / "nonlinear" / "friction_models.py")
     assert not offending, offending
 
 
@@ -206,9 +211,7 @@ DATASET_PACKAGES = PACKAGES[PACKAGES.index("study"):]
 
 @pytest.mark.parametrize("package", DATASET_PACKAGES)
 def test_no_branch_on_a_dataset_name_outside_the_registry(package):
-    offending = {path.name: name_branches(path, DATASET_NAMES) for path in sorted((ROOT / package).glob("*.py"))
-                 if path != ROOT / "study" / "datasets.py"}
-    offending = {module: places for module, places in offending.items() if places}
+    offending = offending_modules(package, name_branches, DATASET_NAMES, ROOT / "study" / "datasets.py")
     assert not offending, offending
 
 
@@ -234,8 +237,7 @@ def string_constants(path: Path) -> list[tuple[str, str]]:
 def test_the_report_finds_the_datasets_through_the_registry():
     """The report knows no dataset by name: its studies and calibrations are those of ``study.datasets``, in the
     folders ``report.studies`` names."""
-    offending = {path.name: dataset_strings(path, DATASET_NAMES) for path in sorted((ROOT / "report").glob("*.py"))}
-    offending = {module: places for module, places in offending.items() if places}
+    offending = offending_modules("report", dataset_strings, DATASET_NAMES)
     assert not offending, offending
 
 
@@ -252,9 +254,7 @@ def effect_strings(path: Path, names) -> list[str]:
 
 @pytest.mark.parametrize("package", EFFECT_PACKAGES)
 def test_no_effect_is_named_outside_the_registry(package):
-    offending = {path.name: effect_strings(path, EFFECT_NAMES) for path in sorted((ROOT / package).glob("*.py"))
-                 if path != ROOT / "discrepancy" / "effects.py"}
-    offending = {module: places for module, places in offending.items() if places}
+    offending = offending_modules(package, effect_strings, EFFECT_NAMES, ROOT / "discrepancy" / "effects.py")
     assert not offending, offending
 
 
