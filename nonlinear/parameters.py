@@ -15,8 +15,9 @@ class FrictionParameterError(ValueError):
 
 
 def _require(condition, name: str, requirement: str, values) -> None:
-    """Raise FrictionParameterError naming the parameter when ``condition`` fails anywhere."""
-    if not np.all(condition):
+    """Raise FrictionParameterError naming the parameter when ``condition`` (a boolean array or numpy bool, the
+    comparison of the values as arrays) fails anywhere."""
+    if not condition.all():
         bad = np.asarray(values, dtype=float)[~np.broadcast_to(condition, np.shape(values))]
         raise FrictionParameterError(f"{name} must be {requirement}; got {bad.ravel()[:3].tolist()}")
 
