@@ -5,7 +5,9 @@ file would be.
 - each library effect alone: the loop names it, and the error of what it acts on falls to at most half;
 - two effects: both named, in either order;
 - no effect beyond the reference joint: nothing added;
-- an effect outside the library (a ripple of the frequency in log amplitude): "unexplained", no attribution;
+- an effect outside the library (a ripple of the frequency in log amplitude): "unexplained", nothing added outside
+  the joint, the residual left far above the noise (a second slip stage takes part of one of the ripple's drops:
+  BIC 564 to 531, chi^2/dof 14.7 to 14.3, and is listed, not claimed as the explanation);
 - the one-mode model's backbone against its closed form for a Jenkins element;
 - bad input: NaNs, a single amplitude, non-increasing amplitudes: a clear error naming the file and field;
 - ring-downs with content outside any backbone (a second close mode, a drift over the hits) through freevib and
@@ -19,7 +21,7 @@ import scipy.io
 from experiment.backbone_files import read_backbone
 from nonlinear.modal_joint import modal_joint_backbone
 from discrepancy.effects import EFFECTS, ONE_MODE_EFFECTS
-from discrepancy.loop import discrepancy_loop
+from discrepancy.loop import UNEXPLAINED, discrepancy_loop
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_backbone
 from reduction.superelement import StructureError
 from study.structures import measured_levels
@@ -62,7 +64,8 @@ def test_reference_joint_alone_adds_nothing(tmp_path):
 
 def test_effect_outside_the_library_is_unexplained(tmp_path):
     verdict = loop_on_file(tmp_path, (), outside_library=lambda q: 0.3 * np.sin(3 * np.log(q / q[0])))
-    assert verdict.effects == [] and verdict.unexplained
+    assert verdict.unexplained and verdict.added == []
+    assert verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
 
 
 def test_jenkins_mode_against_its_closed_form():

@@ -11,6 +11,7 @@ import pytest
 
 from geometry.parameters import BEAM_NAMES
 from cli.console import main as surrogacy
+from discrepancy.files import verdict_summary
 from discrepancy.virtual_data import write_undeclared_ringdown
 from report.document import Folders, write_pipeline_report
 from locations import ASB_MODELS
@@ -98,7 +99,7 @@ def test_report_numbers_are_the_stages_own(pipeline_report):
     verdict = json.loads((results / "discrepancy" / "ASB_C1" / "discrepancy.json").read_text())
     before, after = verdict["steps"][0]["errors"], verdict["steps"][-1]["errors"]
     assert f"{before['frequency_linf_hz']:.3g} -> {after['frequency_linf_hz']:.3g}" in text
-    assert ", ".join(verdict["effects"]) in text
+    assert verdict_summary(verdict["joint_law"], verdict["added"], verdict["alternatives"]) in text
     surrogacy_table = (results / "study-asb" / "analysis" / "surrogacy_jenkins.md").read_text().strip()
     assert surrogacy_table.splitlines()[-1] in text  # Table 5's layout with the paper's values, embedded
     calibration_table = (results / "fit-asb" / "calibration.md").read_text().strip()
