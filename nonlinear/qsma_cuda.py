@@ -33,7 +33,7 @@ from nonlinear import dense_linear_algebra, qsma_kernel
 from nonlinear.qsma_kernel import N_LAW, N_WORK_ROWS
 
 THREADS_PER_BLOCK = 64
-SETTING = "device='cuda' (the study's compute.device)"
+SETTING = "device='cuda' (nonlinear.qsma_vectorised.qsma_designs)"
 
 
 def device_functions(module: types.ModuleType, provided: dict) -> dict:
