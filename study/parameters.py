@@ -74,8 +74,8 @@ class ParetoParameters:
 class ComputeParameters:
     """[compute]: where the QSMA levels of the study's designs are solved (``device``: "cpu", the compiled CPU
     kernel, or "cuda", the same kernel on a CUDA GPU; ``nonlinear.qsma_vectorised.qsma_designs``). The explore
-    step and what reads the study (``surrogacy fit``'s study errors, ``surrogacy confidence``) use it; the
-    results agree to round-off across devices, so it is not part of the study key."""
+    step, the analyse step's NSGA-II and what reads the study (``surrogacy fit``'s study errors, ``surrogacy
+    confidence``) use it; the results agree to round-off across devices, so it is not part of the study key."""
 
     device: str = "cpu"
 
