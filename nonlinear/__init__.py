@@ -20,6 +20,7 @@ Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once
+    qsma_designs(device="cuda")  its levels on a CUDA GPU (:mod:`nonlinear.qsma_cuda`: the kernel's source, numba-cuda)
 Harmonic balance, EPMC and forced response (:mod:`nonlinear.harmonic_balance`, :mod:`nonlinear.hysteresis_kernel`,
 :mod:`nonlinear.epmc`, :mod:`nonlinear.forced_response`)
     JointSystem, slip_deficit_harmonics, pseudo_arclength   the joint space's harmonic balance with AFT of the sliders

@@ -20,6 +20,8 @@ gives the same bits either way, for about 8 % of the rates (docs/benchmarks.md).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -90,7 +92,7 @@ def cholesky(a, upper):
         for j in range(i, n):
             upper[i, j] = a[i, j]
     for j in range(n):
-        inverse = 1.0 / np.sqrt(upper[j, j])
+        inverse = 1.0 / math.sqrt(upper[j, j])
         for i in range(j, n):
             upper[j, i] *= inverse
         for k in range(j + 1, n):
@@ -195,7 +197,7 @@ def symmetric_eigen_in_place(a, values, vectors):
         for j in range(n):
             squares += a[i, j] * a[i, j]
             vectors[i, j] = 1.0 if i == j else 0.0
-    threshold = JACOBI_TOLERANCE * np.sqrt(squares)
+    threshold = JACOBI_TOLERANCE * math.sqrt(squares)
     for _ in range(MAX_JACOBI_SWEEPS):
         rotated = False
         for p in range(n - 1):
@@ -204,8 +206,8 @@ def symmetric_eigen_in_place(a, values, vectors):
                     continue
                 rotated = True
                 angle = (a[q, q] - a[p, p]) / (2.0 * a[p, q])
-                tangent = (1.0 if angle >= 0.0 else -1.0) / (abs(angle) + np.sqrt(angle * angle + 1.0))
-                cosine = 1.0 / np.sqrt(tangent * tangent + 1.0)
+                tangent = (1.0 if angle >= 0.0 else -1.0) / (abs(angle) + math.sqrt(angle * angle + 1.0))
+                cosine = 1.0 / math.sqrt(tangent * tangent + 1.0)
                 sine = tangent * cosine
                 for k in range(n):
                     akp, akq = a[k, p], a[k, q]

@@ -30,6 +30,8 @@ amplitude a, D = 8 int_0^a f - 4 a f(a), and f = K_T u - g). Work arrays are all
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -220,7 +222,7 @@ def _residual(x, linear, compliance, phi, deficit, out):
             for j in range(m):
                 slip_terms += abs(compliance[i, j] * deficit[j])
             largest_term = max(largest_term, slip_terms)
-    return largest_residual / largest_term, np.sqrt(norm)
+    return largest_residual / largest_term, math.sqrt(norm)
 
 
 @numba.njit(cache=True, error_model=ERROR_MODEL)
@@ -252,7 +254,7 @@ def pseudo_inverse(matrix, inverse, factor):
     eigenvalues below PSEUDO_INVERSE_RCOND times the largest are dropped). Where the matrix is safely regular
     (1-norm condition number, an upper bound of the spectral one, below FACTORED_CONDITION) no eigenvalue is
     dropped and the inverse comes from its LDL^T factor, the identity carried along (``factor``, (n, 2 n), is
-    work space); otherwise from its eigen-decomposition."""
+    work space); otherwise from its eigen-decomposition (``eigen_decomposition``, into ``factor`` then)."""
     n = matrix.shape[0]
     for i in range(n):
         for j in range(n):
@@ -263,14 +265,30 @@ def pseudo_inverse(matrix, inverse, factor):
             ldl_back_substitute(factor, n, n + k, inverse[k])
         if _norm_1(matrix) * _norm_1(inverse) < FACTORED_CONDITION:
             return
-    values, vectors = np.linalg.eigh(matrix)
-    cutoff = PSEUDO_INVERSE_RCOND * np.max(np.abs(values))
+    values, vectors = factor[0, n:], factor[:, :n]
+    eigen_decomposition(matrix, values, vectors, inverse)
+    largest = 0.0
+    for k in range(n):
+        largest = max(largest, abs(values[k]))
+    cutoff = PSEUDO_INVERSE_RCOND * largest
     inverse[:] = 0.0
     for k in range(values.size):
         if values[k] > cutoff:
             for i in range(values.size):
                 for j in range(values.size):
                     inverse[i, j] += vectors[i, k] * vectors[j, k] / values[k]
+
+
+@numba.njit(cache=True, error_model=ERROR_MODEL)
+def eigen_decomposition(matrix, values, vectors, scratch):
+    """Eigenvalues (ascending, into values (n,)) and orthonormal eigenvectors (columns, into vectors (n, n)) of the
+    symmetric matrix (n, n), by LAPACK (numpy's eigh). scratch (n, n) is work space of the CUDA target's version
+    (``nonlinear.qsma_cuda``: Jacobi rotations, no LAPACK there), unused here."""
+    eigenvalues, eigenvectors = np.linalg.eigh(matrix)
+    for i in range(values.size):
+        values[i] = eigenvalues[i]
+        for j in range(values.size):
+            vectors[i, j] = eigenvectors[i, j]
 
 
 @numba.njit(cache=True, error_model=ERROR_MODEL)
@@ -683,137 +701,156 @@ def solve_levels(levels, linear_per_level, compliance, phi, r, s, chi, theta, st
     damping zeta, each (n_designs, L); NaN where not converged (the prescribed level is kept).
     """
     n_designs, m = linear_per_level.shape
-    n_levels = levels.size
-    solutions = np.full((n_designs, n_levels, m), np.nan)
-    joint_displacement = np.full((n_designs, n_levels, m), np.nan)
+    outputs = level_outputs(n_designs, levels.size, m, stuck)
+    workspace = (np.empty((N_WORK_ROWS, m)), np.empty((m, 2 * m)), np.empty((m, m)), np.empty(m), np.zeros(m),
+                 np.empty(m, dtype=np.bool_), np.empty((m, m)), np.empty((m, N_LAW)), np.empty(m), np.empty(m),
+                 np.empty(m, dtype=np.int64))
+    problem = (levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
+               amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load)
+    for d in range(n_designs):
+        if defined[d]:
+            solve_design(d, problem, outputs, workspace)
+    return outputs[1:]
+
+
+@numba.njit(cache=True, error_model=ERROR_MODEL)
+def level_outputs(n_designs, n_levels, m, stuck):
+    """The arrays ``solve_design`` fills, as a design not solved leaves them: the scaled solutions x, joint
+    displacements and slip ratios (n_designs, n_levels, m; NaN, the slip ratio 0 at the stuck elements), status
+    codes (n_designs, n_levels; NOT_CONVERGED) and amplitude, force, frequency and damping (n_designs, n_levels;
+    NaN)."""
     slip_ratio = np.full((n_designs, n_levels, m), np.nan)
     slip_ratio[:, :, stuck] = 0.0
-    status = np.full((n_designs, n_levels), NOT_CONVERGED, dtype=np.int8)
-    amplitude = np.full((n_designs, n_levels), np.nan)
-    force = np.full((n_designs, n_levels), np.nan)
-    frequency = np.full((n_designs, n_levels), np.nan)
-    damping = np.full((n_designs, n_levels), np.nan)
-    work = np.empty((N_WORK_ROWS, m))
-    matrix = np.empty((m, 2 * m))  # the Newton matrix with its right-hand side, or C with the identity
-    compliance_pinv = np.empty((m, m))
-    waypoint = np.empty(m)  # the last equilibrium reached on the loading path within a level
-    stuck_state = np.zeros(m)
-    dropping = np.empty(m, dtype=np.bool_)  # the elements whose force drops at macroslip by more than NEGLIGIBLE_DROP
-    design_compliance = np.empty((m, m))
-    table = np.empty((m, N_LAW))
-    stiffness_scaled = np.empty(m)
-    core_scaled = np.empty(m)
-    active = np.empty(m, dtype=np.int64)
+    return (np.full((n_designs, n_levels, m), np.nan), np.full((n_designs, n_levels, m), np.nan), slip_ratio,
+            np.full((n_designs, n_levels), NOT_CONVERGED, dtype=np.int8), np.full((n_designs, n_levels), np.nan),
+            np.full((n_designs, n_levels), np.nan), np.full((n_designs, n_levels), np.nan),
+            np.full((n_designs, n_levels), np.nan))
+
+
+@numba.njit(cache=True, error_model=ERROR_MODEL)
+def solve_design(d, problem, outputs, workspace):
+    """Every level of design d and its modal backbone into row d of ``outputs`` (``level_outputs``).
+
+    problem: the arguments of ``solve_levels`` from levels to mechanism_load, in its order; workspace: this
+    design's work arrays, overwritten: the rows of N_WORK_ROWS (N_WORK_ROWS, m), the Newton matrix with its
+    right-hand side or C with the identity (m, 2 m), C^+ (m, m), the last equilibrium reached on the loading path
+    within a level (m,), the stuck state (m,: zeros), the elements whose force drops at macroslip by more than
+    NEGLIGIBLE_DROP (m,: bool), the design's compliance (m, m), its ``law_constants`` (m, N_LAW), K_T phi and
+    K_c phi (m,) and the slipping elements' indices (m,: int64). The same source compiles for the CPU
+    (``solve_levels``, one workspace for every design) and for CUDA (``nonlinear.qsma_cuda``, one per thread)."""
+    (levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape, amplitude_control,
+     linear_damping, stiffness, core, mechanisms, mechanism_load) = problem
+    solutions, joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = outputs
+    (work, matrix, compliance_pinv, waypoint, stuck_state, dropping, design_compliance, table, stiffness_scaled,
+     core_scaled, active) = workspace
+    m = linear_per_level.shape[1]
+    n_levels = levels.size
     x, linear = work[X], work[LINEAR]
-    for d in range(n_designs):
-        if not defined[d]:
+    _law_table(r[d], s[d], chi[d], theta[d], table)
+    stiction = False
+    for i in range(m):
+        dropping[i] = table[i, STICTION] > 0.0 and theta[d, i] < 1.0 - NEGLIGIBLE_DROP
+        stiction = stiction or dropping[i]
+    for i in range(m):
+        stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
+        core_scaled[i] = core[d, i] * phi[d, i]
+    mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
+    for i in range(m):
+        for j in range(m):
+            design_compliance[i, j] = compliance[d, i, j] - joint_shape[d, i] * joint_shape[d, j] * mode_share
+    pinv_formed = np.bool_(False)  # not a literal, which would compile ``_solve_level`` a second time for it
+    previous, before, earliest = -1, -1, -1  # the last three converged levels
+    lost = False  # whether the loading path jumped or was lost (stiction)
+    for level in range(n_levels):
+        value = levels[level]
+        if amplitude_control:
+            amplitude[d, level] = value
+        else:
+            force[d, level] = value
+        if lost:  # the loading path jumped or was lost at an earlier level
+            status[d, level] = PAST_JUMP
             continue
-        _law_table(r[d], s[d], chi[d], theta[d], table)
-        stiction = False
+        # Start: the parabola through the last three solutions, else the secant through two, else
+        # proportional to the level (exact while the joint is stuck), else the linear solution.
+        weight_earliest, weight_before, weight_previous = 0.0, 0.0, 0.0
+        if earliest >= 0:
+            t0, t1, t2 = levels[earliest], levels[before], levels[previous]
+            weight_earliest = (value - t1) * (value - t2) / ((t0 - t1) * (t0 - t2))
+            weight_before = (value - t0) * (value - t2) / ((t1 - t0) * (t1 - t2))
+            weight_previous = (value - t0) * (value - t1) / ((t2 - t0) * (t2 - t1))
+        elif before >= 0:
+            weight_before = (levels[previous] - value) / (levels[previous] - levels[before])
+            weight_previous = 1.0 - weight_before
+        elif previous >= 0:
+            weight_previous = value / levels[previous]
         for i in range(m):
-            dropping[i] = table[i, STICTION] > 0.0 and theta[d, i] < 1.0 - NEGLIGIBLE_DROP
-            stiction = stiction or dropping[i]
-        for i in range(m):
-            stiffness_scaled[i] = stiffness[d, i] * phi[d, i]
-            core_scaled[i] = core[d, i] * phi[d, i]
-        mode_share = 1.0 / eigenvalue[d] if amplitude_control else 0.0
-        for i in range(m):
-            for j in range(m):
-                design_compliance[i, j] = compliance[d, i, j] - joint_shape[d, i] * joint_shape[d, j] * mode_share
-        pinv_formed = np.bool_(False)  # not a literal, which would compile ``_solve_level`` a second time for it
-        previous, before, earliest = -1, -1, -1  # the last three converged levels
-        lost = False  # whether the loading path jumped or was lost (stiction)
-        for level in range(n_levels):
-            value = levels[level]
-            if amplitude_control:
-                amplitude[d, level] = value
-            else:
-                force[d, level] = value
-            if lost:  # the loading path jumped or was lost at an earlier level
-                status[d, level] = PAST_JUMP
+            linear[i] = linear_per_level[d, i] * value
+            if previous < 0:
+                x[i] = linear[i] / phi[d, i]
                 continue
-            # Start: the parabola through the last three solutions, else the secant through two, else
-            # proportional to the level (exact while the joint is stuck), else the linear solution.
-            weight_earliest, weight_before, weight_previous = 0.0, 0.0, 0.0
+            x[i] = weight_previous * solutions[d, previous, i]
+            if before >= 0:
+                x[i] += weight_before * solutions[d, before, i]
             if earliest >= 0:
-                t0, t1, t2 = levels[earliest], levels[before], levels[previous]
-                weight_earliest = (value - t1) * (value - t2) / ((t0 - t1) * (t0 - t2))
-                weight_before = (value - t0) * (value - t2) / ((t1 - t0) * (t1 - t2))
-                weight_previous = (value - t0) * (value - t1) / ((t2 - t0) * (t2 - t1))
-            elif before >= 0:
-                weight_before = (levels[previous] - value) / (levels[previous] - levels[before])
-                weight_previous = 1.0 - weight_before
-            elif previous >= 0:
-                weight_previous = value / levels[previous]
+                x[i] += weight_earliest * solutions[d, earliest, i]
+        stuck_force = eigenvalue[d] * value if amplitude_control else value
+        last = solutions[d, previous] if previous >= 0 else stuck_state
+        if stiction and previous >= 0 and _regime_changed(x, last, dropping):
+            code = NOT_CONVERGED  # the start already crossed: straight to the loading path's substeps
+        else:
+            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
+                                             compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
+                                             mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
+                                             amplitude_control)
+        if stiction and (code != CONVERGED or _regime_changed(x, last, dropping)):
+            # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the one
+            # before, up to the first that fails or has an element with stiction cross macroslip (from the
+            # stuck state, the first level is its own substep).
+            code = JUMPED if code == CONVERGED and previous < 0 else code
             for i in range(m):
-                linear[i] = linear_per_level[d, i] * value
-                if previous < 0:
-                    x[i] = linear[i] / phi[d, i]
-                    continue
-                x[i] = weight_previous * solutions[d, previous, i]
-                if before >= 0:
-                    x[i] += weight_before * solutions[d, before, i]
-                if earliest >= 0:
-                    x[i] += weight_earliest * solutions[d, earliest, i]
-            stuck_force = eigenvalue[d] * value if amplitude_control else value
-            last = solutions[d, previous] if previous >= 0 else stuck_state
-            if stiction and previous >= 0 and _regime_changed(x, last, dropping):
-                code = NOT_CONVERGED  # the start already crossed: straight to the loading path's substeps
-            else:
-                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                                 compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
-                                                 mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
-                                                 amplitude_control)
-            if stiction and (code != CONVERGED or _regime_changed(x, last, dropping)):
-                # The loading path: from the last converged level's equilibrium in SUBSTEPS, each from the one
-                # before, up to the first that fails or has an element with stiction cross macroslip (from the
-                # stuck state, the first level is its own substep).
-                code = JUMPED if code == CONVERGED and previous < 0 else code
+                waypoint[i] = last[i]
+            for k in range(1, SUBSTEPS + 1 if previous >= 0 else 0):
+                substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
+                    k / SUBSTEPS)
                 for i in range(m):
-                    waypoint[i] = last[i]
-                for k in range(1, SUBSTEPS + 1 if previous >= 0 else 0):
-                    substep = value if k == SUBSTEPS else levels[previous] * (value / levels[previous]) ** (
-                        k / SUBSTEPS)
-                    for i in range(m):
-                        x[i] = waypoint[i]
-                        linear[i] = linear_per_level[d, i] * substep
-                    code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
-                                                     active, compliance_pinv, pinv_formed, stiffness_scaled,
-                                                     core_scaled, mechanisms, mechanism_load[d], joint_shape[d],
-                                                     eigenvalue[d] * substep if amplitude_control else substep,
-                                                     amplitude_control)
-                    if code == CONVERGED and _regime_changed(x, waypoint, dropping):
-                        code = JUMPED
-                    if code != CONVERGED:
-                        break
-                    for i in range(m):
-                        waypoint[i] = x[i]
-                lost = code != CONVERGED
-            elif code != CONVERGED and previous >= 0:
-                for i in range(m):
-                    x[i] = linear[i] / phi[d, i]
-                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
-                                                 compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
-                                                 mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
+                    x[i] = waypoint[i]
+                    linear[i] = linear_per_level[d, i] * substep
+                code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix,
+                                                 active, compliance_pinv, pinv_formed, stiffness_scaled,
+                                                 core_scaled, mechanisms, mechanism_load[d], joint_shape[d],
+                                                 eigenvalue[d] * substep if amplitude_control else substep,
                                                  amplitude_control)
-            status[d, level] = code
-            if code != CONVERGED:
-                earliest, before = -1, -1
-                continue
-            earliest, before, previous = before, previous, level
-            modal_deficit, dissipation = 0.0, 0.0
+                if code == CONVERGED and _regime_changed(x, waypoint, dropping):
+                    code = JUMPED
+                if code != CONVERGED:
+                    break
+                for i in range(m):
+                    waypoint[i] = x[i]
+            lost = code != CONVERGED
+        elif code != CONVERGED and previous >= 0:
             for i in range(m):
-                solutions[d, level, i] = x[i]
-                joint_displacement[d, level, i] = x[i] * phi[d, i]
-                if not stuck[i]:
-                    slip_ratio[d, level, i] = abs(x[i])
-                modal_deficit += joint_shape[d, i] * work[DEFICIT, i]
-                dissipation += 4.0 * phi[d, i] * (x[i] * work[DEFICIT, i] - 2.0 * work[POTENTIAL, i])
-            if amplitude_control:
-                force[d, level] = eigenvalue[d] * value - modal_deficit
-            else:
-                amplitude[d, level] = (value + modal_deficit) / eigenvalue[d]
-            omega_squared = force[d, level] / amplitude[d, level]
-            frequency[d, level] = np.sqrt(omega_squared)
-            damping[d, level] = dissipation / (2.0 * np.pi * amplitude[d, level] ** 2 * omega_squared) + linear_damping
-    return joint_displacement, slip_ratio, status, amplitude, force, frequency, damping
+                x[i] = linear[i] / phi[d, i]
+            code, pinv_formed = _solve_level(linear, design_compliance, phi[d], table, work, matrix, active,
+                                             compliance_pinv, pinv_formed, stiffness_scaled, core_scaled,
+                                             mechanisms, mechanism_load[d], joint_shape[d], stuck_force,
+                                             amplitude_control)
+        status[d, level] = code
+        if code != CONVERGED:
+            earliest, before = -1, -1
+            continue
+        earliest, before, previous = before, previous, level
+        modal_deficit, dissipation = 0.0, 0.0
+        for i in range(m):
+            solutions[d, level, i] = x[i]
+            joint_displacement[d, level, i] = x[i] * phi[d, i]
+            if not stuck[i]:
+                slip_ratio[d, level, i] = abs(x[i])
+            modal_deficit += joint_shape[d, i] * work[DEFICIT, i]
+            dissipation += 4.0 * phi[d, i] * (x[i] * work[DEFICIT, i] - 2.0 * work[POTENTIAL, i])
+        if amplitude_control:
+            force[d, level] = eigenvalue[d] * value - modal_deficit
+        else:
+            amplitude[d, level] = (value + modal_deficit) / eigenvalue[d]
+        omega_squared = force[d, level] / amplitude[d, level]
+        frequency[d, level] = math.sqrt(omega_squared)
+        damping[d, level] = dissipation / (2.0 * np.pi * amplitude[d, level] ** 2 * omega_squared) + linear_damping

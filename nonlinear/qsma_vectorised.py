@@ -32,6 +32,26 @@ REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUC
                     JUMPED, PAST_JUMP, UNSTABLE], dtype=object)
 
 
+DEVICES = ("cpu", "cuda")
+
+
+def level_solver(device: str):
+    """``solve_levels`` of the compute device: "cpu", the numba CPU kernel (``nonlinear.qsma_kernel``); "cuda",
+    the same source on a CUDA GPU (``nonlinear.qsma_cuda``: numba-cuda, and a GPU or its simulator). ValueError
+    for another name, RuntimeError naming what "cuda" lacks."""
+    if device == "cpu":
+        return qsma_kernel.solve_levels
+    if device != "cuda":
+        raise ValueError(f"device={device!r}: expected one of {DEVICES}")
+    try:  # numba-cuda is an optional dependency, imported only where asked for
+        from nonlinear import qsma_cuda
+    except ImportError as error:
+        raise RuntimeError(f"device='cuda': numba-cuda is not installed ({error}); install the project's `gpu` "
+                           "extra (pip install -e '.[gpu]') or use device='cpu'") from None
+    qsma_cuda.require_gpu()
+    return qsma_cuda.solve_levels
+
+
 def kernel_array(values: np.ndarray) -> np.ndarray:
     """``values`` as the kernel's one compiled signature takes them: C-contiguous and writeable (copied only when
     not). A strided or read-only view is another numba signature, compiled again (about a minute)."""
@@ -40,19 +60,22 @@ def kernel_array(values: np.ndarray) -> np.ndarray:
 
 def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces=None,
                  linear_damping: float = 0.0, stuck_group: int | None = None,
-                 split: ModalSplit | None = None, stuck: StuckModeCache | None = None) -> QSMAResult:
+                 split: ModalSplit | None = None, stuck: StuckModeCache | None = None,
+                 device: str = "cpu") -> QSMAResult:
     """QSMA of many designs (n_designs, n_parameters) at common increasing levels: modal amplitudes q
     (amplitude control) or modal forces alpha (force control), exactly one of them, shape (levels,).
     split: ``nonlinear.condensation.modal_split(space)``, formed here when neither it nor ``stuck`` is given
     (once per structure is enough). stuck: a ``StuckModeCache`` of ``space`` with the compliance on the
     tangential rows, shared by calls whose designs may have the same stuck joint (the models of a study's
     chunk); a fresh one where not given. ValueError where it is another structure's, or its compliance is on
-    other rows.
+    other rows. device: where the levels are solved (``level_solver``: "cpu" or "cuda"; the stuck modes are
+    formed on the CPU either way).
 
     Returns ``QSMAResult`` with a leading design axis on every field.
     """
     if (amplitudes is None) == (forces is None):
         raise ValueError("give either amplitudes (amplitude control) or forces (force control)")
+    solve_levels = level_solver(device)
     announce_compiling()
     elements = patch_elements(model, designs, space.superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
@@ -69,7 +92,7 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     linear_per_level = b if amplitude_control else b / modes.eigenvalue[:, None]
     law = scaled_law(tangential)
     mechanisms = joint_mechanisms(space)
-    joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = qsma_kernel.solve_levels(
+    joint_displacement, slip_ratio, status, amplitude, force, frequency, damping = solve_levels(
         *map(kernel_array, (levels, linear_per_level, modes.compliance, *(np.broadcast_to(a, b.shape) for a in law),
                             tangential.stuck, modes.eigenvalue, b)),
         amplitude_control, float(linear_damping),

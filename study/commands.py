@@ -15,7 +15,7 @@ analyse       <out>/analysis/: surrogacy matrices with intervals (CSV, Markdown)
               the ANOVA (beams), the prestress comparison (beams).
 report        <out>/report.md with the figures.
 
-Configuration: ``--config study.toml`` with tables [study], [sample], [acceptance], [pareto], and
+Configuration: ``--config study.toml`` with tables [study], [sample], [acceptance], [pareto], [compute], and
 ``--set SECTION.FIELD=VALUE`` (e.g. ``--set sample.n_designs=100000``). The resolved configuration, the seed
 and the versions are written to <out>/study.json.
 """
@@ -67,7 +67,8 @@ def register(subparsers) -> None:
     command.add_argument("--restart-stale", action="store_true",
                          help="discard design chunks written for other inputs (a changed measurement, superelement "
                               "or sample) and recompute them, instead of refusing the folder")
-    add_config_arguments(command, "[study], [sample], [acceptance], [pareto]", "sample.n_designs=20000")
+    add_config_arguments(command, "[study], [sample], [acceptance], [pareto], [compute]",
+                         "sample.n_designs=20000 or compute.device=cuda")
     command.set_defaults(run=run)
     register_confidence(subparsers)
 

@@ -76,15 +76,16 @@ def curve_errors(frequency_hz, joint_damping, target_frequency_hz, target_dampin
 
 
 def design_errors(structure: Structure, model: str, designs, linear_damping, split: ModalSplit | None = None,
-                  stuck_group: int | None = None, rule: str = "added", stuck: StuckModeCache | None = None
-                  ) -> DesignErrors:
+                  stuck_group: int | None = None, rule: str = "added", stuck: StuckModeCache | None = None,
+                  device: str = "cpu") -> DesignErrors:
     """QSMA of ``designs`` (n, n_parameters) on ``structure`` at its levels and their errors for each damping
     case's value in ``linear_damping`` (n_cases,) made zeta_0 by ``rule``. split:
     ``nonlinear.condensation.modal_split(structure.space)``, once per structure; stuck: the structure's stuck
-    modes shared with other calls (``nonlinear.qsma_vectorised.qsma_designs``)."""
+    modes shared with other calls; device: where the levels are solved (both ``nonlinear.qsma_vectorised
+    .qsma_designs``)."""
     measurement = structure.measurement
     result = qsma_designs(structure.space, model, designs, amplitudes=measurement.amplitude, linear_damping=0.0,
-                          split=split, stuck_group=stuck_group, stuck=stuck)
+                          split=split, stuck_group=stuck_group, stuck=stuck, device=device)
     converged = result.converged.all(axis=1)
     with np.errstate(invalid="ignore"):
         frequency_error, damping_error = curve_errors(result.frequency / (2.0 * np.pi), result.damping,

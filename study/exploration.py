@@ -91,13 +91,16 @@ class Sample:
 class Exploration:
     """What a study evaluates: the structures (same patch groups), friction models, sample, the linear
     damping cases (case name -> value of each structure, in the structures' order) and the rule that makes a
-    case's value each design's zeta_0 (``study.errors.DAMPING_RULES``)."""
+    case's value each design's zeta_0 (``study.errors.DAMPING_RULES``), and the device that solves the QSMA levels
+    (``nonlinear.qsma_vectorised.qsma_designs``: "cpu" or "cuda"; not in the study key, the results agreeing to
+    round-off)."""
 
     structures: tuple[Structure, ...]
     models: tuple[str, ...]
     sample: Sample
     damping_cases: dict
     damping_rule: str = "added"
+    device: str = "cpu"
 
     def __post_init__(self):
         unknown = [model for model in self.models if model not in MODEL_NAMES]
@@ -190,7 +193,7 @@ def models_errors(exploration: Exploration, designs: dict, splits=None,
                                tangential_rows(structure.space.superelement.n_patches))
         for model, model_designs in designs.items():
             errors[model].append(design_errors(structure, model, model_designs, zeta0, stuck=stuck,
-                                               rule=exploration.damping_rule))
+                                               rule=exploration.damping_rule, device=exploration.device))
     return errors
 
 

@@ -1,10 +1,11 @@
 """A study's configuration: the sections of ``surrogacy study --config`` / ``--set`` ([study], [sample],
-[acceptance], [pareto]), each a frozen dataclass that checks its fields (ValueError naming the field)."""
+[acceptance], [pareto], [compute]), each a frozen dataclass that checks its fields (ValueError naming the field)."""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from nonlinear.qsma_vectorised import DEVICES
 from study.datasets import DATASET_NAMES, dataset
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
 from study.exploration import Sample
@@ -69,7 +70,21 @@ class ParetoParameters:
                 raise ValueError(f"field '{name}' = {value}: expected at least 1")
 
 
+@dataclass(frozen=True)
+class ComputeParameters:
+    """[compute]: where the QSMA levels of the study's designs are solved (``device``: "cpu", the compiled CPU
+    kernel, or "cuda", the same kernel on a CUDA GPU; ``nonlinear.qsma_vectorised.qsma_designs``). The explore
+    step, the analyse step's NSGA-II and what reads the study (``surrogacy fit``'s study errors, ``surrogacy
+    confidence``) use it; the results agree to round-off across devices, so it is not part of the study key."""
+
+    device: str = "cpu"
+
+    def __post_init__(self):
+        if self.device not in DEVICES:
+            raise ValueError(f"field 'device' = {self.device!r}: expected one of {DEVICES}")
+
+
 def defaults() -> dict:
     """Each section's default values: section name -> dataclass."""
     return {"study": StudyParameters(), "sample": Sample(), "acceptance": AcceptanceParameters(),
-            "pareto": ParetoParameters()}
+            "pareto": ParetoParameters(), "compute": ComputeParameters()}

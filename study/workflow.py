@@ -118,12 +118,13 @@ def measurements(paths: Paths, parameters: dict, before_writing: Callable[[], No
 
 
 def exploration(paths: Paths, parameters: dict) -> Exploration:
-    """The study's structures, models, sample and damping cases from the measurement files."""
+    """The study's structures, models, sample and damping cases from the measurement files, and its compute
+    device."""
     study = parameters["study"]
     chosen = dataset(study.dataset)
     structures = dataset_structures(chosen.name, paths, study.n_levels, study.prestress)
     return Exploration(tuple(structures), study.friction_models, parameters["sample"],
-                       chosen.damping_cases(paths, structures), chosen.damping_rule)
+                       chosen.damping_cases(paths, structures), chosen.damping_rule, parameters["compute"].device)
 
 
 class StudyFolder(NamedTuple):
@@ -272,7 +273,7 @@ def pareto_fronts(paths: Paths, parameters: dict, explored: Exploration, model: 
 
         def objective(unit, structure=structure, zeta0=zeta0, split=split):
             result = design_errors(structure, model, from_unit(unit, *limits), [zeta0], split=split,
-                                   rule=explored.damping_rule)
+                                   rule=explored.damping_rule, device=explored.device)
             return np.column_stack([result.frequency_error_hz, result.damping_error[:, 0]])
 
         rng = np.random.default_rng([parameters["sample"].seed, index])

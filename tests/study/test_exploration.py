@@ -637,6 +637,44 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
 
 
+# ``surrogacy study`` with its arguments, counting the calls of the CUDA path's solver (``nonlinear.qsma_cuda``).
+COUNTED_CUDA_STUDY = """
+import sys
+from cli.console import main
+from nonlinear import qsma_cuda
+calls, solve_levels = [], qsma_cuda.solve_levels
+qsma_cuda.solve_levels = lambda *arguments: calls.append(1) or solve_levels(*arguments)
+status = main(sys.argv[1:])
+print(len(calls))
+sys.exit(status)
+"""
+
+
+def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_study, tmp_path):
+    """``--set compute.device=cuda``: the explore step solves every structure's levels of every chunk by the CUDA
+    path (``qsma_designs(device="cuda")``), here numba-cuda's simulator (NUMBA_ENABLE_CUDASIM=1 in the command's
+    process), and writes the rows the CPU wrote: the same designs, flags and reasons, the errors within 1e-10 of the CPU's (the device's round-off is
+    not the CPU's on a GPU; in the simulator it is)."""
+    folder = tmp_path / "study"
+    shutil.copytree(asb_cli_study, folder)
+    shutil.rmtree(folder / "designs")
+    environment = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+    run = subprocess.run([sys.executable, "-c", COUNTED_CUDA_STUDY, *asb_study_arguments(folder, "explore"),
+                          "--set", "compute.device=cuda"], cwd=REPOSITORY, env=environment, check=True,
+                         capture_output=True, text=True)
+    assert run.stdout.splitlines()[-1] == "12"  # the six ASB configurations x 2 chunks
+    assert json.loads((folder / "study.json").read_text())["configuration"]["compute"] == {"device": "cuda"}
+    for chunk in (0, 1):
+        cuda, cpu = (pq.read_table(chunk_path(root / "designs", "jenkins", chunk)).to_pandas()
+                     for root in (folder, asb_cli_study))
+        assert list(cuda.columns) == list(cpu.columns)
+        for name in cpu.columns:
+            if cpu[name].dtype.kind == "f":
+                np.testing.assert_allclose(cuda[name], cpu[name], rtol=1e-10, atol=0.0, err_msg=name)
+            else:
+                assert cuda[name].tolist() == cpu[name].tolist(), name
+
+
 def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_path, capsys):
     """A beams study into an ASB study's folder: exit 2 at once, one line naming the file that records the ASB
     dataset, and the folder untouched (no virtual experiment run, no measurement file added)."""

@@ -217,6 +217,20 @@ def test_study_command_refuses_bad_configuration_and_missing_measurements(tmp_pa
     assert not (out / "designs").exists()
 
 
+def test_study_command_refuses_an_unknown_compute_device_naming_file_and_field(tmp_path, capsys):
+    """``[compute] device`` other than cpu or cuda in the configuration file: exit 2 before anything is written,
+    one line naming the file, the section, the field and the devices expected."""
+    from cli.console import main as surrogacy
+
+    config, out = tmp_path / "study.toml", tmp_path / "study"
+    config.write_text('[compute]\ndevice = "gpu"\n')
+    assert surrogacy(["study", "--out", str(out), "--config", str(config)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert (f"{config}: [compute] field 'device' = 'gpu': expected one of ('cpu', 'cuda')" in error
+            and len(error.splitlines()) == 1), error
+    assert not out.exists()
+
+
 def test_study_prestress_option_chooses_the_beams_superelement(beams, beam_roms, tmp_path):
     """``study.prestress`` (default true) gives the structures the prestressed halves, whose free modes include the
     clamp's negative-stiffness rotations that only the joint holds; false gives the unstressed halves (none), with
