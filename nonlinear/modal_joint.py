@@ -10,8 +10,8 @@ with omega_0 the stuck (low-amplitude) natural frequency, kappa_j in (0, 1) the 
 element j carries, and f_j the backbone of a Jenkins or Iwan element (``nonlinear.slip_laws``, paper Eqs. 14-22)
 with slip force F_S,j in modal force units (N kg^-0.5 per unit of m kg^0.5 times rad^2/s^2). One element is the
 joint as one contact; a second one of the same law in parallel is a second group of contact patches that slips at
-its own load (a joint whose patches carry very different normal loads has two slip stages). QSMA of this single mode is
-closed form (paper Eqs. 23-25):
+its own load (a joint whose patches carry very different normal loads has two slip stages). QSMA of this single
+mode is closed form (paper Eqs. 23-25):
 
     omega(q)^2 = F(q) / q,    zeta_J(q) = sum_j D_j(q) / (2 pi q^2 omega(q)^2),
 

@@ -81,6 +81,23 @@ def test_jenkins_mode_against_its_closed_form():
     np.testing.assert_allclose(damping, dissipation / (2 * np.pi * q ** 2 * omega_squared), rtol=1e-12, atol=1e-300)
 
 
+def test_two_jenkins_stages_against_their_closed_form():
+    """Two Jenkins elements in parallel: each stuck below its q_s,j = F_S,j / K_T,j, beyond it its force is F_S,j and
+    it dissipates 4 F_S,j (q - q_s,j); omega^2 = (1 - kappa_1 - kappa_2) omega_0^2 + sum_j f_j(q) / q."""
+    f0, kappas, slip_forces = 100.0, np.array([0.2, 0.05]), np.array([50.0, 2.0])
+    omega_0 = 2 * np.pi * f0
+    q_slip = slip_forces / (kappas * omega_0 ** 2)
+    q = np.geomspace(0.3 * q_slip.min(), 5 * q_slip.max(), 9)
+    frequency, damping = modal_joint_backbone(q, f0, kappas[0], slip_forces[0], second_stage=(kappas[1],
+                                                                                               slip_forces[1]))
+    stuck = q[:, None] < q_slip
+    forces = np.where(stuck, kappas * omega_0 ** 2 * q[:, None], slip_forces)
+    omega_squared = (1 - kappas.sum()) * omega_0 ** 2 + forces.sum(axis=1) / q
+    np.testing.assert_allclose(frequency, np.sqrt(omega_squared) / (2 * np.pi), rtol=1e-14)
+    dissipation = (4 * slip_forces * np.maximum(q[:, None] - q_slip, 0.0)).sum(axis=1)
+    np.testing.assert_allclose(damping, dissipation / (2 * np.pi * q ** 2 * omega_squared), rtol=1e-12, atol=1e-300)
+
+
 def test_backbone_file_with_nan_is_refused_naming_the_file(tmp_path):
     path = tmp_path / "measured.csv"
     write_undeclared_backbone(path)
