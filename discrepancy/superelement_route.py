@@ -58,7 +58,7 @@ from nonlinear.qsma_vectorised import qsma_designs
 from study.datasets import dataset
 from discrepancy.effects import EFFECTS, FRICTION_EFFECTS, OUTSIDE_JOINT
 from discrepancy.loop import (UNDEFINED_MISFIT, Fit, Verdict, _to_parameters, _to_vector, bic, determinacy,
-                              outside_joint, select_effects, weighted_misfit)
+                              outside_joint, select_effects, unresolved_effects, weighted_misfit)
 from study.errors import structure_damping
 from study.pareto import non_dominated
 from study.structures import BackboneLevels
@@ -251,14 +251,19 @@ def refit(structure: StructureModel, model: str, n_groups: int, effects: tuple, 
     measurement = structure.measurement
     fitted = qsma_designs(structure.space, model, design[None, :], amplitudes=measurement.amplitude,
                           linear_damping=0.0)
-    frequency, damping = augmented(fitted.frequency[0] / (2 * np.pi), fitted.damping[0], parameters,
-                                   measurement.amplitude, structure)
+    def with_effects(values):
+        return augmented(fitted.frequency[0] / (2 * np.pi), fitted.damping[0], values, measurement.amplitude,
+                         structure)
+
+    frequency, damping = with_effects(parameters)
     full = [(name, "design", None) for name in parameter_names(model, n_groups)] + specification
     undetermined = determinacy(result.jac, result.x, full, range(d, d + len(specification)))
     named = dict(zip(parameter_names(model, n_groups), map(float, design)))
     return Fit(tuple(effects), {"design": f"{model}, refitted from {label}", "model": model, **named, **parameters},
                chi_squared, bic(chi_squared, d + len(specification), 2 * len(measurement.amplitude)), frequency,
-               damping, d + len(specification), undetermined, converged=bool(result.status > 0))
+               damping, d + len(specification), undetermined, converged=bool(result.status > 0),
+               unresolved=unresolved_effects(measurement, [e for e in effects if e in OUTSIDE_JOINT], parameters,
+                                             (frequency, damping), with_effects))
 
 
 def fitted_design(fit: Fit, n_groups: int) -> tuple:

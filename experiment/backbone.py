@@ -68,13 +68,28 @@ class Backbone:
 
     @property
     def natural_frequency_uncertainty_hz(self) -> np.ndarray:
-        """Standard uncertainty (n_grid,), Hz: spread and standard error in quadrature (no spread counts as 0)."""
-        return np.hypot(np.nan_to_num(self.natural_frequency_spread_hz), self.natural_frequency_standard_error_hz)
+        """Standard uncertainty (n_grid,) of the mean natural frequency, Hz (:func:`mean_uncertainty`)."""
+        return mean_uncertainty(self.natural_frequency_spread_hz, self.natural_frequency_standard_error_hz,
+                                self.n_records)
 
     @property
     def damping_ratio_uncertainty(self) -> np.ndarray:
-        """Standard uncertainty (n_grid,) of the damping ratio: spread and standard error in quadrature."""
-        return np.hypot(np.nan_to_num(self.damping_ratio_spread), self.damping_ratio_standard_error)
+        """Standard uncertainty (n_grid,) of the mean damping ratio (:func:`mean_uncertainty`)."""
+        return mean_uncertainty(self.damping_ratio_spread, self.damping_ratio_standard_error, self.n_records)
+
+
+def mean_uncertainty(spread: np.ndarray, standard_error: np.ndarray, n_records: np.ndarray) -> np.ndarray:
+    """Standard uncertainty of a mean over records (n_grid,): the larger of spread / sqrt(n_records) and the
+    estimator's standard error (NaN spread, fewer than two records, counts as 0; NaN where neither is known).
+
+    A record's bin mean is the backbone plus the record's own departure (hit-to-hit variation, variance tau^2)
+    plus the estimator's error (its share of the mean's variance, se^2); the records' sample variance s^2
+    estimates tau^2 + n se^2, so the mean's variance tau^2 / n + se^2 is s^2 / n where the records differ beyond
+    the estimator's noise and se^2 where they do not: the larger of the two (a random-effects mean). The spread
+    itself is the scatter of one record, sqrt(n) times the mean's where the records agree within their noise.
+    """
+    spread = np.nan_to_num(np.asarray(spread, dtype=float)) / np.sqrt(np.maximum(np.asarray(n_records, float), 1.0))
+    return np.fmax(spread, standard_error)
 
 
 def amplitude_bins(grid: np.ndarray) -> np.ndarray:

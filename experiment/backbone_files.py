@@ -215,8 +215,8 @@ FREEVIB_COLUMNS = (
 def write_freevib_table(backbone: RingDownBackbones, destination: Path) -> None:
     """Write both estimators' averaged backbones as CSV, header ``name [unit]`` (the freevib command's table).
 
-    spread: standard deviation over records (hits, channels); uncertainty: spread and the estimator's
-    standard error within the amplitude bin in quadrature (:class:`~experiment.backbone.Backbone`).
+    spread: standard deviation over records (hits, channels); uncertainty: the mean's, the larger of spread /
+    sqrt(records) and the estimator's standard error (:func:`~experiment.backbone.mean_uncertainty`).
     """
     with atomic_path(destination) as temporary, open(temporary, "w", newline="") as stream:
         writer = csv.writer(stream)
