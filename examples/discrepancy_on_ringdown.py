@@ -7,7 +7,8 @@ Without a file it writes a virtual ring-down (labelled virtual in the file) of a
 with microslip (an Iwan element), which the loop is to find, and runs on that.
 
 Any ring-down the measured-data stage reads works (CSV with ``name [unit]`` headers, MATLAB .mat, UFF 58); give
-the mode's frequency, and the model's nominal low-amplitude frequency and linear damping when you have them.
+the mode's frequency, and the model's nominal low-amplitude frequency and linear damping when you have them (else
+they are estimated from the ring-down's lowest decade of amplitude, ``discrepancy.nominal``).
 """
 
 import argparse
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from discrepancy.effects import effect
 from discrepancy.loop import discrepancy_loop, with_findings
+from discrepancy.nominal import nominal_record
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
 from experiment.measured_files import read_ringdown, stated_provenance
 from experiment.ringdown_analysis import analyse_ringdown
@@ -43,11 +45,12 @@ def main(argv=None):
     measured, _ = analyse_ringdown(read_ringdown(arguments.ringdown), arguments.mode_hz, arguments.ringdown.stem,
                                    stated_provenance(arguments.ringdown))  # the provenance as the file states it
     measurement = measured_levels(measured, path=str(arguments.ringdown))
-    nominal_frequency_hz = (arguments.nominal_frequency_hz if arguments.nominal_frequency_hz is not None
-                            else float(measurement.frequency_hz[0]))  # else the lowest level's
-    nominal_damping = (arguments.nominal_damping if arguments.nominal_damping is not None
-                       else float(measurement.damping[0]))
-    verdict = with_findings(discrepancy_loop(measurement, nominal_frequency_hz, nominal_damping),
+    nominal = nominal_record(measurement, arguments.nominal_frequency_hz, arguments.nominal_damping)  # else estimated
+    print(f"nominal: f_0 {nominal['nominal_frequency_hz']:.6g} Hz, zeta_0 {nominal['nominal_damping']:.4g}; "
+          f"{nominal['nominal_source']}")
+    verdict = with_findings(discrepancy_loop(measurement, nominal["nominal_frequency_hz"], nominal["nominal_damping"],
+                                             nominal_uncertainty=(nominal["nominal_frequency_standard_error_hz"],
+                                                                  nominal["nominal_damping_standard_error"])),
                             measured.findings["found"])
     for entry in verdict.findings:
         print(f"signal finding {entry['name']}: {entry['summary']}")
