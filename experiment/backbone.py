@@ -80,7 +80,8 @@ class Backbone:
 
 def mean_uncertainty(spread: np.ndarray, standard_error: np.ndarray, n_records: np.ndarray) -> np.ndarray:
     """Standard uncertainty of a mean over records (n_grid,): the larger of spread / sqrt(n_records) and the
-    estimator's standard error (NaN spread, fewer than two records, counts as 0; NaN where neither is known).
+    estimator's standard error (either one where the other is NaN, as the spread of fewer than two records; NaN
+    where neither is known).
 
     A record's bin mean is the backbone plus the record's own departure (hit-to-hit variation, variance tau^2)
     plus the estimator's error (its share of the mean's variance, se^2); the records' sample variance s^2
@@ -88,7 +89,7 @@ def mean_uncertainty(spread: np.ndarray, standard_error: np.ndarray, n_records: 
     the estimator's noise and se^2 where they do not: the larger of the two (a random-effects mean). The spread
     itself is the scatter of one record, sqrt(n) times the mean's where the records agree within their noise.
     """
-    spread = np.nan_to_num(np.asarray(spread, dtype=float)) / np.sqrt(np.maximum(np.asarray(n_records, float), 1.0))
+    spread = np.asarray(spread, dtype=float) / np.sqrt(np.maximum(np.asarray(n_records, float), 1.0))
     return np.fmax(spread, standard_error)
 
 
