@@ -47,7 +47,8 @@ largest standard uncertainty (a least-squares optimum can trade the worst point 
 when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect
 earns its parameters; forward paths from the next-best first steps (``other_first_steps``), branching into the
 ``BRANCHES`` best additions at their first step (``climb``), and a stepwise
-refinement then try other combinations. Every model fitted is kept
+refinement then try other combinations, and each model one effect smaller than a candidate answer is fitted again
+from that answer's optimum (``refit_nested``). Every model fitted is kept
 (a model fitted again from a better start keeps the better optimum). The answer (``final_model``) is, among every
 fitted model that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of
 the lowest BIC: the loop never ends on a model worse by its own criterion than one it evaluated, and the other
@@ -476,7 +477,8 @@ def select_effects(measurement: BackboneLevels, fitted, library) -> Verdict:
     effects hold more where an effect comes only with another, as a stuck core with microslip on a superelement:
     the step names both), starting from ``previous``. Forward selection by BIC from the reference model, forward
     paths from the next-best first steps (``other_first_steps``, ``climb``), then ``stepwise_refinement``; the
-    answer is ``final_model`` over every model they evaluated."""
+    answer is ``final_model`` over every model they evaluated, once the models one effect smaller than its candidates
+have been fitted from them (``refit_nested``)."""
     n = 2 * len(measurement.amplitude)
     evaluated = {}  # effects (frozenset) -> the best Fit found of them, or None
 
@@ -530,6 +532,7 @@ def select_effects(measurement: BackboneLevels, fitted, library) -> Verdict:
     for model in other_first_steps(verdict.steps[0].fit, current, evaluated, accepted):
         climb(model, library, trial, accepted, n, climbed)
     stepwise_refinement(current, library, trial, accepted)
+    refit_nested(evaluated, trial, accepted)
     final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)])
     if final is not current:
         verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
@@ -566,6 +569,28 @@ def climb(model: Fit, library, trial, accepted, n: int, climbed: set, branches: 
                     key=lambda found: found.bic)
     for found in better[:branches]:
         climb(found, library, trial, accepted, n, climbed, 1)
+
+
+def refit_nested(evaluated: dict, trial, accepted) -> None:
+    """Fit each model one effect smaller than a candidate answer from that answer's optimum (``trial(effects,
+    previous)``), until every candidate has been so used once: a candidate is an accepted fit (``accepted``) of
+    ``evaluated`` (effects -> Fit) within ``EVIDENCE`` of the lowest BIC, the set ``final_model`` chooses from.
+    The larger model holds the smaller one (its effect switched off), so its optimum, without that effect's
+    parameters, is a start the smaller model's own may miss; without it the answer can be a larger model only
+    because the smaller one's optimum was not found (challenge-like cubic stiffening, the nominal estimated:
+    microslip, a second stage and the cubic ended at BIC 50.4 from their own starts and at 38.2 from the optimum
+    that also held an amplitude damping, which had been the answer at 39.7)."""
+    used = set()
+    while True:
+        fits = [model for model in evaluated.values() if accepted(model)]
+        lowest = min(model.bic for model in fits)
+        pending = [(model, effect) for model in fits if model.bic <= lowest + EVIDENCE for effect in model.effects
+                   if (frozenset(model.effects), effect) not in used]
+        if not pending:
+            return
+        for model, effect in pending:
+            used.add((frozenset(model.effects), effect))
+            trial(tuple(other for other in model.effects if other != effect), model)
 
 
 def final_model(accepted: list) -> tuple:

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from discrepancy.fitted_model import evaluate, model_record
-from discrepancy.loop import EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone
+from discrepancy.loop import (EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone,
+                             refit_nested)
 from cli.console import main
 from study.structures import BackboneLevels
 
@@ -98,6 +99,30 @@ def test_the_answer_is_the_simplest_model_within_the_evidence_of_the_best():
     assert final.bic <= min(model.bic for model in accepted) + EVIDENCE
     assert final_model([fake(("a",), 3, 18.0), fake(("a", "b"), 4, 12.0)])[0].effects == ("a",)
     assert final_model([fake(("a",), 3, 30.0), fake(("a", "b"), 4, 12.0)])[0].effects == ("a", "b")
+
+
+def test_each_model_one_effect_smaller_than_a_candidate_answer_is_fitted_from_it():
+    """The models fitted: the reference, a (80), a + b (50.4 from its own starts) and a + b + c (39.7, the only
+    candidate). a + b fitted from a + b + c's optimum reaches 38.2 (its own starts missed it; any other model so
+    fitted gets 90): refit_nested fits a + b, a + c and b + c from a + b + c, then a and b from a + b, the new
+    candidate, each once; the answer is a + b at 38.2, not the larger model that had held it."""
+    evaluated = {frozenset(model.effects): model for model in (fake((), 2, 500.0), fake(("a",), 3, 80.0),
+                                                                 fake(("a", "b"), 4, 50.4),
+                                                                 fake(("a", "b", "c"), 5, 39.7))}
+    calls = []
+
+    def trial(effects, previous):
+        calls.append((frozenset(effects), frozenset(previous.effects)))
+        found = fake(effects, len(effects) + 2, 38.2 if set(effects) == {"a", "b"} else 90.0)
+        if frozenset(effects) not in evaluated or found.bic < evaluated[frozenset(effects)].bic:
+            evaluated[frozenset(effects)] = found
+
+    refit_nested(evaluated, trial, lambda model: model is not None)
+    abc, ab = frozenset("abc"), frozenset("ab")
+    assert sorted(calls, key=str) == sorted([(frozenset("ab"), abc), (frozenset("ac"), abc), (frozenset("bc"), abc),
+                                             (frozenset("a"), ab), (frozenset("b"), ab)], key=str)
+    final, _ = final_model(list(evaluated.values()))
+    assert set(final.effects) == {"a", "b"} and final.bic == 38.2
 
 
 def test_final_model_record_evaluates_to_the_fit_and_its_band_covers_the_truth():
