@@ -16,8 +16,7 @@ holds the key's loaded frequency and added damping within two of its stated stan
 that an offset cannot be told from an estimated nominal (``nominal_caveat``); where
 two models are as good (BIC within 10) the verdict lists the other beside its answer; the key's other effects are
 named in the answer or in a model it lists as as good, and nothing else outside the joint (a mass loading with a
-cubic stiffening under an estimated nominal: the cubic stiffening, with amplitude damping listed as as good). The
-cubic stiffening alone under an estimated nominal is an expected failure (``WITHOUT_NOMINAL_FAILS``).
+cubic stiffening under an estimated nominal: the cubic stiffening, with amplitude damping listed as as good).
 
 Conversions: FreeVib's amplitude is the sensor that moves most (acc1, x = 0.81209 q, ``x_over_q_at_acc1``); the
 loop writes the effects in q / q_max (q_max its largest fitted amplitude): c = c_loop / q_max [per sensor
@@ -39,16 +38,9 @@ SIZE = 0.1
 pytestmark = pytest.mark.skipif(not KEY.is_file(), reason=f"{CHALLENGE} not found (the ring-down challenge set)")
 
 
-def cases(failing: dict | None = None) -> list:
-    """The set's cases, those in ``failing`` (case -> reason) as expected failures."""
-    return [pytest.param(case, marks=pytest.mark.xfail(reason=failing[case])) if case in (failing or {}) else case
-            for case in (sorted(json.loads(KEY.read_text())["cases"]) if KEY.is_file() else [])]
-
-
-WITHOUT_NOMINAL_FAILS = {"P5": "the one-mode law's form error at the top levels: with the nominal estimated, an "
-                               "amplitude damping of 5 % of the damping there lowers the BIC of microslip, a second "
-                               "stage and the cubic (chi^2/dof 0.83) by 10.6, just past the 10 an effect must earn, "
-                               "and the cubic comes out 18 % low"}
+def cases() -> list:
+    """The set's cases."""
+    return sorted(json.loads(KEY.read_text())["cases"]) if KEY.is_file() else []
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +120,7 @@ OFFSETS = {"stiffness_change", "linear_damping"}
 
 
 @pytest.mark.slow  # eight loops with the nominal's priors, several minutes
-@pytest.mark.parametrize("case", cases(WITHOUT_NOMINAL_FAILS))
+@pytest.mark.parametrize("case", cases())
 def test_challenge_file_without_the_nominal(tmp_path, key, backbones, case):
     truth = key["cases"][case]["parameters"]
     backbone, _ = backbones[case]
