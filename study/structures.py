@@ -17,6 +17,7 @@ against the scatter of single estimates; bins without points (a gap between hits
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -65,12 +66,12 @@ class BackboneLevels:
             raise StructureError(f"{self.source}: field amplitude: expected at least {MIN_POINTS} positive, "
                                  f"increasing amplitudes; got {len(self.amplitude)}")
 
-    @property
+    @cached_property
     def sigma_frequency(self) -> np.ndarray:
         """(n,) Hz: the standard uncertainty a fit divides the frequency residual by, at least FREQUENCY_FLOOR f."""
         return np.fmax(np.nan_to_num(self.frequency_uncertainty_hz, nan=0.0), FREQUENCY_FLOOR * self.frequency_hz)
 
-    @property
+    @cached_property
     def sigma_damping(self) -> np.ndarray:
         """(n,): the standard uncertainty a fit divides the damping residual by, at least DAMPING_FLOOR zeta."""
         return np.fmax(np.nan_to_num(self.damping_uncertainty, nan=0.0), DAMPING_FLOOR * np.abs(self.damping))
