@@ -250,11 +250,13 @@ def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float
     defaults = {"zeta_0": max(nominal_damping, ZETA_START), "slip_force": None}
     n = 2 * len(measurement.amplitude)
 
+    def at_levels(parameters):
+        return model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping,
+                              measurement.amplitude[-1])
+
     def residual(vector):
         parameters = _to_parameters(vector, specification)
-        misfit = weighted_misfit(measurement, *model_backbone(parameters, measurement.amplitude,
-                                                              nominal_frequency_hz, nominal_damping,
-                                                              measurement.amplitude[-1]))
+        misfit = weighted_misfit(measurement, *at_levels(parameters))
         return np.concatenate([misfit, [prior(parameters) for _, prior in priors]])
 
     vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
@@ -273,14 +275,12 @@ def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float
             held[name] = (f"held at its law's limit, {PHYSICAL_LIMITS[name][1]}: freeing it lowers chi^2 by "
                           f"{max(ratio, 0.0):.3g} < {LIMIT_TEST}")
     parameters = _to_parameters(vector, specification)
-    frequency, damping = model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping,
-                                        measurement.amplitude[-1])
+    frequency, damping = at_levels(parameters)
     held_names = set(held)
     undetermined = determinacy(jacobian, vector, specification,
                                [i for i in effect_indices if specification[i][0] not in held_names])
     k = len(specification) - len(priors) - len(held)
-    unresolved = unresolved_effects(measurement, effects, parameters, (frequency, damping), lambda values: model_backbone(
-        values, measurement.amplitude, nominal_frequency_hz, nominal_damping, measurement.amplitude[-1]))
+    unresolved = unresolved_effects(measurement, effects, parameters, (frequency, damping), at_levels)
     return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
                held, parameter_covariance(jacobian, chi_squared, n - k), converged, unresolved)
 
@@ -477,8 +477,8 @@ def select_effects(measurement: BackboneLevels, fitted, library) -> Verdict:
     effects hold more where an effect comes only with another, as a stuck core with microslip on a superelement:
     the step names both), starting from ``previous``. Forward selection by BIC from the reference model, forward
     paths from the next-best first steps (``other_first_steps``, ``climb``), then ``stepwise_refinement``; the
-    answer is ``final_model`` over every model they evaluated, once the models one effect smaller than its candidates
-have been fitted from them (``refit_nested``)."""
+    answer is ``final_model`` over every model they evaluated, once the models one effect smaller than its
+    candidates have been fitted from them (``refit_nested``)."""
     n = 2 * len(measurement.amplitude)
     evaluated = {}  # effects (frozenset) -> the best Fit found of them, or None
 

@@ -6,11 +6,12 @@ backbone averaged over seven hits (``experiment.backbone.mean_uncertainty``), on
 project's (seven hits of 4 s, with microslip) and the challenge-like ones (``benchmarks.second_mode``: ten
 accelerometers, seven hits from 2 q_top down to q_top, on the challenge set's reference backbone; skipped where
 ``../shared/data/ringdown-challenge`` is absent), 8 seeds each. The spread over hits counted whole (the scatter of
-one hit, not of their mean) gives 0.3 to 0.5 there: a chi^2 seven times too small. The error is against the known backbone at each
-grid amplitude, where the backbone says its point is (the ends of the range included), at every grid point that
-the grid resolves: where the averaging (``experiment.backbone.values_at_grid``) of the known backbone itself, at
-the decay's own amplitudes, gives it at the grid point to within the stated standard error. A kink inside a bin
-(the reference joint's onset of macroslip, where its damping jumps fourfold within one bin) is finer than that.
+one hit, not of their mean) gives 0.3 to 0.5 there: a chi^2 seven times too small. The error is against the known
+backbone at each grid amplitude, where the backbone says its point is (the ends of the range included), at every
+grid point that the grid resolves: where the averaging (``experiment.backbone.values_at_grid``) of the known
+backbone itself, at the decay's own amplitudes, gives it at the grid point to within the stated standard error. A
+kink inside a bin (the reference joint's onset of macroslip, where its damping jumps fourfold within one bin) is
+finer than that.
 
 The known natural frequency is the one FreeVib's Eq. 4 sees in the generator's decay: the slow-flow phase advances
 at omega(a), so omega_n = omega(a) sqrt(1 + zeta(a)^2).
