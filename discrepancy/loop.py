@@ -198,27 +198,45 @@ def weighted_misfit(measurement: BackboneLevels, frequency_hz, damping) -> np.nd
     """Residuals (2n,) of a model's frequency (Hz) and damping (n,) against the measurement, each in units of the
     measurement's uncertainty; UNDEFINED_MISFIT where the model is undefined (e.g. a start past a law's range)."""
     misfit = np.concatenate([(frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency,
-                             (damping - measurement.damping) / measurement.sigma_damping])
+                             (damping - measurement.damping) / measurement.sigma_damping], axis=-1)
     return np.where(np.isfinite(misfit), misfit, UNDEFINED_MISFIT)
 
 
-def best_least_squares(residual, starts, held: dict):
-    """The lowest-chi^2 trust-region least-squares optimum of ``residual`` (vector (p,) -> (m,)) over the variables
-    not in ``held`` (index -> value kept fixed), from each start (p,): (chi^2, vector (p,), Jacobian (m, p) with
-    zero columns for the held variables, whether its least squares stopped on its tolerances)."""
+def forward_difference_jacobian(residuals, vector) -> np.ndarray:
+    """Jacobian (m, p) of the residuals at ``vector`` (p,) by forward differences, the p + 1 evaluations in one
+    call of ``residuals`` (rows of variables (b, p) -> residuals (b, m)); each step is scipy's "2-point" step,
+    sqrt(eps) max(1, |v_i|) with the sign of v_i, rounded to a representable increment."""
+    vector = np.asarray(vector, dtype=float)
+    step = np.sqrt(np.finfo(float).eps) * np.where(vector >= 0.0, 1.0, -1.0) * np.maximum(1.0, np.abs(vector))
+    step = (vector + step) - vector
+    values = residuals(np.vstack([vector, vector + np.diag(step)]))
+    return ((values[1:] - values[0]) / step[:, None]).T
+
+
+def best_least_squares(residuals, starts, held: dict):
+    """The lowest-chi^2 trust-region least-squares optimum of ``residuals`` (rows of variables (b, p) -> rows of
+    residuals (b, m), so that a Jacobian is one call: ``forward_difference_jacobian``) over the variables not in
+    ``held`` (index -> value kept fixed), from each start (p,): (chi^2, vector (p,), Jacobian (m, p) with zero
+    columns for the held variables, whether its least squares stopped on its tolerances)."""
     template = np.asarray(starts[0], dtype=float).copy()
     free = np.array([index for index in range(template.size) if index not in held], dtype=int)
     template[list(held)] = list(held.values())
 
     def full(variables):
-        vector = template.copy()
-        vector[free] = variables
-        return vector
+        rows = np.array(np.broadcast_to(template, (*np.shape(variables)[:-1], template.size)))
+        rows[..., free] = variables
+        return rows
+
+    def one(variables):
+        return residuals(full(variables)[None])[0]
+
+    def jacobian_of(variables):
+        return forward_difference_jacobian(lambda rows: residuals(full(rows)), variables)
 
     best = None
     for start in starts:
         with np.errstate(all="ignore"):
-            result = least_squares(lambda v: residual(full(v)), np.asarray(start, dtype=float)[free], method="trf",
+            result = least_squares(one, np.asarray(start, dtype=float)[free], jac=jacobian_of, method="trf",
                                    x_scale="jac", max_nfev=400)
         chi_squared = float(np.sum(result.fun ** 2))
         if np.isfinite(chi_squared) and (best is None or chi_squared < best[0]):
@@ -254,20 +272,20 @@ def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float
         return model_backbone(parameters, measurement.amplitude, nominal_frequency_hz, nominal_damping,
                               measurement.amplitude[-1])
 
-    def residual(vector):
-        parameters = _to_parameters(vector, specification)
+    def residuals(rows):
+        parameters = _to_parameters(rows.T[:, :, None], specification)
         misfit = weighted_misfit(measurement, *at_levels(parameters))
-        return np.concatenate([misfit, [prior(parameters) for _, prior in priors]])
+        return np.concatenate([misfit, *(prior(parameters) for _, prior in priors)], axis=-1)
 
     vectors = [_to_vector({name: start.get(name, defaults.get(name, initial)) for name, _, initial in specification},
                           specification) for start in starts]
     effect_indices = range(len(BASE), len(specification) - len(priors))
-    chi_squared, vector, jacobian, converged = best_least_squares(residual, vectors, {})
+    chi_squared, vector, jacobian, converged = best_least_squares(residuals, vectors, {})
     held, values = {}, {}
     for index in (index for index in effect_indices if specification[index][0] in PHYSICAL_LIMITS):
         name = specification[index][0]
         trial = {**values, index: PHYSICAL_LIMITS[name][0]}
-        constrained = best_least_squares(residual, [vector, *vectors], trial)
+        constrained = best_least_squares(residuals, [vector, *vectors], trial)
         ratio = constrained[0] - chi_squared
         if ratio < LIMIT_TEST:
             chi_squared, vector, jacobian, converged = constrained
