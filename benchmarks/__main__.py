@@ -5,9 +5,10 @@ by default, ``--fem-meshes default`` for the default meshes: the run then nears 
 superelement from build/fe), qsma and study (designs per second per core per friction model, the paper-scale
 study projected and the one measured earlier), analysis (the analyse step's pass over N and 4 N synthetic designs:
 wall time and peak memory, flat in N), calibration (time and evaluations per ASB configuration and
-model), surrogacy (subset simulation against brute force for SC at tightening bounds), dask (serial against
-LocalClusters of 1 and 2 workers), and last the wall time of the whole run. The table (``benchmarks.table``) is also written to
-``<out>/bench.md`` and ``<out>/bench.csv``.
+model), surrogacy (subset simulation against brute force for SC at tightening bounds), discrepancy (the one-mode
+loop's Jacobian batched against one evaluation per column, and whole loops with their fits counted), dask (serial
+against LocalClusters of 1 and 2 workers), and last the wall time of the whole run. The table
+(``benchmarks.table``) is also written to ``<out>/bench.md`` and ``<out>/bench.csv``.
 Run: ``python -m benchmarks [--fem-meshes coarse|default] [--out results/bench]``.
 """
 
@@ -20,7 +21,8 @@ import os
 import time
 from pathlib import Path
 
-from benchmarks import analysis, calibration, dask_speedup, fem, geometry, qsma, reduction, study, surrogacy_confidence
+from benchmarks import (analysis, calibration, dask_speedup, discrepancy, fem, geometry, qsma, reduction, study,
+                        surrogacy_confidence)
 from benchmarks.table import row, show, write
 
 
@@ -41,7 +43,7 @@ def main(argv=None) -> None:
                 f"timings are noisy (+-10 % or more); FE on {arguments.fem_meshes} meshes"]
     stages = itertools.chain(geometry.rows(), fem.rows(coarse=arguments.fem_meshes == "coarse"), reduction.rows(),
                              qsma.rows(), study.rows(), analysis.rows(), calibration.rows(), surrogacy_confidence.rows(),
-                             dask_speedup.rows())
+                             discrepancy.rows(), dask_speedup.rows())
     rows = show(itertools.chain(stages, _whole_run(start)), preamble)
     markdown, table = write(rows, arguments.out, preamble)
     print(f"{rows[-1]['seconds']:.0f} s in all; table written to {markdown} and {table}")

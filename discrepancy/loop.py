@@ -14,8 +14,9 @@ q_max is the largest fitted amplitude (the model's amplitude scale, recorded wit
 
 Fit. Weighted least squares (scipy.optimize.least_squares) of frequency and damping against the measurement,
 each residual divided by the measurement's standard uncertainty (with floors of 1e-4 f and 2 % of zeta); positive
-parameters in log, bounded ones through a logistic map; several starts. The variables' covariance is that of the
-weighted least-squares optimum (``parameter_covariance``).
+parameters in log, bounded ones through a logistic map; several starts; the forward-difference Jacobian's p + 1
+parameter sets evaluated as the rows of one call of the model (``forward_difference_jacobian``). The variables'
+covariance is that of the weighted least-squares optimum (``parameter_covariance``).
 
 Limits of a law. chi -> 0 (dissipation about linear in amplitude; chi = -0.005, the end of its range) and
 beta -> 0 (Iwan's density without its spike) are values of Iwan's law, not parameters the points leave free: every
