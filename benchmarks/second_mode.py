@@ -84,12 +84,13 @@ def log_amplitude_law(q: np.ndarray, values: np.ndarray):
 
 
 def challenge_like_clean(backbone, second=None, hits: int = 7, decay_s: float = 1.65, pretrigger_s: float = 0.05,
-                         sample_rate: float = 6400.0) -> list[RingDown]:
+                         sample_rate: float = 6400.0, laws=None) -> list[RingDown]:
     """Noiseless accelerations (m/s^2) of the challenge-like hits (module docstring). backbone: the tuple of
     :func:`read_backbone_table`; second: (ratio to the lowest-amplitude frequency, share of the target's
-    envelope) or None."""
+    envelope) or None; laws: (omega (rad/s), zeta) as functions of ln q in place of the table's
+    (:func:`log_amplitude_law`), e.g. with effects outside the joint (``benchmarks.held_out``), or None."""
     q, sensor_over_q, omega, zeta = backbone
-    omega_of, zeta_of = log_amplitude_law(q, omega), log_amplitude_law(q, zeta)
+    omega_of, zeta_of = laws or (log_amplitude_law(q, omega), log_amplitude_law(q, zeta))
     time = np.arange(int(round((pretrigger_s + decay_s) * sample_rate)) + 1) / sample_rate
     moving = time >= pretrigger_s
     shape = sensor_over_q * TARGET_SHAPE
