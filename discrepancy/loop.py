@@ -44,12 +44,12 @@ Loop. Starting from the reference model, every effect not yet in the model is ad
 the lowest Bayesian information criterion BIC = chi^2 + k ln n (n residuals, k parameters) is kept if it lowers
 the BIC by more than ``EVIDENCE`` (10: very strong evidence), its parameters are determined, and it leaves
 neither L-infinity error (frequency, damping) worse than the reference model's by more than the measurement's
-largest standard uncertainty (a least-squares optimum can trade the worst point for the rest). This greedy path
-stops when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no
-effect earns its parameters; forward paths from the next-best first steps (``other_first_steps``), branching into
-the ``BRANCHES`` best additions at their first step and going on past the noise while an effect earns its
-parameters (``climb``), and a stepwise refinement then try other combinations, and each model one effect smaller
-than a candidate answer is fitted again from that answer's optimum (``refit_nested``). Every model fitted is kept
+largest standard uncertainty (a least-squares optimum can trade the worst point for the rest). The loop stops
+when the residual is at the measurement's noise (chi^2 per degree of freedom below ``AT_NOISE``) or no effect
+earns its parameters; forward paths from the next-best first steps (``other_first_steps``), branching into the
+``BRANCHES`` best additions at their first step (``climb``), and a stepwise
+refinement then try other combinations, and each model one effect smaller than a candidate answer is fitted again
+from that answer's optimum (``refit_nested``). Every model fitted is kept
 (a model fitted again from a better start keeps the better optimum). The answer (``final_model``) is, among every
 fitted model that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of
 the lowest BIC: the loop never ends on a model worse by its own criterion than one it evaluated, and the other
@@ -549,7 +549,7 @@ def select_effects(measurement: BackboneLevels, fitted, library) -> Verdict:
         verdict.steps.append(step(", ".join(added), current, candidates, rejected))
     climbed = set()
     for model in other_first_steps(verdict.steps[0].fit, current, evaluated, accepted):
-        climb(model, library, trial, accepted, climbed)
+        climb(model, library, trial, accepted, n, climbed)
     stepwise_refinement(current, library, trial, accepted)
     refit_nested(evaluated, trial, accepted)
     final, verdict.alternatives = final_model([model for model in evaluated.values() if accepted(model)])
@@ -572,25 +572,22 @@ def other_first_steps(reference: Fit, current: Fit, evaluated: dict, accepted) -
     return sorted(singles, key=lambda model: model.bic)[:OTHER_PATHS]
 
 
-def climb(model: Fit, library, trial, accepted, climbed: set, branches: int = BRANCHES) -> None:
-    """Forward selection from ``model``: add the accepted effect with the lowest BIC while it lowers the BIC by
-    more than ``EVIDENCE``, past the noise too (``AT_NOISE`` stops only the greedy path: a path can pass a model at
-    the noise on its way to a better one, as on a challenge-like mass loading with a cubic stiffening, the nominal
-    estimated, where every path stopped at microslip with an amplitude damping, chi^2/dof 1.34 and BIC 63.1, and
-    microslip, a second stage and the cubic reach 0.49 and 38.9); at the first step, each of the ``branches`` best
-    such effects in turn (a greedy path can take a look-alike there: on the ASB C4 one-mode backbone a second slip
-    stage after the cubic stiffening blocked the microslip, stiction and stiffness change that fit better).
-    ``climbed``: the effect sets already climbed from (each once); every fit lands among those ``final_model``
-    chooses from."""
+def climb(model: Fit, library, trial, accepted, n: int, climbed: set, branches: int = BRANCHES) -> None:
+    """Forward selection from ``model``: while the residual is above the noise (``AT_NOISE``), add the accepted
+    effect with the lowest BIC that lowers it by more than ``EVIDENCE``; at the first step, each of the
+    ``branches`` best such effects in turn (a greedy path can take a look-alike there: on the ASB C4 one-mode
+    backbone a second slip stage after the cubic stiffening blocked the microslip, stiction and stiffness change
+    that fit better). ``climbed``: the effect sets already climbed from (each once); every fit lands among those
+    ``final_model`` chooses from."""
     key = frozenset(model.effects)
-    if key in climbed:
+    if key in climbed or model.chi_squared / max(n - model.n_parameters, 1) <= AT_NOISE:
         return
     climbed.add(key)
     trials = [trial((*model.effects, effect), model) for effect in library if effect not in model.effects]
     better = sorted((found for found in trials if accepted(found) and found.bic < model.bic - EVIDENCE),
                     key=lambda found: found.bic)
     for found in better[:branches]:
-        climb(found, library, trial, accepted, climbed, 1)
+        climb(found, library, trial, accepted, n, climbed, 1)
 
 
 def refit_nested(evaluated: dict, trial, accepted) -> None:
