@@ -311,7 +311,7 @@ def structure_discrepancy_loop(measurement: BackboneLevels, candidates: dict, bo
         inner_fit = best.get(frozenset(inner_effects)) or fitted(inner_effects)
         return [] if inner_fit is None else [contained_design(inner_fit, model, candidates[model].n_groups)]
 
-    def fitted(effects, previous=None):
+    def fitted(effects, previous=None, again=False):
         model = model_for_effects(effects, candidates)
         if model is None or not candidates[model].labels:
             return None
@@ -326,6 +326,11 @@ def structure_discrepancy_loop(measurement: BackboneLevels, candidates: dict, bo
             if key not in best or fit.chi_squared < best[key].chi_squared:
                 best[key] = fit
             return fit
+
+        if again:  # fitted before from its own starts: from the other model's optimum alone, where it is a design
+            if previous is None or previous.parameters["model"] != model:
+                return None
+            return kept(refit(structure, model, found.n_groups, tuple(effects), [design_start(previous)]))
 
         if model not in plain:
             joint_only = tuple(e for e in effects if e not in OUTSIDE_JOINT)

@@ -101,28 +101,52 @@ def test_the_answer_is_the_simplest_model_within_the_evidence_of_the_best():
     assert final_model([fake(("a",), 3, 30.0), fake(("a", "b"), 4, 12.0)])[0].effects == ("a", "b")
 
 
-def test_each_model_one_effect_smaller_than_a_candidate_answer_is_fitted_from_it():
-    """The models fitted: the reference, a (80), a + b (50.4 from its own starts) and a + b + c (39.7, the only
-    candidate). a + b fitted from a + b + c's optimum reaches 38.2 (its own starts missed it; any other model so
-    fitted gets 90): refit_nested fits a + b, a + c and b + c from a + b + c, then a and b from a + b, the new
-    candidate, each once; the answer is a + b at 38.2, not the larger model that had held it."""
-    evaluated = {frozenset(model.effects): model for model in (fake((), 2, 500.0), fake(("a",), 3, 80.0),
-                                                                 fake(("a", "b"), 4, 50.4),
-                                                                 fake(("a", "b", "c"), 5, 39.7))}
-    calls = []
+LANDSCAPE = {"": (500.0, 500.0), "a": (80.0, 60.0), "b": (200.0, 200.0), "c": (300.0, 300.0),
+             "ab": (50.4, 30.0), "ac": (70.0, 45.0), "bc": (150.0, 150.0), "abc": (35.0, 10.0), "abd": (28.0, 28.0)}
+"""Effects -> (chi^2 its own starts reach, its lowest chi^2, which a start with a lower chi^2 than the first
+reaches). a + b + d holds an effect the points leave undetermined (not accepted)."""
 
-    def trial(effects, previous):
-        calls.append((frozenset(effects), frozenset(previous.effects)))
-        found = fake(effects, len(effects) + 2, 38.2 if set(effects) == {"a", "b"} else 90.0)
-        if frozenset(effects) not in evaluated or found.bic < evaluated[frozenset(effects)].bic:
-            evaluated[frozenset(effects)] = found
 
-    refit_nested(evaluated, trial, lambda model: model is not None)
-    abc, ab = frozenset("abc"), frozenset("ab")
-    assert sorted(calls, key=str) == sorted([(frozenset("ab"), abc), (frozenset("ac"), abc), (frozenset("bc"), abc),
-                                             (frozenset("a"), ab), (frozenset("b"), ab)], key=str)
-    final, _ = final_model(list(evaluated.values()))
-    assert set(final.effects) == {"a", "b"} and final.bic == 38.2
+def landscape_fit(effects, chi_squared):
+    """A fit of LANDSCAPE's model with ``effects`` at ``chi_squared``: two joint parameters and one per effect,
+    BIC chi^2 + k ln 40."""
+    k = len(effects) + 2
+    return Fit(tuple(effects), {}, chi_squared, chi_squared + k * np.log(40), np.zeros(1), np.zeros(1), k)
+
+
+def landscape_trial(evaluated: dict):
+    """``select_effects``'s trial on LANDSCAPE: a model fitted from its own starts and from ``previous``, and
+    again where a start fits better than its own optimum, keeping the better fit."""
+
+    def trial(effects, previous=None):
+        key = frozenset(effects)
+        own, lowest = LANDSCAPE["".join(sorted(key))]
+        reached = lowest if previous is not None and previous.chi_squared < own else own
+        if key not in evaluated or reached < evaluated[key].chi_squared:
+            evaluated[key] = landscape_fit(sorted(key), reached)
+        return evaluated[key]
+
+    return trial
+
+
+@pytest.mark.parametrize("path", [("", "a", "ab", "abc", "abd"), ("abd", "abc", "ab", "a", ""),
+                                  ("", "a", "ac", "abc", "abd"), ("", "b", "bc", "abd", "abc", "ab")])
+def test_refitting_from_nested_optima_makes_the_answer_independent_of_the_path(path):
+    """Whatever models the search reached first and in whatever order (``path``, each fitted from its own starts),
+    refit_nested fits each model again from the optima one effect larger and smaller that could make it a candidate
+    until none moves. a + b's lowest optimum (30) is reached only from a + b + d's (28), a model not accepted and
+    no candidate, and a + b + c's (10) only from a + b's 30: the answer is a + b + c at chi^2 10, never a + b at
+    30 or a + b + c at 35 (its own starts). Every model one effect smaller than a candidate has been fitted, and no
+    candidate is worse than a model it holds."""
+    evaluated = {frozenset(name): landscape_fit(sorted(name), LANDSCAPE[name][0]) for name in path}
+    refit_nested(evaluated, landscape_trial(evaluated), lambda model: model is not None and "d" not in model.effects)
+    final, _ = final_model([model for model in evaluated.values() if "d" not in model.effects])
+    assert set(final.effects) == {"a", "b", "c"} and final.chi_squared == 10.0
+    candidates = [model for model in evaluated.values() if model.bic <= final.bic + EVIDENCE]
+    for model in candidates:
+        for effect in model.effects:
+            smaller = frozenset(model.effects) - {effect}
+            assert smaller in evaluated and evaluated[smaller].chi_squared >= model.chi_squared
 
 
 def test_final_model_record_evaluates_to_the_fit_and_its_band_covers_the_truth():
