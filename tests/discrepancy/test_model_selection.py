@@ -4,6 +4,8 @@ virtual) with known parameters:
 - a microslip joint whose chi sits near Iwan's limit 0 is a constrained optimum: chi held at the limit, microslip
   named with the effect outside the joint beside it, not refused as "at its bound";
 - the answer is the fewest-parameter model within EVIDENCE of the best accepted fit, the others as good listed;
+- a refit replaces a model's fit only where it is accepted and the fit is not, or lowers the BIC; refitting each
+  model from the optima one effect larger and smaller until none moves makes the answer independent of the path;
 - the final model's record evaluates to the fit's own curves at the fitted amplitudes, its 95 % band covers the
   true backbone at about its nominal rate, and beyond the fitted range it is marked extrapolation with a wider band;
 - ``surrogacy discrepancy-model`` writes that evaluation and refuses a record or range it cannot use.
@@ -16,7 +18,7 @@ import pytest
 
 from discrepancy.fitted_model import evaluate, model_record
 from discrepancy.loop import (EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone,
-                             refit_nested)
+                             refit_nested, select_effects)
 from cli.console import main
 from study.structures import BackboneLevels
 
@@ -147,6 +149,38 @@ def test_refitting_from_nested_optima_makes_the_answer_independent_of_the_path(p
         for effect in model.effects:
             smaller = frozenset(model.effects) - {effect}
             assert smaller in evaluated and evaluated[smaller].chi_squared >= model.chi_squared
+
+
+REFITS = {"undetermined": {"theta": "not determined (0.5, standard deviation 4 in its logit)"}, "held": {}}
+
+
+@pytest.mark.parametrize("refit", sorted(REFITS))
+def test_a_refit_replaces_a_fit_by_acceptance_then_bic_never_by_chi_squared(refit):
+    """A family of fits on 10 levels (20 residuals, ln 20 = 3.0 per parameter): the reference at chi^2 500;
+    stiction first fitted at 50 (3 parameters, BIC 59.0), fitted again from stiction with a stiffness change (45,
+    BIC 57.0) at 40 with theta undetermined ("undetermined": not accepted, whatever its BIC) or at 48 with a
+    parameter more, as a limit freed (BIC 60.0: "held"). The refit is made, and the first fit stays: the answer is
+    stiction at 59.0, the simplest within EVIDENCE of the best, not the larger model that a lost fit would leave."""
+    amplitude = np.geomspace(1e-6, 1e-4, 10)
+    measurement = BackboneLevels(amplitude, np.full(10, 100.0), np.full(10, 1e-3), np.full(10, 0.01),
+                                 np.full(10, 1e-4), 100.0, "virtual", "virtual family of fits")
+    refits = []
+
+    def fitted(effects, previous=None, again=False):
+        key = frozenset(effects)
+        if again and key == {"stiction"}:
+            refits.append(frozenset(previous.effects))
+            chi_squared, k = (40.0, 3) if refit == "undetermined" else (48.0, 4)
+            return Fit(tuple(effects), {}, chi_squared, chi_squared + k * np.log(20), measurement.frequency_hz,
+                       measurement.damping, k, REFITS[refit])
+        chi_squared = {frozenset(): 500.0, frozenset({"stiction"}): 50.0}.get(key, 45.0 if len(key) == 2 else 300.0)
+        k = len(key) + 2
+        return Fit(tuple(effects), {}, chi_squared, chi_squared + k * np.log(20), measurement.frequency_hz,
+                   measurement.damping, k)
+
+    verdict = select_effects(measurement, fitted, ("stiction", "stiffness_change"))
+    assert frozenset({"stiction", "stiffness_change"}) in refits
+    assert verdict.effects == ["stiction"] and verdict.final.chi_squared == 50.0
 
 
 def test_final_model_record_evaluates_to_the_fit_and_its_band_covers_the_truth():
