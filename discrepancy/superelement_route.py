@@ -33,7 +33,8 @@ effect at its library start (a fit that absorbed an effect into the joint's para
 model that holds the effect). A friction model that contains another (``FrictionModel.contains``: iwan4 holds
 Jenkins, iwan5 and iwan4_core hold iwan4) also starts from the optimum of the contained model with the same
 effects outside the joint (its added parameters at ``nonlinear.friction_models.CONTAINED_UNIT``), fitted first: the
-larger model is never worse than the one it contains.
+larger model is never worse than the one it contains. A model the loop fits again (``select_effects``: from another
+model's optimum) starts from that optimum alone, where it is a design of the same friction model.
 
 Reference. The macroslip model (Jenkins) fitted with no effect: what the best Jenkins joint on this superelement
 misses. The loop itself (forward selection by BIC, honest-fit rules, stepwise swap and drop, "unexplained") is
