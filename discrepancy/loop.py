@@ -185,7 +185,8 @@ def determinacy(jacobian, vector, specification, indices) -> dict:
         return {}
     _, singular, rows = np.linalg.svd(jacobian[:, indices], full_matrices=False)
     floor = max(SINGULAR_FLOOR * float(np.max(np.abs(jacobian))), np.finfo(float).tiny)
-    spread = np.sqrt(np.sum((rows / np.maximum(singular, floor)[:, None]) ** 2, axis=0))
+    with np.errstate(over="ignore"):  # a parameter the points do not see at all: an infinite spread
+        spread = np.sqrt(np.sum((rows / np.maximum(singular, floor)[:, None]) ** 2, axis=0))
     reasons = {}
     for position, index in enumerate(indices):
         name, kind, _ = specification[index]
