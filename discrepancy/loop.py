@@ -49,13 +49,14 @@ stops when the residual is at the measurement's noise (chi^2 per degree of freed
 effect earns its parameters; forward paths from the next-best first steps (``other_first_steps``), branching into
 the ``BRANCHES`` best additions at their first step and going on past the noise while an addition earns its
 parameters (``climb``), and a stepwise refinement then try other combinations. Every model fitted is kept: a model
-reached again from another model's optimum is fitted again from it alone (each start once) and keeps the fit with
-the lower BIC; and, until no fit moves, each model is fitted again from the optimum of every model one effect
-larger or smaller that fits better than it, where that could make it a candidate answer (``refit_nested``), so
-the optimum a model reaches does not hang on the path that first reached it. The answer (``final_model``) is, among every
-fitted model that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of
-the lowest BIC: the loop never ends on a model worse by its own criterion than one it evaluated, and the other
-models within ``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart.
+reached again from another model's optimum is fitted again from it alone (each start once), and the refit replaces
+the fit where it is accepted and the fit is not, or, both alike, where it lowers the BIC by more than ``SETTLED``;
+and, until no fit moves, each model is fitted again from the optimum of every model one effect larger or smaller
+that fits better than it, where that could make it a candidate answer (``refit_nested``), so the optimum a model
+reaches does not hang on the path that first reached it. The answer (``final_model``) is, among every fitted model
+that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of the lowest BIC:
+the loop never ends on a model worse by its own criterion than one it evaluated, and the other models within
+``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart.
 A residual still above ``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect,
 the parameters, chi^2, BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not
 accepted with the reason.
@@ -616,8 +617,8 @@ def climb(model: Fit, library, trial, accepted, climbed: set, branches: int = BR
 
 def refit_nested(evaluated: dict, trial, accepted) -> None:
     """Fit the models of ``evaluated`` (effects -> Fit or None) again from the optima of the models one effect
-    larger and smaller (``trial(effects, previous)``, which refits a model only from a start with a lower chi^2
-    than its own, each start once, and keeps the lower BIC) until no fit moves. A model holds every model one
+    larger and smaller that fit better than they do (``trial(effects, previous)``: each start once, the refit
+    replacing the fit by ``select_effects``'s rule) until no fit moves. A model holds every model one
     effect smaller (that effect switched off): its optimum, without that effect's parameters, is a start the
     smaller model's own may miss, and the smaller model's optimum is a start of the larger one, which must not end
     worse than a model it holds. Without this the optimum a fit reaches depends on the path that first reached the
