@@ -20,7 +20,8 @@ Small dense linear algebra (:mod:`nonlinear.dense_linear_algebra`, compiled)
 QSMA (:mod:`nonlinear.qsma`, :mod:`nonlinear.qsma_vectorised`)
     qsma_reference              single-design oracle: frequency and damping against modal amplitude or force
     qsma_designs                the same over many designs at once
-    qsma_designs(device="cuda")  its levels on a CUDA GPU (:mod:`nonlinear.qsma_cuda`: the kernel's source, numba-cuda)
+    qsma_designs(device="cuda")  its stuck modes and levels on a CUDA GPU (:mod:`nonlinear.qsma_cuda`: the kernels'
+                                 source, numba-cuda; :mod:`nonlinear.compute_devices` names the devices)
 Harmonic balance, EPMC and forced response (:mod:`nonlinear.harmonic_balance`, :mod:`nonlinear.hysteresis_kernel`,
 :mod:`nonlinear.epmc`, :mod:`nonlinear.forced_response`)
     JointSystem, slip_deficit_harmonics, pseudo_arclength   the joint space's harmonic balance with AFT of the sliders

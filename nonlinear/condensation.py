@@ -36,7 +36,8 @@ import numpy as np
 import scipy.linalg
 
 from nonlinear.joint import joint_row_stiffness, tangential_rows as tangential_joint_rows
-from nonlinear.stuck_modes import flexibility_basis, stuck_designs
+from nonlinear.compute_devices import kernels
+from nonlinear.stuck_modes import flexibility_basis
 from reduction.superelement import Superelement, tied_modal_eigenpairs
 
 RIGID_FREQUENCY = 1.0  # Hz: no elastic mode of a jointed beam lies below it
@@ -207,12 +208,14 @@ class StuckModes(NamedTuple):
     unstable: np.ndarray
 
 
-def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None, rows=None) -> StuckModes:
+def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = None, rows=None,
+                device: str = "cpu") -> StuckModes:
     """Tracked stuck mode and joint-space compliance for a batch of joint tangents (n_designs, 3 n_patches),
     N/m (``nonlinear.joint.stuck_stiffness``), by the small exact eigenproblem of ``nonlinear.stuck_modes`` (no
     n_modes x n_modes solve). rows: the joint rows (e.g. the tangential ones) whose compliance block is wanted;
     default all. The stuck structure's negative-stiffness modes are counted (``StuckModes.unstable``), from the
-    signs of the small problem's estimates (Sylvester's law of inertia).
+    signs of the small problem's estimates (Sylvester's law of inertia). device: where the designs are solved
+    (``nonlinear.compute_devices``: "cpu" or "cuda").
 
     The target is the stuck mode with the largest MAC against the reference among those below the cutoff
     (every mode with MAC above 1 / CUTOFF_FACTOR is there, see ``modal_split``).
@@ -220,7 +223,7 @@ def stuck_modes(space: JointSpace, joint_stiffness, split: ModalSplit | None = N
     split = modal_split(space) if split is None else split
     phi, eigenvalues, reference = space.joint_modes, space.eigenvalues, space.reference
     k = np.ascontiguousarray(joint_row_stiffness(np.atleast_2d(joint_stiffness), phi.shape[0]), dtype=float)
-    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, estimates = stuck_designs(
+    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, estimates = kernels(device).stuck_designs(
         k, eigenvalues[split.low], np.ascontiguousarray(phi[:, split.low]), eigenvalues[split.high],
         np.ascontiguousarray(phi[:, split.high]), split.flexibility, reference[split.low], reference[split.high],
         UNAMBIGUOUS_MAC, np.arange(k.shape[1]) if rows is None else np.asarray(rows, dtype=np.int64))
@@ -235,12 +238,14 @@ class StuckModeCache:
     of joint tangents asked for, formed once per distinct batch: the friction models of a study take their stuck
     joint (K_T, K_z, K_c) from the same columns of the sample (``study.designs``), so that models with the same
     stuck joint share one solve per design and structure. A batch is found again only where it is equal to the
-    last bit. Holds the batches of one chunk of designs; not for long-lived use."""
+    last bit. Holds the batches of one chunk of designs; not for long-lived use. device: where they are solved
+    (``nonlinear.compute_devices``)."""
 
-    def __init__(self, space: JointSpace, split: ModalSplit | None = None, rows=None):
+    def __init__(self, space: JointSpace, split: ModalSplit | None = None, rows=None, device: str = "cpu"):
         self.space = space
         self.split = modal_split(space) if split is None else split
         self.rows = None if rows is None else np.asarray(rows, dtype=np.int64)
+        self.device = device
         self._formed: dict[bytes, StuckModes] = {}
 
     def __call__(self, joint_stiffness) -> StuckModes:
@@ -248,13 +253,15 @@ class StuckModeCache:
         stiffness = np.ascontiguousarray(np.atleast_2d(joint_stiffness), dtype=float)
         key = np.asarray(stiffness.shape).tobytes() + stiffness.tobytes()
         if key not in self._formed:
-            self._formed[key] = stuck_modes(self.space, stiffness, self.split, self.rows)
+            self._formed[key] = stuck_modes(self.space, stiffness, self.split, self.rows, self.device)
         return self._formed[key]
 
     def __len__(self) -> int:
         """The number of distinct batches solved so far."""
         return len(self._formed)
 
-    def serves(self, space: JointSpace, rows) -> bool:
-        """Whether this cache's modes are those of ``space`` with the compliance on ``rows``."""
-        return space is self.space and self.rows is not None and np.array_equal(self.rows, rows)
+    def serves(self, space: JointSpace, rows, device: str) -> bool:
+        """Whether this cache's modes are those of ``space`` with the compliance on ``rows``, solved on
+        ``device``."""
+        return (space is self.space and self.rows is not None and np.array_equal(self.rows, rows)
+                and device == self.device)

@@ -84,7 +84,9 @@ def rmatvec(a, x, out):
 def cholesky(a, upper):
     """Cholesky factor of the symmetric positive definite ``a`` (its upper triangle is read) into ``upper``
     (same shape), stored as the upper triangular U = L^T (A = U^T U), row by row with right-looking updates
-    along rows (contiguous). No check: a matrix not numerically positive definite gives a NaN factor."""
+    along rows (contiguous). No check: a matrix not numerically positive definite gives a NaN factor (the square
+    root of a negative pivot is taken as NaN, as compiled code does, also where Python runs it: numba-cuda's
+    simulator)."""
     n = a.shape[0]
     for i in range(n):
         for j in range(i):
@@ -92,7 +94,8 @@ def cholesky(a, upper):
         for j in range(i, n):
             upper[i, j] = a[i, j]
     for j in range(n):
-        inverse = 1.0 / math.sqrt(upper[j, j])
+        pivot = upper[j, j]
+        inverse = 1.0 / math.sqrt(pivot) if pivot >= 0.0 else math.nan
         for i in range(j, n):
             upper[j, i] *= inverse
         for k in range(j + 1, n):

@@ -14,6 +14,7 @@ import numpy as np
 
 from nonlinear import qsma_kernel
 from nonlinear.compiled_cache import announce_compiling
+from nonlinear.compute_devices import kernels
 from nonlinear.condensation import UNAMBIGUOUS_MAC, JointSpace, ModalSplit, StuckModeCache, joint_mechanisms
 from nonlinear.joint import patch_elements, scaled_law, stuck_stiffness, tangential_elements, tangential_rows
 from nonlinear.qsma import AMBIGUOUS_MODE, CONVERGED, JUMPED, MACROSLIP, NOT_CONVERGED, PAST_JUMP, QSMAResult
@@ -32,26 +33,6 @@ REASONS = np.array([CONVERGED, NOT_CONVERGED, MACROSLIP, AMBIGUOUS_MODE, NO_STUC
                     JUMPED, PAST_JUMP, UNSTABLE], dtype=object)
 
 
-DEVICES = ("cpu", "cuda")
-
-
-def level_solver(device: str):
-    """``solve_levels`` of the compute device: "cpu", the numba CPU kernel (``nonlinear.qsma_kernel``); "cuda",
-    the same source on a CUDA GPU (``nonlinear.qsma_cuda``: numba-cuda, and a GPU or its simulator). ValueError
-    for another name, RuntimeError naming what "cuda" lacks."""
-    if device == "cpu":
-        return qsma_kernel.solve_levels
-    if device != "cuda":
-        raise ValueError(f"device={device!r}: expected one of {DEVICES}")
-    try:  # numba-cuda is an optional dependency, imported only where asked for
-        from nonlinear import qsma_cuda
-    except ImportError as error:
-        raise RuntimeError(f"device='cuda': numba-cuda is not installed ({error}); install the project's `gpu` "
-                           "extra (pip install -e '.[gpu]') or use device='cpu'") from None
-    qsma_cuda.require_gpu()
-    return qsma_cuda.solve_levels
-
-
 def kernel_array(values: np.ndarray) -> np.ndarray:
     """``values`` as the kernel's one compiled signature takes them: C-contiguous and writeable (copied only when
     not). A strided or read-only view is another numba signature, compiled again (about a minute)."""
@@ -68,23 +49,23 @@ def qsma_designs(space: JointSpace, model: str, designs, amplitudes=None, forces
     (once per structure is enough). stuck: a ``StuckModeCache`` of ``space`` with the compliance on the
     tangential rows, shared by calls whose designs may have the same stuck joint (the models of a study's
     chunk); a fresh one where not given. ValueError where it is another structure's, or its compliance is on
-    other rows. device: where the levels are solved (``level_solver``: "cpu" or "cuda"; the stuck modes are
-    formed on the CPU either way).
+    other rows, or on another device. device: where the stuck modes and the levels are solved
+    (``nonlinear.compute_devices``: "cpu" or "cuda").
 
     Returns ``QSMAResult`` with a leading design axis on every field.
     """
     if (amplitudes is None) == (forces is None):
         raise ValueError("give either amplitudes (amplitude control) or forces (force control)")
-    solve_levels = level_solver(device)
+    solve_levels = kernels(device).solve_levels
     announce_compiling()
     elements = patch_elements(model, designs, space.superelement.patch_groups, stuck_group)
     tangential = tangential_elements(elements)
     rows = tangential_rows(space.superelement.n_patches)
     if stuck is None:
-        stuck = StuckModeCache(space, split, rows)
-    elif not stuck.serves(space, rows):
-        raise ValueError("stuck: a StuckModeCache of another structure, or with the compliance on other rows than "
-                         "the tangential ones")
+        stuck = StuckModeCache(space, split, rows, device)
+    elif not stuck.serves(space, rows, device):
+        raise ValueError("stuck: a StuckModeCache of another structure, with the compliance on other rows than "
+                         f"the tangential ones, or on another device than {device!r}")
     modes = stuck(stuck_stiffness(elements))
     b = np.ascontiguousarray(modes.joint_shape[:, rows])
     amplitude_control = amplitudes is not None

@@ -44,6 +44,7 @@ small eigen-solve are those of ``nonlinear.dense_linear_algebra``.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba
@@ -70,7 +71,8 @@ SERIES_TERMS = 11
 
 
 class _Work(NamedTuple):
-    """Work arrays of ``stuck_designs``, allocated once per call (m joint rows, n_L low and n_E high modes)."""
+    """Work arrays of ``stuck_design`` (m joint rows, n_L low and n_E high modes), views of ``design_workspace``'s
+    stacked arrays."""
 
     packed: np.ndarray  # F(mu) packed, (m (m+1) / 2,)
     weights: np.ndarray  # 1 / (lambda_E - mu), (n_E,)
@@ -93,14 +95,24 @@ class _Work(NamedTuple):
     coefficients: np.ndarray  # (SERIES_TERMS + n_E,) the coefficients of ``flexibility_basis``'s rows in F(mu)
 
 
+# Work arrays of one design stacked by shape (``design_workspace``): how many of each.
+JOINT_VECTORS, LOW_VECTORS, HIGH_VECTORS, LOW_MATRICES = 5, 5, 4, 8
+
+
 @numba.njit(cache=True)
-def _work(m, n_low, n_high):
-    """``_Work`` for m joint rows, n_low low and n_high high modes."""
-    return _Work(np.empty(m * (m + 1) // 2), np.empty(n_high), np.empty((m, m + n_low + 1)),
-                 np.empty((m, n_low)), np.empty((n_low, n_low)), np.empty(n_high), np.empty(n_high),
-                 np.empty(m), np.empty(n_low), np.empty((n_low, n_low)), np.empty((n_low, n_low)),
-                 np.empty(n_low), np.empty(m), np.empty(n_low), np.empty(n_low), np.empty(m), np.empty(n_high),
-                 np.empty(m), np.empty(SERIES_TERMS + n_high))
+def design_workspace(joint_vectors, low_vectors, high_vectors, low_matrices, packed, augmented, static_augmented,
+                     z, high_projection, low_share, coefficients):
+    """One design's work arrays for ``stuck_design``, as views of arrays stacked by shape: joint_vectors
+    (JOINT_VECTORS, m), low_vectors (LOW_VECTORS, n_L), high_vectors (HIGH_VECTORS, n_E), low_matrices
+    (LOW_MATRICES, n_L, n_L), packed (m (m+1) / 2,), augmented (m, m + n_L + 1), static_augmented
+    (m, m + n_L + n_rows), z (m, n_L), high_projection (n_L, n_E), low_share (n_L, n_rows), coefficients
+    (SERIES_TERMS + n_E,). The same function serves the CPU (one set for every design) and CUDA
+    (``nonlinear.qsma_cuda``: each thread its slices)."""
+    work = _Work(packed, high_vectors[0], augmented, z, low_matrices[0], high_vectors[1], high_vectors[2],
+                 joint_vectors[0], low_vectors[0], low_matrices[1], low_matrices[2], low_vectors[1], joint_vectors[1],
+                 low_vectors[2], low_vectors[3], joint_vectors[2], high_vectors[3], joint_vectors[3], coefficients)
+    return (work, joint_vectors[4], static_augmented, low_share, low_matrices[3], high_projection, low_matrices[4],
+            low_matrices[5], low_matrices[6], low_vectors[4], low_matrices[7])
 
 
 @numba.njit(cache=True)
@@ -187,11 +199,13 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
     kept inside a bracket by bisection, to ESTIMATE_TOLERANCE. Returns mu; w (n_L,) unit and z = Z w (m,) in
     work.w, work.zw."""
     lower_bound = 0.0
-    upper_bound = high_eigenvalues.min() if high_eigenvalues.size else np.inf
+    upper_bound = high_eigenvalues[0] if high_eigenvalues.size else math.inf  # increasing
     if not lower_bound < mu < upper_bound:
-        mu = 0.5 * upper_bound if np.isfinite(upper_bound) else 1.0
+        mu = 0.5 * upper_bound if math.isfinite(upper_bound) else 1.0
     step = 0.0
-    work.augmented[:, -1] = 0.0  # no further right-hand side
+    last = work.augmented.shape[1] - 1
+    for i in range(work.augmented.shape[0]):  # no further right-hand side
+        work.augmented[i, last] = 0.0
     for _ in range(MAX_NEWTON_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, flexibility, work.weights, work.coefficients, work.packed)
         _low_problem(mu, inverse_stiffness, low_eigenvalues, low_modes, work.packed, work.augmented, work)
@@ -213,7 +227,7 @@ def _branch_root(branch, mu, inverse_stiffness, low_eigenvalues, low_modes, high
             upper_bound = mu
         mu += step
         if not lower_bound < mu < upper_bound:
-            mu = 0.5 * (lower_bound + upper_bound) if np.isfinite(upper_bound) else 2.0 * lower_bound
+            mu = 0.5 * (lower_bound + upper_bound) if math.isfinite(upper_bound) else 2.0 * lower_bound
     return mu + step
 
 
@@ -231,7 +245,7 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     m, n_low = low_modes.shape
     force, v_low, weights, high, modal, low = work.force, work.v_low, work.weights, work.high, work.modal, work.low
     product, augmented = work.product, work.augmented
-    last_step = np.inf
+    last_step = math.inf
     for _ in range(MAX_POLISH_ITERATIONS):
         _high_flexibility(mu, high_eigenvalues, flexibility, weights, work.coefficients, work.packed)
         rmatvec(high_modes, force, high)
@@ -254,7 +268,7 @@ def _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
                 coupling += work.z[i, k] * low[k]
             force[i] = augmented[i, m + n_low] - coupling
             norm += force[i] * force[i]
-        inverse_norm = 1.0 / np.sqrt(norm + dot(low, low))
+        inverse_norm = 1.0 / math.sqrt(norm + dot(low, low))
         for i in range(m):
             force[i] *= inverse_norm
         for k in range(n_low):
@@ -290,7 +304,9 @@ def _high_projection(z, high_modes, projection):
     """Z^T Phi_E (n_L, n_E) into ``projection``: the high modes' share of the joint forces Z (m, n_L), rows
     contiguous."""
     m, n_low = z.shape
-    projection[:] = 0.0
+    for k in range(n_low):
+        for e in range(high_modes.shape[1]):
+            projection[k, e] = 0.0
     for k in range(n_low):
         for i in range(m):
             factor = z[i, k]
@@ -329,7 +345,7 @@ def _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_l
     for k in range(v_low.size):
         squares += v_low[k] * v_low[k]
         projection += v_low[k] * reference_low[k]
-    norm = np.sqrt(squares)
+    norm = math.sqrt(squares)
     projection /= norm
     scale = (1.0 if projection >= 0.0 else -1.0) / norm
     for k in range(v_low.size):
@@ -356,7 +372,7 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     (rad^2/s^2, increasing), whose signs are those of the stuck eigenvalues (S(0) and the stuck matrix have as many
     negative eigenvalues, Sylvester's law of inertia): a negative one is a stuck mode the joint does not hold
     (prestressed halves on too soft a joint), and the design's other outputs are then not defined. Work arrays are
-    allocated once per call.
+    allocated once per call; each design is ``stuck_design``.
 
     Compliance, from the static problem at mu = 0 (load p on r; Z0, S0, X0 at mu = 0; W = K^-1 Z0):
 
@@ -367,127 +383,150 @@ def stuck_designs(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
     """
     n_designs, m = joint_stiffness.shape
     n_low, n_high = low_modes.shape[1], high_modes.shape[1]
-    eigenvalue = np.empty(n_designs)
-    shape_low = np.empty((n_designs, n_low))
-    shape_high = np.empty((n_designs, n_high))
-    joint_shape = np.empty((n_designs, m))
-    mac = np.empty(n_designs)
-    n_rows = rows.size
-    compliance = np.empty((n_designs, n_rows, n_rows))
-    found = np.empty(n_designs, dtype=np.bool_)
-    low_estimates = np.empty((n_designs, n_low))
-    work = _work(m, n_low, n_high)
-    inverse_stiffness = np.empty(m)
-    static_packed = np.empty(m * (m + 1) // 2)
-    static_flexibility = np.empty((m, m))
-    static_augmented = np.empty((m, m + n_low + n_rows))  # [X0, Phi_L, F(0) on the rows]
-    low_share = np.empty((n_low, n_rows))
-    s0_factor = np.empty((n_low, n_low))
-    high0 = np.empty((n_low, n_high))
-    metric = np.empty((n_low, n_low))
-    metric_factor = np.empty((n_low, n_low))
-    projected = np.empty((n_low, n_low))
-    delta = np.empty(n_low)
-    estimates = np.empty((n_low, n_low))
-    inverse_square = np.empty(n_high)
-    _high_flexibility(0.0, high_eigenvalues, flexibility, inverse_square, work.coefficients, static_packed)
+    outputs = stuck_outputs(n_designs, m, n_low, n_high, rows.size)
+    workspace = design_workspace(
+        np.empty((JOINT_VECTORS, m)), np.empty((LOW_VECTORS, n_low)), np.empty((HIGH_VECTORS, n_high)),
+        np.empty((LOW_MATRICES, n_low, n_low)), np.empty(m * (m + 1) // 2), np.empty((m, m + n_low + 1)),
+        np.empty((m, m + n_low + rows.size)), np.empty((m, n_low)), np.empty((n_low, n_high)),
+        np.empty((n_low, rows.size)), np.empty(SERIES_TERMS + n_high))
+    static_packed, static_square, inverse_square = static_flexibility(high_eigenvalues, flexibility, m)
+    problem = (joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
+               reference_low, reference_high, unambiguous_mac, rows, static_packed, static_square, inverse_square)
+    for d in range(n_designs):
+        stuck_design(d, problem, outputs, workspace)
+    return outputs
+
+
+@numba.njit(cache=True)
+def stuck_outputs(n_designs, m, n_low, n_high, n_rows):
+    """The arrays ``stuck_design`` fills (``stuck_designs``' returns, uninitialised): eigenvalue (n_designs,),
+    shape_low (n_designs, n_L), shape_high (n_designs, n_E), joint_shape (n_designs, m), mac (n_designs,),
+    compliance (n_designs, n_rows, n_rows), found (n_designs,) bool and the estimates (n_designs, n_L)."""
+    return (np.empty(n_designs), np.empty((n_designs, n_low)), np.empty((n_designs, n_high)),
+            np.empty((n_designs, m)), np.empty(n_designs), np.empty((n_designs, n_rows, n_rows)),
+            np.empty(n_designs, dtype=np.bool_), np.empty((n_designs, n_low)))
+
+
+@numba.njit(cache=True)
+def static_flexibility(high_eigenvalues, flexibility, m):
+    """What every design shares at mu = 0: F(0) packed (m (m+1) / 2,) and square (m, m), m/N, and
+    1 / lambda_e^2 (n_E,) of the high modes, from ``flexibility_basis``'s rows."""
+    n_high = high_eigenvalues.size
+    packed, square, inverse_square = np.empty(m * (m + 1) // 2), np.empty((m, m)), np.empty(n_high)
+    _high_flexibility(0.0, high_eigenvalues, flexibility, inverse_square, np.empty(SERIES_TERMS + n_high), packed)
     for e in range(n_high):
         inverse_square[e] *= inverse_square[e]
     p = 0
     for i in range(m):
         for j in range(i + 1):
-            static_flexibility[i, j] = static_flexibility[j, i] = static_packed[p]
+            square[i, j] = square[j, i] = packed[p]
             p += 1
-    for d in range(n_designs):
-        for i in range(m):
-            inverse_stiffness[i] = 1.0 / joint_stiffness[d, i]
-        for i in range(m):
-            for b in range(n_rows):
-                static_augmented[i, m + n_low + b] = static_flexibility[i, rows[b]]
-        _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, static_augmented, work)
-        z0, s0 = work.z, work.s
-        # Compliance (X0^-1 F(0) on the rows in static_augmented's last columns).
-        cholesky(s0, s0_factor)
+    return packed, square, inverse_square
+
+
+@numba.njit(cache=True)
+def stuck_design(d, problem, outputs, workspace):
+    """The tracked stuck mode and compliance of design d into row d of ``outputs`` (``stuck_outputs``).
+
+    problem: the arguments of ``stuck_designs`` in its order, then ``static_flexibility``'s three arrays;
+    workspace: this design's work arrays (``design_workspace``), overwritten. The same source compiles for the
+    CPU (``stuck_designs``, one workspace for every design) and for CUDA (``nonlinear.qsma_cuda``, one per
+    thread)."""
+    (joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility, reference_low,
+     reference_high, unambiguous_mac, rows, static_packed, static_square, inverse_square) = problem
+    eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates = outputs
+    (work, inverse_stiffness, static_augmented, low_share, s0_factor, high0, metric, metric_factor, projected, delta,
+     estimates) = workspace
+    m, n_low = low_modes.shape
+    n_high, n_rows = high_modes.shape[1], rows.size
+    for i in range(m):
+        inverse_stiffness[i] = 1.0 / joint_stiffness[d, i]
+    for i in range(m):
+        for b in range(n_rows):
+            static_augmented[i, m + n_low + b] = static_square[i, rows[b]]
+    _low_problem(0.0, inverse_stiffness, low_eigenvalues, low_modes, static_packed, static_augmented, work)
+    z0, s0 = work.z, work.s
+    # Compliance (X0^-1 F(0) on the rows in static_augmented's last columns).
+    cholesky(s0, s0_factor)
+    for k in range(n_low):
+        for b in range(n_rows):
+            low_share[k, b] = z0[rows[b], k] * inverse_stiffness[rows[b]]
+    forward_substitute(s0_factor, low_share)
+    for a in range(n_rows):
+        i = rows[a]
+        for b in range(a + 1):
+            j = rows[b]
+            value = 0.5 * (inverse_stiffness[i] * static_augmented[i, m + n_low + b]
+                           + inverse_stiffness[j] * static_augmented[j, m + n_low + a])
+            for k in range(n_low):
+                value += low_share[k, a] * low_share[k, b]
+            compliance[d, a, b] = compliance[d, b, a] = value
+    # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
+    _high_projection(z0, high_modes, high0)
+    for k in range(n_low):  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
+        for j in range(n_low):
+            total = 1.0 if k == j else 0.0
+            for e in range(n_high):
+                total += high0[k, e] * high0[j, e] * inverse_square[e]
+            metric[k, j] = total
+    cholesky(metric, metric_factor)
+    copy_matrix(s0, projected)
+    forward_substitute(metric_factor, projected)
+    for k in range(n_low):
+        for j in range(n_low):
+            work.small[k, j] = projected[j, k]
+    forward_substitute(metric_factor, work.small)
+    for k in range(n_low):
+        for j in range(k + 1):
+            work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
+    symmetric_eigen_in_place(work.small, delta, estimates)
+    for k in range(n_low):
+        low_estimates[d, k] = delta[k]
+    backward_substitute(metric_factor, estimates)
+    best_branch, best_mac = 0, -1.0
+    for i in range(n_low):
+        norm = 0.0
         for k in range(n_low):
-            for b in range(n_rows):
-                low_share[k, b] = z0[rows[b], k] * inverse_stiffness[rows[b]]
-        forward_substitute(s0_factor, low_share)
-        for a in range(n_rows):
-            i = rows[a]
-            for b in range(a + 1):
-                j = rows[b]
-                value = 0.5 * (inverse_stiffness[i] * static_augmented[i, m + n_low + b]
-                               + inverse_stiffness[j] * static_augmented[j, m + n_low + a])
-                for k in range(n_low):
-                    value += low_share[k, a] * low_share[k, b]
-                compliance[d, a, b] = compliance[d, b, a] = value
-        # Estimates of the low stuck modes: S(0) w = delta (I + Z0^T F'(0) Z0) w.
-        _high_projection(z0, high_modes, high0)
-        for k in range(n_low):  # I + Z0^T F'(0) Z0 = I + sum_e (Phi_e^T Z0)^T (Phi_e^T Z0) / lambda_e^2
-            for j in range(n_low):
-                total = 1.0 if k == j else 0.0
-                for e in range(n_high):
-                    total += high0[k, e] * high0[j, e] * inverse_square[e]
-                metric[k, j] = total
-        cholesky(metric, metric_factor)
-        copy_matrix(s0, projected)
-        forward_substitute(metric_factor, projected)
+            norm += estimates[k, i] * estimates[k, i]
         for k in range(n_low):
-            for j in range(n_low):
-                work.small[k, j] = projected[j, k]
-        forward_substitute(metric_factor, work.small)
-        for k in range(n_low):
-            for j in range(k + 1):
-                work.small[k, j] = work.small[j, k] = 0.5 * (work.small[k, j] + work.small[j, k])
-        symmetric_eigen_in_place(work.small, delta, estimates)
-        for k in range(n_low):
-            low_estimates[d, k] = delta[k]
-        backward_substitute(metric_factor, estimates)
-        best_branch, best_mac = 0, -1.0
-        for i in range(n_low):
+            work.w[k] = estimates[k, i] / math.sqrt(norm)
+        candidate_mac = _estimate_mac(max(delta[i], 0.0), work.w, high0, high_eigenvalues, reference_low,
+                                      reference_high, work.v_high)
+        if candidate_mac > best_mac:
+            best_branch, best_mac = i, candidate_mac
+    # The estimate is within about 1e-3: polish it directly. Only one stuck mode can have a MAC above 0.5,
+    # so if the polished mode does, it is the target whatever path led to it. Otherwise solve every branch
+    # safely (Newton on sigma_j in its bracket, then polish) and keep the best match.
+    best_mac = -1.0
+    for attempt in range(-1, n_low if n_low > 1 else 0):
+        branch = best_branch if attempt < 0 else attempt
+        if attempt < 0:  # Z0 w, the static joint force of the estimate (work.z still holds Z0)
             norm = 0.0
             for k in range(n_low):
-                norm += estimates[k, i] * estimates[k, i]
+                norm += estimates[k, branch] * estimates[k, branch]
             for k in range(n_low):
-                work.w[k] = estimates[k, i] / np.sqrt(norm)
-            candidate_mac = _estimate_mac(max(delta[i], 0.0), work.w, high0, high_eigenvalues, reference_low,
-                                          reference_high, work.v_high)
-            if candidate_mac > best_mac:
-                best_branch, best_mac = i, candidate_mac
-        # The estimate is within about 1e-3: polish it directly. Only one stuck mode can have a MAC above 0.5,
-        # so if the polished mode does, it is the target whatever path led to it. Otherwise solve every branch
-        # safely (Newton on sigma_j in its bracket, then polish) and keep the best match.
-        best_mac = -1.0
-        for attempt in range(-1, n_low if n_low > 1 else 0):
-            branch = best_branch if attempt < 0 else attempt
-            if attempt < 0:  # Z0 w, the static joint force of the estimate (work.z still holds Z0)
-                norm = 0.0
-                for k in range(n_low):
-                    norm += estimates[k, branch] * estimates[k, branch]
-                for k in range(n_low):
-                    work.w[k] = estimates[k, branch] / np.sqrt(norm)
-                matvec(work.z, work.w, work.zw)
-                mu = delta[branch]
-            else:
-                mu = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues, low_modes,
-                                  high_eigenvalues, high_modes, flexibility, work)
+                work.w[k] = estimates[k, branch] / math.sqrt(norm)
+            matvec(work.z, work.w, work.zw)
+            mu = delta[branch]
+        else:
+            mu = _branch_root(branch, delta[branch], inverse_stiffness, low_eigenvalues, low_modes,
+                              high_eigenvalues, high_modes, flexibility, work)
+        for i in range(m):
+            work.force[i] = -work.zw[i]
+        for k in range(work.w.size):
+            work.v_low[k] = work.w[k]
+        mu, converged = _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
+                                high_modes, flexibility, work)
+        candidate_mac = _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low,
+                                    reference_high, work)
+        if candidate_mac > best_mac:
+            best_mac = candidate_mac
+            eigenvalue[d], mac[d], found[d] = mu, candidate_mac, converged
+            for k in range(n_low):
+                shape_low[d, k] = work.v_low[k]
+            for e in range(n_high):
+                shape_high[d, e] = work.v_high[e]
             for i in range(m):
-                work.force[i] = -work.zw[i]
-            for k in range(work.w.size):
-                work.v_low[k] = work.w[k]
-            mu, converged = _polish(mu, inverse_stiffness, low_eigenvalues, low_modes, high_eigenvalues,
-                                    high_modes, flexibility, work)
-            candidate_mac = _mode_shape(mu, inverse_stiffness, high_eigenvalues, high_modes, reference_low,
-                                        reference_high, work)
-            if candidate_mac > best_mac:
-                best_mac = candidate_mac
-                eigenvalue[d], mac[d], found[d] = mu, candidate_mac, converged
-                for k in range(n_low):
-                    shape_low[d, k] = work.v_low[k]
-                for e in range(n_high):
-                    shape_high[d, e] = work.v_high[e]
-                for i in range(m):
-                    joint_shape[d, i] = work.b[i]
-            if best_mac >= unambiguous_mac:
-                break
-    return eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates
+                joint_shape[d, i] = work.b[i]
+        if best_mac >= unambiguous_mac:
+            break

@@ -91,8 +91,8 @@ class Sample:
 class Exploration:
     """What a study evaluates: the structures (same patch groups), friction models, sample, the linear
     damping cases (case name -> value of each structure, in the structures' order) and the rule that makes a
-    case's value each design's zeta_0 (``study.errors.DAMPING_RULES``), and the device that solves the QSMA levels
-    (``nonlinear.qsma_vectorised.qsma_designs``: "cpu" or "cuda"; not in the study key, the results agreeing to
+    case's value each design's zeta_0 (``study.errors.DAMPING_RULES``), and the device that solves the stuck modes
+    and the QSMA levels (``nonlinear.compute_devices``: "cpu" or "cuda"; not in the study key, the results agreeing to
     round-off)."""
 
     structures: tuple[Structure, ...]
@@ -190,7 +190,7 @@ def models_errors(exploration: Exploration, designs: dict, splits=None,
         structure = exploration.structures[index]
         zeta0 = [values[index] for values in exploration.damping_cases.values()]
         stuck = StuckModeCache(structure.space, None if splits is None else splits[index],
-                               tangential_rows(structure.space.superelement.n_patches))
+                               tangential_rows(structure.space.superelement.n_patches), exploration.device)
         for model, model_designs in designs.items():
             errors[model].append(design_errors(structure, model, model_designs, zeta0, stuck=stuck,
                                                rule=exploration.damping_rule, device=exploration.device))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from nonlinear.qsma_vectorised import DEVICES
+from nonlinear.compute_devices import DEVICES
 from study.datasets import DATASET_NAMES, dataset
 from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
 from study.exploration import Sample
@@ -72,8 +72,8 @@ class ParetoParameters:
 
 @dataclass(frozen=True)
 class ComputeParameters:
-    """[compute]: where the QSMA levels of the study's designs are solved (``device``: "cpu", the compiled CPU
-    kernel, or "cuda", the same kernel on a CUDA GPU; ``nonlinear.qsma_vectorised.qsma_designs``). The explore
+    """[compute]: where the stuck modes and QSMA levels of the study's designs are solved (``device``: "cpu", the
+    compiled CPU kernels, or "cuda", the same kernels on a CUDA GPU; ``nonlinear.compute_devices``). The explore
     step, the analyse step's NSGA-II and what reads the study (``surrogacy fit``'s study errors, ``surrogacy
     confidence``) use it; the results agree to round-off across devices, so it is not part of the study key."""
 

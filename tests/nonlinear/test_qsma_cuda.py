@@ -1,9 +1,12 @@
-"""QSMA levels on CUDA (``nonlinear.qsma_cuda``) against the CPU kernel: in numba-cuda's simulator (a subprocess
-with NUMBA_ENABLE_CUDASIM=1, read by numba at import), and on a GPU where there is one.
+"""Stuck modes and QSMA levels on CUDA (``nonlinear.qsma_cuda``) against the CPU kernels: in numba-cuda's simulator (a
+subprocess with NUMBA_ENABLE_CUDASIM=1, read by numba at import), compiled to PTX by NVVM without a GPU, and on a
+GPU where there is one.
 
 The simulator runs the CUDA build's Python source as interpreted Python on the CPU: it checks that the device
 path (the per-thread work arrays, the device functions' globals, the target's primitives) computes what the CPU
-kernel computes, not libdevice's or NVVM's round-off (``benchmarks.gpu_qsma`` measures that on a GPU).
+kernels compute, not libdevice's or NVVM's round-off (``benchmarks.gpu_qsma`` measures that on a GPU). It does not
+check that numba-cuda can compile the source (interpreted, anything Python runs); the PTX test does, for an
+H100's compute capability, where NVVM is installed (the CUDA 12 libraries of the project's ``test`` extra).
 """
 
 import json
@@ -16,7 +19,9 @@ import numpy as np
 import pytest
 from numba import cuda
 
-from nonlinear.qsma_vectorised import level_solver
+from numba.cuda.cudadrv import nvvm
+
+from nonlinear.compute_devices import kernels
 
 RELATIVE = 1e-10
 # Every model on the BRB: 4 designs at 6 amplitudes up to deep slip (iwan5's seed gives a jump of the loading
@@ -26,15 +31,21 @@ SIMULATED = """
 import json, sys
 import numpy as np
 from nonlinear import qsma_cuda, qsma_kernel
-from nonlinear.condensation import joint_space
+from nonlinear.condensation import joint_space, stuck_modes
 from nonlinear.friction_models import MODEL_NAMES
-from nonlinear.joint import random_designs
+from nonlinear.joint import patch_elements, random_designs, stuck_stiffness, tangential_rows
 from nonlinear.qsma_vectorised import qsma_designs
 from reduction.superelement import beam_superelement
 
 space = joint_space(beam_superelement(sys.argv[1]))
 amplitudes = np.geomspace(1e-7, 3e-4, 6)
 rows = {}
+designs = random_designs("iwan4_core", 6, 3, np.random.default_rng(4))
+tangents = stuck_stiffness(patch_elements("iwan4_core", designs, space.superelement.patch_groups))
+cpu, gpu = (stuck_modes(space, tangents, rows=tangential_rows(space.superelement.n_patches), device=device)
+            for device in ("cpu", "cuda"))
+rows["stuck"] = {name: bool(np.array_equal(a, b)) for name, a, b in zip(cpu._fields, cpu, gpu)}
+rows["stuck_found"] = int(cpu.found.sum())
 for model in MODEL_NAMES:
     designs = random_designs(model, 4, 3, np.random.default_rng(1))
     cpu, gpu = (qsma_designs(space, model, designs, amplitudes=amplitudes, linear_damping=1e-3, device=device)
@@ -67,8 +78,15 @@ def simulated(beam_roms):
     return json.loads(run.stdout.splitlines()[-1])
 
 
+def test_cuda_stuck_modes_equal_the_cpu_kernel_in_the_simulator(simulated):
+    """Six BRB designs with a stuck core: every output of the stuck modes (eigenvalue, shapes, MAC, compliance,
+    found, the count of unstable modes) equal to the bit."""
+    assert simulated["stuck"] == dict.fromkeys(simulated["stuck"], True) and len(simulated["stuck"]) == 7
+    assert simulated["stuck_found"] == 6
+
+
 def test_cuda_levels_equal_the_cpu_kernel_in_the_simulator(simulated):
-    models = {model: row for model, row in simulated.items() if model != "pinv"}
+    models = {model: row for model, row in simulated.items() if model not in ("pinv", "stuck", "stuck_found")}
     assert len(models) == 5
     for model, row in models.items():
         assert row["same_reasons"], model
@@ -83,23 +101,78 @@ def test_the_device_pseudo_inverse_of_a_singular_compliance_is_the_cpu_s(simulat
     assert max(simulated["pinv"]) < 1e-14
 
 
+# Both kernels compiled by NVVM to PTX for an H100 (compute capability 9.0), with the argument types of a BRB
+# problem captured from the CPU kernels (numba-cuda compiles a device function for the current GPU's compute
+# capability: without a GPU, the lookup is pointed at 9.0).
+COMPILED = """
+import json, sys, time, types
+import numba
+import numba.cuda.dispatcher
+numba.cuda.dispatcher.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
+import numpy as np
+from numba import cuda
+from nonlinear import compute_devices, qsma_cuda
+from nonlinear.condensation import joint_space
+from nonlinear.joint import random_designs
+from nonlinear.qsma_vectorised import qsma_designs
+from reduction.superelement import beam_superelement
+
+captured = {}
+def capturing(name, kernel):
+    def call(*arguments):
+        captured[name] = arguments
+        return kernel(*arguments)
+    return call
+compute_devices.CPU = compute_devices.Kernels(capturing("stuck", compute_devices.CPU.stuck_designs),
+                                              capturing("levels", compute_devices.CPU.solve_levels))
+space = joint_space(beam_superelement(sys.argv[1]))
+qsma_designs(space, "iwan5", random_designs("iwan5", 2, 3, np.random.default_rng(0)), amplitudes=[1e-6, 1e-5])
+report = {}
+for name, kernel, launch in (("stuck", qsma_cuda.stuck_kernel, qsma_cuda.stuck_launch),
+                             ("levels", qsma_cuda.levels_kernel, qsma_cuda.levels_launch)):
+    arguments, workspace = launch(*captured[name])
+    signature = tuple(numba.typeof(a) for a in arguments) + tuple(
+        numba.types.Array(numba.from_dtype(np.dtype(dtype)), len(shape), "C") for shape, dtype in workspace)
+    start = time.perf_counter()
+    ptx, _ = cuda.compile_ptx(kernel.py_func, signature, cc=(9, 0))
+    report[name] = {"seconds": time.perf_counter() - start, "entry": f"{kernel.py_func.__name__}" in ptx
+                    and ".entry" in ptx, "target": ".target sm_90" in ptx, "float64_ops": ptx.count(".f64")}
+print(json.dumps(report))
+"""
+
+
+def test_the_cuda_kernels_compile_to_ptx_for_an_h100(beam_roms):
+    """numba-cuda types and lowers every device function of the stuck modes and the levels (about 50 s): what the
+    simulator cannot check (an array allocated in a device function, a numpy call the CUDA target lacks)."""
+    if not nvvm.is_available():
+        pytest.skip("NVVM is not installed (the CUDA 12 libraries of the project's `test` or `gpu` extra)")
+    run = subprocess.run([sys.executable, "-c", COMPILED, str(beam_roms / "BRB.npz")], capture_output=True,
+                         text=True, check=False)
+    assert run.returncode == 0, run.stderr[-3000:]
+    report = json.loads(run.stdout.splitlines()[-1])
+    for name in ("stuck", "levels"):
+        assert report[name]["entry"] and report[name]["target"], name
+        assert report[name]["float64_ops"] > 1000, name  # the whole solver, not an empty kernel
+
+
 def test_cuda_without_a_gpu_says_what_is_missing():
     if cuda.is_available():
         pytest.skip("a CUDA GPU (or the simulator) is available here")
     with pytest.raises(RuntimeError, match=r"device='cuda'"):
-        level_solver("cuda")
+        kernels("cuda")
     with pytest.raises(ValueError, match="expected one of"):
-        level_solver("gpu")
+        kernels("gpu")
 
 
 @pytest.mark.slow
 def test_cuda_levels_equal_the_cpu_kernel_on_a_gpu(beam_roms):
-    """200 designs per model on the BRB on a real GPU (numba-cuda compiles the kernel: about a minute)."""
+    """200 designs per model on the BRB on a real GPU, stuck modes and levels (numba-cuda compiles the kernels: about
+    a minute)."""
     if numba.config.ENABLE_CUDASIM or not cuda.is_available():
         pytest.skip("no CUDA GPU here (numba.cuda.is_available() is False, or the simulator is on)")
-    from nonlinear.condensation import joint_space
+    from nonlinear.condensation import joint_space, stuck_modes
     from nonlinear.friction_models import MODEL_NAMES
-    from nonlinear.joint import random_designs
+    from nonlinear.joint import patch_elements, random_designs, stuck_stiffness
     from nonlinear.qsma_vectorised import qsma_designs
     from reduction.superelement import beam_superelement
 
@@ -113,3 +186,7 @@ def test_cuda_levels_equal_the_cpu_kernel_on_a_gpu(beam_roms):
         both = np.isfinite(cpu.frequency)
         assert np.all(np.abs(gpu.frequency / cpu.frequency - 1)[both] <= RELATIVE), model
         assert np.all(np.abs(gpu.damping / cpu.damping - 1)[both] <= RELATIVE), model
+        tangents = stuck_stiffness(patch_elements(model, designs, space.superelement.patch_groups))
+        cpu_modes, gpu_modes = (stuck_modes(space, tangents, device=device) for device in ("cpu", "cuda"))
+        assert np.array_equal(cpu_modes.found, gpu_modes.found), model
+        assert np.all(np.abs(gpu_modes.eigenvalue / cpu_modes.eigenvalue - 1)[cpu_modes.found] <= RELATIVE), model

@@ -637,24 +637,31 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
 
 
-# ``surrogacy study`` with its arguments, counting the calls of the CUDA path's solver (``nonlinear.qsma_cuda``).
+# ``surrogacy study`` with its arguments, counting the calls of the CUDA path's two kernels (``nonlinear.qsma_cuda``).
 COUNTED_CUDA_STUDY = """
 import sys
 from cli.console import main
 from nonlinear import qsma_cuda
-calls, solve_levels = [], qsma_cuda.solve_levels
-qsma_cuda.solve_levels = lambda *arguments: calls.append(1) or solve_levels(*arguments)
+calls = {"stuck_designs": 0, "solve_levels": 0}
+def counted(name, kernel):
+    def call(*arguments):
+        calls[name] += 1
+        return kernel(*arguments)
+    return call
+for name in calls:
+    setattr(qsma_cuda, name, counted(name, getattr(qsma_cuda, name)))
 status = main(sys.argv[1:])
-print(len(calls))
+print(calls["stuck_designs"], calls["solve_levels"])
 sys.exit(status)
 """
 
 
 def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_study, tmp_path):
-    """``--set compute.device=cuda``: the explore step solves every structure's levels of every chunk by the CUDA
-    path (``qsma_designs(device="cuda")``), here numba-cuda's simulator (NUMBA_ENABLE_CUDASIM=1 in the command's
-    process), and writes the rows the CPU wrote: the same designs, flags and reasons, the errors within 1e-10 of the CPU's (the device's round-off is
-    not the CPU's on a GPU; in the simulator it is)."""
+    """``--set compute.device=cuda``: the explore step forms every structure's stuck modes and solves its levels
+    of every chunk by the CUDA path (``qsma_designs(device="cuda")``), here numba-cuda's simulator
+    (NUMBA_ENABLE_CUDASIM=1 in the command's process), and writes the rows the CPU wrote: the same designs, flags
+    and reasons, the errors within 1e-10 of the CPU's (the device's round-off is not the CPU's on a GPU; in the
+    simulator it is)."""
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
     shutil.rmtree(folder / "designs")
@@ -662,7 +669,7 @@ def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_stu
     run = subprocess.run([sys.executable, "-c", COUNTED_CUDA_STUDY, *asb_study_arguments(folder, "explore"),
                           "--set", "compute.device=cuda"], cwd=REPOSITORY, env=environment, check=True,
                          capture_output=True, text=True)
-    assert run.stdout.splitlines()[-1] == "12"  # the six ASB configurations x 2 chunks
+    assert run.stdout.splitlines()[-1] == "12 12"  # the six ASB configurations x 2 chunks, each kernel
     assert json.loads((folder / "study.json").read_text())["configuration"]["compute"] == {"device": "cuda"}
     for chunk in (0, 1):
         cuda, cpu = (pq.read_table(chunk_path(root / "designs", "jenkins", chunk)).to_pandas()
