@@ -1,21 +1,22 @@
-"""QSMA levels on a CUDA GPU against the CPU kernel: equality and designs per second, one run, one table.
+"""Stuck modes and QSMA levels on a CUDA GPU against the CPU kernels: equality and designs per second, one run, one
+table.
 
 Run as ``python -m benchmarks.gpu_qsma OUT [--designs N] [--levels L] [--structures ...] [--models ...]
-[--workers W]`` on a machine with a GPU (numba-cuda and the CUDA libraries of the project's ``gpu`` extra). For
-every structure (the beams of ``build/rom``, the ASB's CD1 where its reduced model is found) and friction model,
-N random Table 3 designs at L modal amplitudes over the ASB's measured range (amplitude control) are evaluated by
+[--workers W]`` on a machine with a GPU (numba-cuda and NVVM: the project's ``gpu`` extra). For every structure
+(the beams of ``build/rom``, the ASB's CD1 where its reduced model is found) and friction model, N random Table 3
+designs at L modal amplitudes over the ASB's measured range (amplitude control) are evaluated by
 ``nonlinear.qsma_vectorised.qsma_designs`` twice: with device="cpu" in W processes (default: every core), each a
-contiguous share of the designs, and with device="cuda", all designs in one launch. Checked per level: the
-status (the reason) equal, and omega and zeta equal within 1e-10 relative where converged. A design whose first
-differing level follows levels that all agree is a branch difference at a flag (a decision at a threshold that
-the two round-offs straddle: libdevice's exp2, log2 and pow and NVVM's fused multiply-adds are not the CPU's);
-one whose numbers drift apart first is a defect. Timed: the levels alone (``solve_levels``: the CPU kernel in
-each process, summed over the processes' wall times / W for the all-core rate, and the GPU call with its
-transfers) and the whole evaluation's wall time (the stuck modes are on the CPU, one process, for the GPU run);
-the GPU's first call (numba-cuda's compile, about a minute) is made on two designs before timing. Writes
-``OUT/gpu_qsma.json`` (every measurement, the branch differences' status pairs) and ``OUT/gpu_qsma.md`` (the
-table). Sized for 16 cores and an H100 within about 8 minutes (not yet run on a GPU); with NUMBA_ENABLE_CUDASIM=1 at a tiny size
-(``--designs 3 --levels 4 --structures BRB --workers 1``) it runs in numba-cuda's simulator, without a GPU.
+contiguous share of the designs, and with device="cuda", all designs in one launch of each kernel. Checked: the
+stuck frequency within 1e-10 relative and defined on both or neither; per level, the status (the reason) equal,
+and omega and zeta equal within 1e-10 relative where converged. A design whose first differing level follows
+levels that all agree is a branch difference at a flag (a decision at a threshold that the two round-offs
+straddle: libdevice's exp2, log2 and pow and NVVM's fused multiply-adds are not the CPU's); one whose numbers
+drift apart first is a defect. Timed: each kernel (``nonlinear.compute_devices``: the stuck modes and the levels;
+on the CPU summed over the processes and divided by W for the all-core rate, on the GPU with its transfers) and
+the whole evaluation's wall time; the GPU's first call (numba-cuda's compile, about a minute) is made on two
+designs before timing. Writes ``OUT/gpu_qsma.json`` (every measurement, the branch differences' status pairs)
+and ``OUT/gpu_qsma.md`` (the table). With NUMBA_ENABLE_CUDASIM=1 at a tiny size (``--designs 3 --levels 4
+--structures BRB --workers 1``) it runs in numba-cuda's simulator, without a GPU.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import functools  # noqa: E402
 import json  # noqa: E402
 import multiprocessing  # noqa: E402
@@ -37,7 +39,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks import ASB_MODELS  # noqa: E402
-from nonlinear import qsma_vectorised  # noqa: E402
+from nonlinear import compute_devices, qsma_vectorised  # noqa: E402
 from nonlinear.condensation import joint_space  # noqa: E402
 from nonlinear.friction_models import MODEL_NAMES  # noqa: E402
 from nonlinear.joint import random_designs  # noqa: E402
@@ -64,33 +66,49 @@ def available_structures() -> list[str]:
     return names + (["ASB CD1"] if (ASB_MODELS / "MAT_NULLRED_CD1.mat").exists() else [])
 
 
-def timed_levels(device: str) -> tuple:
-    """The device's ``solve_levels`` wrapped to add its wall time (s) to the returned list's single entry."""
-    solve, seconds = qsma_vectorised.level_solver(device), [0.0]
+@contextlib.contextmanager
+def timed_kernels(device: str):
+    """The device's two kernels (``nonlinear.compute_devices``) wrapped, while in the block, to add their wall times
+    (s) to the yielded dict's "stuck" and "levels"."""
+    seconds = {"stuck": 0.0, "levels": 0.0}
 
-    def timed(*arguments):
-        start = time.perf_counter()
-        result = solve(*arguments)
-        seconds[0] += time.perf_counter() - start
-        return result
+    def timed(name, kernel):
+        def call(*arguments):
+            start = time.perf_counter()
+            result = kernel(*arguments)
+            seconds[name] += time.perf_counter() - start
+            return result
+        return call
 
-    return timed, seconds
+    if device == "cpu":
+        original = compute_devices.CPU
+        compute_devices.CPU = compute_devices.Kernels(timed("stuck", original.stuck_designs),
+                                                      timed("levels", original.solve_levels))
+        try:
+            yield seconds
+        finally:
+            compute_devices.CPU = original
+        return
+    from nonlinear import qsma_cuda
+
+    original = qsma_cuda.stuck_designs, qsma_cuda.solve_levels
+    qsma_cuda.stuck_designs, qsma_cuda.solve_levels = timed("stuck", original[0]), timed("levels", original[1])
+    try:
+        yield seconds
+    finally:
+        qsma_cuda.stuck_designs, qsma_cuda.solve_levels = original
 
 
 def evaluate(structure: str, model: str, designs: np.ndarray, amplitudes: np.ndarray, device: str) -> tuple:
-    """QSMA of ``designs`` on ``device``: (frequency, damping, reason as str) each (n, L), the levels' seconds and
-    the whole call's."""
-    timed, seconds = timed_levels(device)
-    original = qsma_vectorised.level_solver
-    qsma_vectorised.level_solver = lambda _: timed
-    try:
+    """QSMA of ``designs`` on ``device``: (frequency, damping, reason as str) each (n, L), the stuck frequency
+    (n,), the seconds of the stuck-mode kernel, of the levels' kernel and of the whole call."""
+    with timed_kernels(device) as seconds:
         start = time.perf_counter()
         result = qsma_vectorised.qsma_designs(structure_space(structure), model, designs, amplitudes=amplitudes,
-                              linear_damping=1e-3, device=device)
+                                              linear_damping=1e-3, device=device)
         total = time.perf_counter() - start
-    finally:
-        qsma_vectorised.level_solver = original
-    return result.frequency, result.damping, result.reason.astype(str), seconds[0], total
+    return (result.frequency, result.damping, result.reason.astype(str), result.stuck_frequency, seconds["stuck"],
+            seconds["levels"], total)
 
 
 def n_groups(structure: str) -> int:
@@ -104,11 +122,13 @@ def cpu_share(task: tuple) -> tuple:
 
 
 def compared(cpu: tuple, gpu: tuple) -> dict:
-    """Per-level comparison: the largest relative difference of omega and of zeta where both converged, the levels
-    whose reason differs, and the designs with one, split into branch differences at a flag (every earlier level
-    equal within RELATIVE) and drifts, with the (cpu, gpu) reason pairs of the first differing level."""
+    """Per-level comparison: the largest relative difference of the stuck frequency, of omega and of zeta where
+    both are defined, the designs whose stuck mode is defined on one device only, the levels whose reason
+    differs, and the designs with one, split into branch differences at a flag (every earlier level equal within
+    RELATIVE) and drifts, with the (cpu, gpu) reason pairs of the first differing level."""
     frequency = np.abs(gpu[0] / cpu[0] - 1.0)
     damping = np.abs(gpu[1] / cpu[1] - 1.0)
+    stuck = np.abs(gpu[3] / cpu[3] - 1.0)
     same_reason = cpu[2] == gpu[2]
     close = same_reason & ((frequency <= RELATIVE) & (damping <= RELATIVE) | np.isnan(cpu[0]) & np.isnan(gpu[0]))
     both = same_reason & np.isfinite(cpu[0]) & np.isfinite(gpu[0])
@@ -120,36 +140,42 @@ def compared(cpu: tuple, gpu: tuple) -> dict:
             drifts += 1
         else:
             flags += 1
-    return {"omega": float(frequency[both].max(initial=0.0)), "zeta": float(damping[both].max(initial=0.0)),
+    return {"stuck_frequency": float(stuck[np.isfinite(stuck)].max(initial=0.0)),
+            "stuck_defined_differ": int((np.isfinite(cpu[3]) != np.isfinite(gpu[3])).sum()),
+            "omega": float(frequency[both].max(initial=0.0)), "zeta": float(damping[both].max(initial=0.0)),
             "levels": int(cpu[0].size), "reasons_differ": int((~same_reason).sum()),
             "flagged": int((cpu[2] != "").sum()), "branch_at_flag": flags, "drift": drifts, "pairs": dict(pairs)}
 
 
 def measure(structure: str, model: str, n_designs: int, amplitudes: np.ndarray, pool, workers: int) -> dict:
-    """One structure and model: the GPU against the CPU kernel on the same designs."""
+    """One structure and model: the GPU against the CPU kernels on the same designs; rates in designs per second
+    (the CPU's: its processes' kernel seconds summed, over the number of processes)."""
     designs = random_designs(model, n_designs, n_groups(structure), np.random.default_rng(SEED))
     shares = np.array_split(designs, workers)
     start = time.perf_counter()
     parts = list(pool.map(cpu_share, [(structure, model, share, amplitudes) for share in shares]))
     cpu_wall = time.perf_counter() - start
-    cpu = tuple(np.concatenate([part[k] for part in parts]) for k in range(3))
-    cpu_levels = sum(part[3] for part in parts) / workers
+    cpu = tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
+    cpu_stuck, cpu_levels = (sum(part[k] for part in parts) / workers for k in (4, 5))
     gpu = evaluate(structure, model, designs, amplitudes, "cuda")
     return {"structure": structure, "model": model, "designs": n_designs,
-            "cpu_levels_per_s": n_designs / cpu_levels, "gpu_levels_per_s": n_designs / gpu[3],
-            "cpu_per_s": n_designs / cpu_wall, "gpu_per_s": n_designs / gpu[4], **compared(cpu, gpu)}
+            "cpu_stuck_per_s": n_designs / cpu_stuck, "gpu_stuck_per_s": n_designs / gpu[4],
+            "cpu_levels_per_s": n_designs / cpu_levels, "gpu_levels_per_s": n_designs / gpu[5],
+            "cpu_per_s": n_designs / cpu_wall, "gpu_per_s": n_designs / gpu[6], **compared(cpu, gpu[:4])}
 
 
 def table(rows: list[dict], workers: int) -> list[str]:
     """The markdown table of the measurements."""
-    lines = [f"| structure | model | designs | levels/s CPU ({workers} proc.) | levels/s GPU | ratio | "
-             "whole/s CPU | whole/s GPU | max rel omega | max rel zeta | reasons differ | at flag | drift |",
-             "|" + "---|" * 13]
+    lines = [f"| structure | model | designs | stuck modes/s CPU ({workers} proc.) | GPU | levels/s CPU | GPU | "
+             "whole/s CPU | GPU | ratio | max rel stuck f | max rel omega | max rel zeta | stuck defined differ | "
+             "reasons differ | at flag | drift |", "|" + "---|" * 17]
     for r in rows:
-        lines.append(f"| {r['structure']} | {r['model']} | {r['designs']} | {r['cpu_levels_per_s']:.0f} | "
-                     f"{r['gpu_levels_per_s']:.0f} | {r['gpu_levels_per_s'] / r['cpu_levels_per_s']:.2f} | "
-                     f"{r['cpu_per_s']:.0f} | {r['gpu_per_s']:.0f} | {r['omega']:.1e} | {r['zeta']:.1e} | "
-                     f"{r['reasons_differ']} of {r['levels']} | {r['branch_at_flag']} | {r['drift']} |")
+        lines.append(f"| {r['structure']} | {r['model']} | {r['designs']} | {r['cpu_stuck_per_s']:.0f} | "
+                     f"{r['gpu_stuck_per_s']:.0f} | {r['cpu_levels_per_s']:.0f} | {r['gpu_levels_per_s']:.0f} | "
+                     f"{r['cpu_per_s']:.0f} | {r['gpu_per_s']:.0f} | {r['gpu_per_s'] / r['cpu_per_s']:.2f} | "
+                     f"{r['stuck_frequency']:.1e} | {r['omega']:.1e} | {r['zeta']:.1e} | "
+                     f"{r['stuck_defined_differ']} | {r['reasons_differ']} of {r['levels']} | "
+                     f"{r['branch_at_flag']} | {r['drift']} |")
     return lines
 
 
