@@ -7,7 +7,9 @@ study projected and the one measured earlier), analysis (the analyse step's pass
 wall time and peak memory, flat in N), calibration (time and evaluations per ASB configuration and
 model), surrogacy (subset simulation against brute force for SC at tightening bounds), discrepancy (the one-mode
 loop's Jacobian batched against one evaluation per column, and whole loops with their fits counted), dask (serial
-against LocalClusters of 1 and 2 workers), and last the wall time of the whole run. The table
+against LocalClusters of 1 and 2 workers), gpu (where a CUDA GPU is: each friction model on the GPU against the CPU
+kernels on every core, and the exploration on both; ``benchmarks.gpu_check``), and last the wall time of the whole
+run. The table
 (``benchmarks.table``) is also written to ``<out>/bench.md`` and ``<out>/bench.csv``.
 Run: ``python -m benchmarks [--fem-meshes coarse|default] [--out results/bench]``.
 """
@@ -21,8 +23,8 @@ import os
 import time
 from pathlib import Path
 
-from benchmarks import (analysis, calibration, dask_speedup, discrepancy, fem, geometry, qsma, reduction, study,
-                        surrogacy_confidence)
+from benchmarks import (analysis, calibration, dask_speedup, discrepancy, fem, geometry, gpu_check, qsma, reduction,
+                        study, surrogacy_confidence)
 from benchmarks.table import row, show, write
 
 
@@ -43,7 +45,7 @@ def main(argv=None) -> None:
                 f"timings are noisy (+-10 % or more); FE on {arguments.fem_meshes} meshes"]
     stages = itertools.chain(geometry.rows(), fem.rows(coarse=arguments.fem_meshes == "coarse"), reduction.rows(),
                              qsma.rows(), study.rows(), analysis.rows(), calibration.rows(), surrogacy_confidence.rows(),
-                             discrepancy.rows(), dask_speedup.rows())
+                             discrepancy.rows(), dask_speedup.rows(), gpu_check.rows())
     rows = show(itertools.chain(stages, _whole_run(start)), preamble)
     markdown, table = write(rows, arguments.out, preamble)
     print(f"{rows[-1]['seconds']:.0f} s in all; table written to {markdown} and {table}")

@@ -52,18 +52,19 @@ SEED = 40
 
 
 @functools.cache
-def structure_space(name: str):
-    """The joint space of a beam's default-mesh superelement in build/rom, or of the ASB configuration
-    ("ASB CD1"); once per process."""
-    if name.startswith("ASB "):
-        return joint_space(read_asb_superelement(ASB_MODELS / f"MAT_NULLRED_{name.split()[1]}.mat"))
-    return joint_space(beam_superelement(ROM / f"{name}.npz"))
+def structure_space(structure: tuple[str, Path]):
+    """The joint space of a structure (name, file): a beam's superelement (.npz of the reduction stage) or an ASB
+    configuration's reduced model (.mat); once per process."""
+    name, path = structure
+    return joint_space(read_asb_superelement(path) if name.startswith("ASB ") else beam_superelement(path))
 
 
-def available_structures() -> list[str]:
-    """The beams whose superelement is in build/rom, and the ASB's CD1 where its reduced model is found."""
-    names = [beam for beam in ("BRB", "LBRB", "SBRB") if (ROM / f"{beam}.npz").exists()]
-    return names + (["ASB CD1"] if (ASB_MODELS / "MAT_NULLRED_CD1.mat").exists() else [])
+def available_structures(rom: Path = ROM, asb_models: Path = ASB_MODELS) -> list[tuple[str, Path]]:
+    """(name, file) of the beams whose superelement is in ``rom``, and of the ASB's CD1 where its reduced model
+    is in ``asb_models``."""
+    structures = [(beam, rom / f"{beam}.npz") for beam in ("BRB", "LBRB", "SBRB") if (rom / f"{beam}.npz").exists()]
+    cd1 = asb_models / "MAT_NULLRED_CD1.mat"
+    return structures + ([("ASB CD1", cd1)] if cd1.exists() else [])
 
 
 @contextlib.contextmanager
@@ -99,7 +100,7 @@ def timed_kernels(device: str):
         qsma_cuda.stuck_designs, qsma_cuda.solve_levels = original
 
 
-def evaluate(structure: str, model: str, designs: np.ndarray, amplitudes: np.ndarray, device: str) -> tuple:
+def evaluate(structure: tuple[str, Path], model: str, designs: np.ndarray, amplitudes: np.ndarray, device: str) -> tuple:
     """QSMA of ``designs`` on ``device``: (frequency, damping, reason as str) each (n, L), the stuck frequency
     (n,), the seconds of the stuck-mode kernel, of the levels' kernel and of the whole call."""
     with timed_kernels(device) as seconds:
@@ -111,7 +112,7 @@ def evaluate(structure: str, model: str, designs: np.ndarray, amplitudes: np.nda
             seconds["levels"], total)
 
 
-def n_groups(structure: str) -> int:
+def n_groups(structure: tuple[str, Path]) -> int:
     """The structure's number of patch groups (a design's width)."""
     return max(structure_space(structure).superelement.patch_groups) + 1
 
@@ -147,7 +148,7 @@ def compared(cpu: tuple, gpu: tuple) -> dict:
             "flagged": int((cpu[2] != "").sum()), "branch_at_flag": flags, "drift": drifts, "pairs": dict(pairs)}
 
 
-def measure(structure: str, model: str, n_designs: int, amplitudes: np.ndarray, pool, workers: int) -> dict:
+def measure(structure: tuple[str, Path], model: str, n_designs: int, amplitudes: np.ndarray, pool, workers: int) -> dict:
     """One structure and model: the GPU against the CPU kernels on the same designs; rates in designs per second
     (the CPU's: its processes' kernel seconds summed, over the number of processes)."""
     designs = random_designs(model, n_designs, n_groups(structure), np.random.default_rng(SEED))
@@ -158,7 +159,7 @@ def measure(structure: str, model: str, n_designs: int, amplitudes: np.ndarray, 
     cpu = tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
     cpu_stuck, cpu_levels = (sum(part[k] for part in parts) / workers for k in (4, 5))
     gpu = evaluate(structure, model, designs, amplitudes, "cuda")
-    return {"structure": structure, "model": model, "designs": n_designs,
+    return {"structure": structure[0], "model": model, "designs": n_designs,
             "cpu_stuck_per_s": n_designs / cpu_stuck, "gpu_stuck_per_s": n_designs / gpu[4],
             "cpu_levels_per_s": n_designs / cpu_levels, "gpu_levels_per_s": n_designs / gpu[5],
             "cpu_per_s": n_designs / cpu_wall, "gpu_per_s": n_designs / gpu[6], **compared(cpu, gpu[:4])}
@@ -184,13 +185,16 @@ def main(argv=None) -> int:
     parser.add_argument("out", type=Path, help="folder for gpu_qsma.json and gpu_qsma.md")
     parser.add_argument("--designs", type=int, default=10000)
     parser.add_argument("--levels", type=int, default=20)
-    parser.add_argument("--structures", nargs="+", default=None, help="default: " + " ".join(available_structures()))
+    parser.add_argument("--structures", nargs="+", default=None, help="names (default: every one found)")
     parser.add_argument("--models", nargs="+", default=list(MODEL_NAMES), choices=MODEL_NAMES)
     parser.add_argument("--workers", type=int, default=os.cpu_count())
+    parser.add_argument("--rom", type=Path, default=ROM, help="folder of the beams' superelements")
+    parser.add_argument("--asb-models", type=Path, default=ASB_MODELS, help="folder of the ASB's reduced models")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     amplitudes = np.geomspace(*AMPLITUDE_RANGE, args.levels)
-    structures = args.structures or available_structures()
+    structures = [structure for structure in available_structures(args.rom, args.asb_models)
+                  if args.structures is None or structure[0] in args.structures]
     warm = random_designs(args.models[0], 2, n_groups(structures[0]), np.random.default_rng(0))
     rows = []
     # spawned workers: none inherits the GPU context of this process

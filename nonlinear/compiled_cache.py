@@ -2,7 +2,8 @@
 
 numba checks a cached kernel against the source file that defines it only (its modification time and size), but
 the kernels inline functions of the other kernel files (``nonlinear.dense_linear_algebra`` into
-``nonlinear.stuck_modes`` and ``nonlinear.qsma_kernel``): after a change to one file alone (an edit, a
+``nonlinear.stuck_modes`` and ``nonlinear.qsma_kernel``, all three into the CUDA kernels of
+``nonlinear.qsma_cuda``): after a change to one file alone (an edit, a
 ``git pull``) the others would load compiled code of the old one. ``drop_stale_kernels`` keys the cache on every
 kernel file at once: the SHA-256 of their sources and of the numba and Python versions is stamped beside the
 cache, and where it differs every compiled file of those kernels is removed, so that they compile afresh. It runs
@@ -21,19 +22,22 @@ from pathlib import Path
 import numba
 
 KERNEL_MODULES = ("dense_linear_algebra", "stuck_modes", "qsma_kernel")
+"""The CPU kernels' modules, which every QSMA call compiles at first use."""
+CACHED_MODULES = (*KERNEL_MODULES, "qsma_cuda")
+"""Every module whose compiled code numba keeps on disk: the CPU kernels and the CUDA ones built from them."""
 STAMP = "compiled-kernels.sha256"
 
 
 def kernel_digest(folder: Path) -> str:
-    """SHA-256 of the kernel modules' sources in ``folder``, numba's version and Python's."""
+    """SHA-256 of the cached modules' sources in ``folder``, numba's version and Python's."""
     digest = hashlib.sha256(f"numba {numba.__version__} python {sys.version}".encode())
-    for module in KERNEL_MODULES:
+    for module in CACHED_MODULES:
         digest.update((folder / f"{module}.py").read_bytes())
     return digest.hexdigest()
 
 
 def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
-    """Remove numba's cached index and data files (``.nbi``, ``.nbc``) of the kernel modules in
+    """Remove numba's cached index and data files (``.nbi``, ``.nbc``) of the cached modules in
     ``folder/__pycache__`` unless the stamp there holds the current ``kernel_digest``, then stamp it; returns the
     files removed. Nothing is done where the folder cannot be written (numba then caches elsewhere, and an
     installed package's files change all together)."""
@@ -45,7 +49,7 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
     with contextlib.suppress(OSError):
         if stamp.read_text() == current:
             return []
-    removed = [path for module in KERNEL_MODULES for pattern in (f"{module}.*.nbi", f"{module}.*.nbc")
+    removed = [path for module in CACHED_MODULES for pattern in (f"{module}.*.nbi", f"{module}.*.nbc")
                for path in cache.glob(pattern)]
     for path in removed:
         with contextlib.suppress(FileNotFoundError):  # another process starting at once removed it first

@@ -16,6 +16,8 @@ read neighbouring addresses); ``stuck_designs`` likewise for ``stuck_modes.stuck
 The numbers are the CPU kernel's to round-off, not to the bit: libdevice's exp2, log2 and pow are not the CPU's,
 NVVM fuses multiply-adds (its default) and the Jacobi eigenvectors are not LAPACK's; a level decided at a
 threshold (a flag, a substep's regime) can go either way where the two round-offs straddle it.
+The two kernels are kept in numba's on-disk cache (a study's workers and the process that analyses it load them
+instead of compiling them, about a minute each), which ``nonlinear.compiled_cache`` keys on every kernel source.
 With NUMBA_ENABLE_CUDASIM=1 the same source runs in numba-cuda's simulator (interpreted Python on the CPU, for
 tests without a GPU). Needs the package numba-cuda (the project's ``test`` and ``gpu`` extras).
 """
@@ -84,7 +86,7 @@ STUCK = device_functions(stuck_modes, {name: DENSE[name] for name in (
 stuck_design, stuck_design_workspace = STUCK["stuck_design"], STUCK["design_workspace"]
 
 
-@cuda.jit
+@cuda.jit(cache=True)
 def stuck_kernel(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
                  reference_low, reference_high, unambiguous_mac, rows, static_packed, static_square, inverse_square,
                  eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates, joint_vectors,
@@ -104,7 +106,7 @@ def stuck_kernel(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, 
                                             low_share[:, :, d], coefficients[:, d]))
 
 
-@cuda.jit
+@cuda.jit(cache=True)
 def levels_kernel(levels, linear_per_level, compliance, phi, r, s, chi, theta, stuck, eigenvalue, joint_shape,
                   amplitude_control, linear_damping, stiffness, core, mechanisms, mechanism_load, defined, solutions,
                   joint_displacement, slip_ratio, status, amplitude, force, frequency, damping, work, matrix,

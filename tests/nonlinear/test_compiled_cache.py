@@ -14,18 +14,19 @@ import pytest
 
 import nonlinear
 from locations import ASB_MODELS
-from nonlinear.compiled_cache import (KERNEL_MODULES, STAMP, announce_compiling, drop_stale_kernels,
-                                     kernels_cached)
+from nonlinear.compiled_cache import (CACHED_MODULES, KERNEL_MODULES, STAMP, announce_compiling,
+                                     drop_stale_kernels, kernels_cached)
 
 SOURCES = Path(nonlinear.__file__).parent
 
 
 def test_a_change_to_any_kernel_file_drops_every_kernel_s_compiled_code(tmp_path):
-    for module in KERNEL_MODULES:
+    """The CPU kernels and the CUDA ones compiled from them (``nonlinear.qsma_cuda``) alike."""
+    for module in CACHED_MODULES:
         shutil.copy(SOURCES / f"{module}.py", tmp_path)
     cache = tmp_path / "__pycache__"
     cache.mkdir()
-    compiled = [cache / f"{module}.kernel-10.py311.{kind}" for module in KERNEL_MODULES for kind in ("nbi", "nbc")]
+    compiled = [cache / f"{module}.kernel-10.py311.{kind}" for module in CACHED_MODULES for kind in ("nbi", "nbc")]
     other = cache / "joint.cpython-311.pyc"
     for path in [*compiled, other]:
         path.write_bytes(b"compiled")
