@@ -38,9 +38,19 @@ SIZE = 0.1
 pytestmark = pytest.mark.skipif(not KEY.is_file(), reason=f"{CHALLENGE} not found (the ring-down challenge set)")
 
 
-def cases() -> list:
+LONGEST = {"P3", "P5", "P8"}
+"""The cases whose loop takes about a minute each with the key's nominal (two slip stages and an effect to size):
+in ``make test-slow``, the others in the default run."""
+
+
+def case_names() -> list:
     """The set's cases."""
     return sorted(json.loads(KEY.read_text())["cases"]) if KEY.is_file() else []
+
+
+def cases() -> list:
+    """The set's cases as test parameters, those of LONGEST marked slow."""
+    return [pytest.param(name, marks=pytest.mark.slow) if name in LONGEST else name for name in case_names()]
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +63,7 @@ def backbones(tmp_path_factory):
     """freevib on every file of the set, once: case -> (backbone CSV, freevib's JSON record)."""
     folder = tmp_path_factory.mktemp("challenge")
     made = {}
-    for case in cases():
+    for case in case_names():
         ringdown = challenge_ringdown(case, folder)
         assert main(["freevib", str(ringdown), "--mode-hz", "170", "--out", str(folder / f"fv{case}")]) == 0
         made[case] = (next((folder / f"fv{case}").glob("*_backbone.csv")),
