@@ -36,7 +36,8 @@ DEMO := $(SURROGACY) demo --data $(ASB_DATA) $(if $(REFERENCE),--reference $(REF
 STEPS := study-asb beams fe rom freevib fit-asb study-beams discrepancy discrepancy-modal-asb fit-beams confidence-asb \
   confidence-beams report
 
-.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence tune-frequencies bench epmc clean system-packages data
+.PHONY: demo test test-slow $(STEPS) study study-full fe-convergence tune-frequencies bench gpu-check-bundle epmc clean \
+  system-packages data
 
 demo: $(STAMP)
 	$(DEMO)
@@ -78,6 +79,12 @@ tune-frequencies: $(STAMP)
 
 bench: $(STAMP)
 	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks
+
+# What the check of the CUDA path on a GPU machine reads (build/gpu-check, 18 MiB: the beams' superelements and
+# study measurements, ASB CD1, the Python 3.12 wheels the machine lacks); its one command there is in
+# benchmarks/gpu_check.py and docs/benchmarks.md.
+gpu-check-bundle: rom study-beams
+	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks.gpu_check prepare build/gpu-check
 
 # QSMA against the nonlinear mode by harmonic balance (EPMC) on the studies' representative designs, every friction
 # model, the beams and the ASB's CD1 (results/epmc/study_<dataset>.csv, report section 10; 57 designs, 9 min of CPU,

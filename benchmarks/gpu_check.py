@@ -3,8 +3,8 @@
 A GPU machine is lent rarely, for minutes, without network, with Python 3.12 and an image that has numpy, scipy,
 numba, numba-cuda, pyarrow, pandas, statsmodels and tqdm but not the rest of the project's dependencies. So:
 
-``python -m benchmarks.gpu_check prepare [BUNDLE]`` (here; default build/gpu-check, under build/ and so ignored by
-git) writes what the check reads, in about 12 MiB:
+``python -m benchmarks.gpu_check prepare [BUNDLE]`` (here, ``make gpu-check-bundle``; default build/gpu-check, under
+build/ and so ignored by git) writes what the check reads, in about 18 MiB:
     rom/<beam>.npz            the beams' superelements from build/rom without the stress-recovery arrays (the
                               designs' evaluation reads only the superelement: the same joint spaces, the same
                               study key)
