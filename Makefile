@@ -80,7 +80,7 @@ tune-frequencies: $(STAMP)
 bench: $(STAMP)
 	ASB_DATA=$(ASB_DATA) $(BIN)/python -m benchmarks
 
-# What the check of the CUDA path on a GPU machine reads (build/gpu-check, 18 MiB: the beams' superelements and
+# What the check of the CUDA path on a GPU machine reads (build/gpu-check, 35 MiB: the beams' superelements and
 # study measurements, ASB CD1, the Python 3.12 wheels the machine lacks); its one command there is in
 # benchmarks/gpu_check.py and docs/benchmarks.md.
 gpu-check-bundle: rom study-beams

@@ -4,15 +4,15 @@ A GPU machine is lent rarely, for minutes, without network, with Python 3.12 and
 numba, numba-cuda, pyarrow, pandas, statsmodels and tqdm but not the rest of the project's dependencies. So:
 
 ``python -m benchmarks.gpu_check prepare [BUNDLE]`` (here, ``make gpu-check-bundle``; default build/gpu-check, under
-build/ and so ignored by git) writes what the check reads, in about 18 MiB:
+build/ and so ignored by git) writes what the check reads, in about 35 MiB:
     rom/<beam>.npz            the beams' superelements from build/rom without the stress-recovery arrays (the
                               designs' evaluation reads only the superelement: the same joint spaces, the same
                               study key)
     asb-reduced-models/       the ASB's reduced model of CD1 (from the measured data)
     study-beams/              the beams' study folder from results/study-beams: study.json and measurements/ (the
                               virtual experiments, not repeated there)
-    wheels/                   the Python 3.12 wheels of what the image lacks for the study (dask, distributed,
-                              pymoo and their own needs: ``WHEELS``), installed there with --no-index
+    wheels/                   the Python 3.12 wheels of what the image lacks for the study, and numpy and numba-cuda
+                              at versions that compile CUDA together (``WHEELS``), installed there with --no-index
 
 ``python -m benchmarks.gpu_check run OUT [--bundle BUNDLE]`` (there, after ``pip install --no-index --no-deps
 --target /tmp/site BUNDLE/wheels/*.whl`` and with PYTHONPATH=/tmp/site:.), each part written to OUT as it ends:
@@ -60,11 +60,14 @@ RECOVERY = ("interface_lower_recovery", "interface_upper_recovery", "vertex_reco
             "interface_points")
 """Arrays of a beam's reduction output that map the superelement back to the mesh (stresses, figures): not read
 by the designs' evaluation, and most of the file."""
-WHEELS = ("scikit-fem", "dask", "distributed", "tornado", "zict", "tblib", "partd", "locket", "pymoo", "moocore", "cffi",
-          "pycparser", "platformdirs", "autograd", "cma", "alive-progress", "about-time", "graphemeu",
-          "deprecated")
-"""What the GPU machine's image lacks for the study's explore and analyse steps: dask.distributed and pymoo with
-their own needs, each at its version in the environment that prepares the bundle (the project's tested ones)."""
+WHEELS = ("numpy", "numba-cuda", "scikit-fem", "dask", "distributed", "tornado", "zict", "tblib", "partd", "locket",
+          "pymoo", "moocore", "cffi", "pycparser", "platformdirs", "autograd", "cma", "alive-progress", "about-time",
+          "graphemeu", "deprecated")
+"""What the GPU machine's image lacks for the study's explore and analyse steps (dask.distributed, pymoo,
+scikit-fem and their own needs), and the two it has at versions that do not compile CUDA together: numba-cuda
+0.30 registers ``np.row_stack``, which numpy 2.5 removed (seen here on Python 3.12 with numpy 2.5.5: numba-cuda's
+CUDA target fails to load; the simulator does not load it). Each at its version in the environment that prepares
+the bundle (the project's tested ones); installed ahead of the image's packages on the path."""
 PLATFORMS = ("manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64",
              "manylinux1_x86_64")
 RELATIVE = 1e-10
