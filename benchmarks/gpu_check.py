@@ -39,18 +39,30 @@ from __future__ import annotations
 
 import argparse
 import json
-from importlib import metadata
+import multiprocessing
 import os
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
-import zipfile
+from concurrent.futures import ProcessPoolExecutor
+from importlib import metadata
 from pathlib import Path
 
+import numba
 import numpy as np
+import psutil
+import pyarrow.parquet as pq
+
+from benchmarks import ASB_MODELS, gpu_qsma, study
+from benchmarks.table import row
+from nonlinear import compute_devices
+from nonlinear.friction_models import MODEL_NAMES
+from pipeline.runners import runner
+from study.exploration import Exploration, Sample, explore
 
 ROM = Path("build/rom")
 STUDY = Path("results/study-beams")
@@ -75,8 +87,6 @@ RELATIVE = 1e-10
 
 def prepare(bundle: Path) -> None:
     """Write the bundle (module docstring) from build/rom, results/study-beams and the measured data."""
-    from benchmarks import ASB_MODELS
-
     missing = [path for path in (*(ROM / f"{beam}.npz" for beam in BEAMS), STUDY / "study.json",
                                  STUDY / "measurements", ASB_MODELS / "MAT_NULLRED_CD1.mat") if not path.exists()]
     if missing:
@@ -101,6 +111,21 @@ def prepare(bundle: Path) -> None:
     print(f"wrote {bundle}: {size / 2 ** 20:.1f} MiB")
 
 
+def gpu_memory_reader():
+    """A function giving the memory in use on the first GPU (MiB, by NVML), or None where nvidia-ml-py (on the GPU
+    machine, not a dependency of the project) or a driver is missing."""
+    try:
+        import pynvml
+    except ImportError:
+        return None
+    try:
+        pynvml.nvmlInit()
+        handle = pynvml.nvmlDeviceGetHandleByIndex(0)
+    except pynvml.NVMLError:
+        return None
+    return lambda: pynvml.nvmlDeviceGetMemoryInfo(handle).used / 2 ** 20
+
+
 class PeakSampler:
     """Peak resident memory (MiB) of this process and all its descendants, and peak GPU memory in use (MiB, NVML;
     None where nvidia-ml-py or a GPU is missing), sampled every ``interval`` s in a thread while in the block."""
@@ -109,19 +134,8 @@ class PeakSampler:
         self.interval, self.host_mib, self.gpu_mib = interval, 0.0, None
         self._stop = threading.Event()
 
-    def _gpu_used(self):
-        try:
-            import pynvml
-
-            pynvml.nvmlInit()
-            return lambda: pynvml.nvmlDeviceGetMemoryInfo(pynvml.nvmlDeviceGetHandleByIndex(0)).used / 2 ** 20
-        except Exception:  # no nvidia-ml-py, no driver: the GPU's memory is not measured
-            return None
-
     def _sample(self) -> None:
-        import psutil
-
-        gpu_used, root = self._gpu_used(), psutil.Process()
+        gpu_used, root = gpu_memory_reader(), psutil.Process()
         while not self._stop.is_set():
             total = 0
             for process in (root, *root.children(recursive=True)):
@@ -190,8 +204,6 @@ def study_run(bundle: Path, folder: Path, device: str, designs: int, chunk: int,
 def shared_chunks(gpu: Path, cpu: Path) -> dict:
     """The chunk files both studies wrote (the same designs: a chunk's designs depend on its seed and index only),
     compared column by column: floats within RELATIVE of the CPU's (NaN where the CPU's is), the rest equal."""
-    import pyarrow.parquet as pq
-
     worst, differing, files = 0.0, [], 0
     for path in sorted((cpu / "designs").glob("*/chunk-*.parquet")):
         other = gpu / "designs" / path.parent.name / path.name
@@ -217,15 +229,16 @@ def shared_chunks(gpu: Path, cpu: Path) -> dict:
 def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, cpu_designs: int, chunk: int,
         workers: int | None, settings: tuple = (), timeout: float | None = None) -> None:
     """The check (module docstring), each part written to ``out`` as it ends."""
-    from benchmarks import gpu_qsma
-
     out.mkdir(parents=True, exist_ok=True)
     record = {"python": sys.version, "cores": os.cpu_count(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}
     smi = shutil.which("nvidia-smi")
     if smi:
         record["gpu"] = subprocess.run([smi, "--query-gpu=name,driver_version,memory.total", "--format=csv,noheader"],
                                        capture_output=True, text=True).stdout.strip()
-    write = lambda: (out / "gpu_check.json").write_text(json.dumps(record, indent=1))  # noqa: E731
+
+    def write():
+        (out / "gpu_check.json").write_text(json.dumps(record, indent=1))
+
     write()
     worker_options = ["--workers", str(workers)] if workers else []
     gpu_qsma.main([str(out), "--designs", str(designs), "--levels", str(levels), "--rom", str(bundle / "rom"),
@@ -256,10 +269,6 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
 
 def gpu_missing() -> str | None:
     """Why the GPU rows cannot run here (no numba-cuda, no GPU, or its simulator on), or None."""
-    import numba
-
-    from nonlinear import compute_devices
-
     if numba.config.ENABLE_CUDASIM:
         return "numba-cuda's simulator is on (NUMBA_ENABLE_CUDASIM): no GPU timings"
     try:
@@ -272,21 +281,12 @@ def gpu_missing() -> str | None:
 def exploration_seconds(device: str, designs: int, chunk: int) -> tuple:
     """The paper's four models explored on the three beams (``benchmarks.study``'s known-answer structures), a
     LocalCluster of a worker per core, ``device``: (wall s, peak host MiB, peak GPU MiB or None)."""
-    import tempfile
-
-    from benchmarks import study
-    from pipeline.runners import Dask, local_cluster
-    from study.exploration import Exploration, Sample, explore
-
     exploration = Exploration(study.beams(), study.PAPER_MODELS, Sample(seed=1, n_designs=designs, chunk_size=chunk),
                               study.DAMPING_CASES, device=device)
-    with tempfile.TemporaryDirectory() as folder, PeakSampler() as peak, local_cluster() as cluster:
-        from distributed import Client
-
-        with Client(cluster) as client:
-            start = time.perf_counter()
-            explore(exploration, Path(folder), Dask(client), progress=False)
-            seconds = time.perf_counter() - start
+    with tempfile.TemporaryDirectory() as folder, PeakSampler() as peak, runner("local") as cluster:
+        start = time.perf_counter()
+        explore(exploration, Path(folder), cluster, progress=False)
+        seconds = time.perf_counter() - start
     return seconds, peak.host_mib, peak.gpu_mib
 
 
@@ -296,13 +296,6 @@ def rows(designs: int = 20_000, explored: int = 1_000_000, chunk: int = 50_000):
     (``benchmarks.gpu_qsma.measure``); then the paper's four models explored on the three beams, ``explored``
     designs per model in chunks of ``chunk`` on a LocalCluster, on the GPU and (a fifth of them) on the CPU: wall
     time, peak host and GPU memory, and the paper's scale (5,000,000 designs per model) projected from each."""
-    from concurrent.futures import ProcessPoolExecutor
-    import multiprocessing
-
-    from benchmarks import gpu_qsma
-    from benchmarks.table import row
-    from nonlinear.friction_models import MODEL_NAMES
-
     missing = gpu_missing()
     if missing:
         yield row("gpu", "all rows", note=f"skipped: {missing}")
