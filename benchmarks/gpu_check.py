@@ -338,7 +338,7 @@ def main(argv=None) -> int:
     checking.add_argument("--cpu-designs", type=int, default=1_000_000, help="designs per model, CPU study")
     checking.add_argument("--chunk", type=int, default=50_000, help="designs per chunk, both studies")
     checking.add_argument("--workers", type=int, default=None, help="CPU processes of the equality check (every core)")
-    checking.add_argument("--study-timeout", type=float, default=300.0, help="seconds each study may take")
+    checking.add_argument("--study-timeout", type=float, default=240.0, help="seconds each study may take")
     checking.add_argument("--set", dest="settings", nargs="*", default=(), metavar="SECTION.FIELD=VALUE",
                           help="further settings of both studies")
     arguments = parser.parse_args(argv)
