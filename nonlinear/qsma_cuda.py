@@ -24,6 +24,7 @@ tests without a GPU). Needs the package numba-cuda (the project's ``test`` and `
 
 from __future__ import annotations
 
+import functools
 import math
 import types
 
@@ -166,10 +167,34 @@ def stuck_launch(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, 
             stuck_workspace(n_designs, m, n_low, n_high, rows.size))
 
 
+def worker_gpu(worker_name, n_gpus: int) -> int:
+    """The GPU (index) of a dask worker: a LocalCluster names its workers 0, 1, ..., and worker k takes GPU
+    k mod n_gpus, so that the workers spread over a machine's GPUs, each GPU shared by as many; any other name
+    (a worker started by hand, or no worker: None) takes the first."""
+    number = str(worker_name)
+    return int(number) % n_gpus if number.isdigit() and n_gpus > 0 else 0
+
+
+@functools.cache
+def select_gpu() -> int:
+    """Make this process's kernels run on its GPU (``worker_gpu`` of the dask worker it is, if any), once per
+    process, before its first launch; returns the index."""
+    try:
+        from distributed import get_worker
+
+        name = get_worker().name
+    except (ImportError, ValueError):  # not in a dask worker
+        name = None
+    index = worker_gpu(name, len(cuda.gpus))
+    cuda.select_device(index)
+    return index
+
+
 def run(kernel, n_designs: int, arguments, workspace) -> list:
-    """``kernel`` on one thread per design, THREADS_PER_BLOCK to a block, with the host ``arguments`` (each numpy
-    array copied to the device, a scalar as it is) and the work arrays allocated on the device; returns the
-    arguments as on the device."""
+    """``kernel`` on one thread per design, THREADS_PER_BLOCK to a block, on this process's GPU (``select_gpu``),
+    with the host ``arguments`` (each numpy array copied to the device, a scalar as it is) and the work arrays
+    allocated on the device; returns the arguments as on the device."""
+    select_gpu()
     on_device = [cuda.to_device(a) if isinstance(a, np.ndarray) else a for a in arguments]
     work = [cuda.device_array(shape, dtype) for shape, dtype in workspace]
     kernel[max(1, -(-n_designs // THREADS_PER_BLOCK)), THREADS_PER_BLOCK](*on_device, *work)

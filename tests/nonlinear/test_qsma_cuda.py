@@ -155,6 +155,15 @@ def test_the_cuda_kernels_compile_to_ptx_for_an_h100(beam_roms):
         assert report[name]["float64_ops"] > 1000, name  # the whole solver, not an empty kernel
 
 
+def test_a_clusters_workers_spread_over_the_gpus():
+    """A LocalCluster's workers 0, 1, ... take the GPUs in turn; a worker of another name, or no worker, the first."""
+    from nonlinear.qsma_cuda import worker_gpu
+
+    assert [worker_gpu(k, 2) for k in range(5)] == [0, 1, 0, 1, 0]
+    assert [worker_gpu(k, 1) for k in range(3)] == [0, 0, 0]
+    assert worker_gpu("3", 4) == 3 and worker_gpu("tcp://10.0.0.2:4000", 2) == 0 and worker_gpu(None, 3) == 0
+
+
 def test_cuda_without_a_gpu_says_what_is_missing():
     if cuda.is_available():
         pytest.skip("a CUDA GPU (or the simulator) is available here")
