@@ -97,7 +97,8 @@ def prepare(bundle: Path) -> None:
     (bundle / "rom").mkdir(parents=True)
     for beam in BEAMS:
         with np.load(ROM / f"{beam}.npz", allow_pickle=False) as data:
-            np.savez(bundle / "rom" / f"{beam}.npz", **{name: data[name] for name in data.files if name not in RECOVERY})
+            kept = {name: data[name] for name in data.files if name not in RECOVERY}
+        np.savez(bundle / "rom" / f"{beam}.npz", **kept)
     (bundle / "asb-reduced-models").mkdir()
     shutil.copy2(ASB_MODELS / "MAT_NULLRED_CD1.mat", bundle / "asb-reduced-models")
     (bundle / "study-beams").mkdir()

@@ -100,7 +100,8 @@ def timed_kernels(device: str):
         qsma_cuda.stuck_designs, qsma_cuda.solve_levels = original
 
 
-def evaluate(structure: tuple[str, Path], model: str, designs: np.ndarray, amplitudes: np.ndarray, device: str) -> tuple:
+def evaluate(structure: tuple[str, Path], model: str, designs: np.ndarray, amplitudes: np.ndarray,
+             device: str) -> tuple:
     """QSMA of ``designs`` on ``device``: (frequency, damping, reason as str) each (n, L), the stuck frequency
     (n,), the seconds of the stuck-mode kernel, of the levels' kernel and of the whole call."""
     with timed_kernels(device) as seconds:
@@ -148,7 +149,8 @@ def compared(cpu: tuple, gpu: tuple) -> dict:
             "flagged": int((cpu[2] != "").sum()), "branch_at_flag": flags, "drift": drifts, "pairs": dict(pairs)}
 
 
-def measure(structure: tuple[str, Path], model: str, n_designs: int, amplitudes: np.ndarray, pool, workers: int) -> dict:
+def measure(structure: tuple[str, Path], model: str, n_designs: int, amplitudes: np.ndarray, pool,
+            workers: int) -> dict:
     """One structure and model: the GPU against the CPU kernels on the same designs; rates in designs per second
     (the CPU's: its processes' kernel seconds summed, over the number of processes)."""
     designs = random_designs(model, n_designs, n_groups(structure), np.random.default_rng(SEED))
