@@ -36,6 +36,7 @@ from numba.core.registry import CPUDispatcher
 from nonlinear import dense_linear_algebra, qsma_kernel, stuck_modes
 from nonlinear.qsma_kernel import N_LAW, N_WORK_ROWS
 from nonlinear.stuck_modes import HIGH_VECTORS, JOINT_VECTORS, LOW_MATRICES, LOW_VECTORS, SERIES_TERMS
+from pipeline.runners import worker_name
 
 THREADS_PER_BLOCK = 64
 LEVEL_INPUTS, STUCK_INPUTS = 18, 13  # the kernels' arguments before their outputs (the levels' first: x)
@@ -167,25 +168,19 @@ def stuck_launch(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, 
             stuck_workspace(n_designs, m, n_low, n_high, rows.size))
 
 
-def worker_gpu(worker_name, n_gpus: int) -> int:
+def worker_gpu(name, n_gpus: int) -> int:
     """The GPU (index) of a dask worker: a LocalCluster names its workers 0, 1, ..., and worker k takes GPU
     k mod n_gpus, so that the workers spread over a machine's GPUs, each GPU shared by as many; any other name
     (a worker started by hand, or no worker: None) takes the first."""
-    number = str(worker_name)
+    number = str(name)
     return int(number) % n_gpus if number.isdigit() and n_gpus > 0 else 0
 
 
 @functools.cache
 def select_gpu() -> int:
-    """Make this process's kernels run on its GPU (``worker_gpu`` of the dask worker it is, if any), once per
-    process, before its first launch; returns the index."""
-    try:
-        from distributed import get_worker
-
-        name = get_worker().name
-    except (ImportError, ValueError):  # not in a dask worker
-        name = None
-    index = worker_gpu(name, len(cuda.gpus))
+    """Make this process's kernels run on its GPU (``worker_gpu`` of the dask worker it is, if any:
+    ``pipeline.runners.worker_name``), once per process, before its first launch; returns the index."""
+    index = worker_gpu(worker_name(), len(cuda.gpus))
     cuda.select_device(index)
     return index
 

@@ -11,7 +11,8 @@ A runner has
                                    flight
 
 Runners: ``SERIAL`` (this process), ``process_pool`` (spawned worker processes), ``Dask`` (a client's cluster);
-``runner(scheduler)`` opens the one a ``--scheduler`` option names.
+``runner(scheduler)`` opens the one a ``--scheduler`` option names; ``worker_name`` tells code which dask worker
+runs it.
 """
 
 from __future__ import annotations
@@ -127,6 +128,17 @@ class Dask:
         for future in stream:
             yield future.result()
             submit()
+
+
+def worker_name():
+    """The name of the dask.distributed worker this code runs in (a LocalCluster names its workers 0, 1, ...), or
+    None outside a worker."""
+    try:
+        from distributed import get_worker
+
+        return get_worker().name
+    except (ImportError, ValueError):  # no dask.distributed, or not in a worker
+        return None
 
 
 @contextlib.contextmanager
