@@ -41,6 +41,7 @@ import argparse
 import json
 import multiprocessing
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -196,10 +197,13 @@ def study_run(bundle: Path, folder: Path, device: str, designs: int, chunk: int,
     seconds = time.perf_counter() - start
     manifest = folder / "designs" / "exploration.json"
     models = json.loads(manifest.read_text())["models"] if manifest.exists() else []
+    explored = re.search(r"explored \d+ chunk\(s\) .* in (\d+) s", log.read_text())
+    explore_seconds = float(explored.group(1)) if explored else None
     evaluations = designs * len(models) * len(BEAMS)
     return {"device": device, "designs_per_model": designs, "chunk": chunk, "status": status,
-            "seconds": seconds, "evaluations_per_s": evaluations / seconds, "peak_host_mib": peak.host_mib,
-            "peak_gpu_mib": peak.gpu_mib}
+            "seconds": seconds, "explore_seconds": explore_seconds,
+            "explore_evaluations_per_s": evaluations / explore_seconds if explore_seconds else None,
+            "peak_host_mib": peak.host_mib, "peak_gpu_mib": peak.gpu_mib}
 
 
 def shared_chunks(gpu: Path, cpu: Path) -> dict:
@@ -254,13 +258,13 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
     record["shared_chunks"] = shared_chunks(scratch / "cuda", scratch / "cpu")
     record["ended"] = time.strftime("%Y-%m-%d %H:%M:%S")
     write()
-    lines = ["| device | designs per model | chunk | status | wall (s) | evaluations/s | peak host (MiB) | "
-             "peak GPU (MiB) |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| device | designs per model | chunk | status | explore and analyse (s) | explore (s) | "
+             "explore evaluations/s | peak host (MiB) | peak GPU (MiB) |", "|---|---|---|---|---|---|---|---|---|"]
     for study in record["studies"]:
-        gpu_memory = f"{study['peak_gpu_mib']:.0f}" if study["peak_gpu_mib"] is not None else "-"
+        rate, gpu_memory = study["explore_evaluations_per_s"], study["peak_gpu_mib"]
         lines.append(f"| {study['device']} | {study['designs_per_model']:,} | {study['chunk']:,} | {study['status']} | "
-                     f"{study['seconds']:.0f} | {study['evaluations_per_s']:,.0f} | {study['peak_host_mib']:.0f} | "
-                     f"{gpu_memory} |")
+                     f"{study['seconds']:.0f} | {study['explore_seconds'] or '-'} | {f'{rate:,.0f}' if rate else '-'} | "
+                     f"{study['peak_host_mib']:.0f} | {f'{gpu_memory:.0f}' if gpu_memory is not None else '-'} |")
     shared = record["shared_chunks"]
     lines.append(f"\nShared chunks: {shared['files']} files, largest relative difference {shared['max_relative']:.1e}, "
                  f"{shared['n_differing']} columns differing in flags or NaNs.")
