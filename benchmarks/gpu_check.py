@@ -263,7 +263,8 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
     for study in record["studies"]:
         rate, gpu_memory = study["explore_evaluations_per_s"], study["peak_gpu_mib"]
         lines.append(f"| {study['device']} | {study['designs_per_model']:,} | {study['chunk']:,} | {study['status']} | "
-                     f"{study['seconds']:.0f} | {study['explore_seconds'] or '-'} | {f'{rate:,.0f}' if rate else '-'} | "
+                     f"{study['seconds']:.0f} | {study['explore_seconds'] or '-'} | "
+                     f"{f'{rate:,.0f}' if rate else '-'} | "
                      f"{study['peak_host_mib']:.0f} | {f'{gpu_memory:.0f}' if gpu_memory is not None else '-'} |")
     shared = record["shared_chunks"]
     lines.append(f"\nShared chunks: {shared['files']} files, largest relative difference {shared['max_relative']:.1e}, "

@@ -98,9 +98,10 @@ def stuck_kernel(joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, 
     of the work arrays (``stuck_workspace``)."""
     d = cuda.grid(1)
     if d < joint_stiffness.shape[0]:
-        stuck_design(d, d + 1, (joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
-                         reference_low, reference_high, unambiguous_mac, rows, static_packed, static_square,
-                         inverse_square),
+        stuck_design(d, d + 1,
+                     (joint_stiffness, low_eigenvalues, low_modes, high_eigenvalues, high_modes, flexibility,
+                      reference_low, reference_high, unambiguous_mac, rows, static_packed, static_square,
+                      inverse_square),
                      (eigenvalue, shape_low, shape_high, joint_shape, mac, compliance, found, low_estimates),
                      stuck_design_workspace(joint_vectors[:, :, d], low_vectors[:, :, d], high_vectors[:, :, d],
                                             low_matrices[:, :, :, d], packed[:, d], augmented[:, :, d],
