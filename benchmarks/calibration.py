@@ -18,9 +18,8 @@ from benchmarks import ASB_MODELS
 from benchmarks.table import row, show
 from calibration.calibrate import calibrate
 from calibration.files import hypervolumes
-from calibration.objectives import fit_space, linf_errors, model_curves, unit_zeta0
+from calibration.objectives import backbone_solver, fit_space, linf_errors, model_curves, unit_zeta0
 from experiment.measured_files import read_mode_backbone
-from nonlinear.condensation import modal_split
 from nonlinear.joint import parameter_names
 from study.datasets import ASB
 from study.pareto import non_dominated
@@ -45,7 +44,7 @@ def rows(configurations=("C1", "CD1"), n_designs: int = 4000, seed: int = 0) -> 
             sample = np.random.default_rng(seed).random((n_designs, len(parameter_names(model, 1))))
             errors = linf_errors(measured.measurement, model_curves(
                 measured, space, np.column_stack([sample, np.full(n_designs, unit_zeta0(space, study_zeta0))]),
-                modal_split(measured.space)))
+                backbone_solver(measured)))
             front = non_dominated(errors)
             start = time.perf_counter()
             result = calibrate(measured, model, 1, sample[front], study_zeta0, seed)

@@ -18,7 +18,8 @@ build/ and so ignored by git) writes what the check reads, in about 35 MiB:
 --target /tmp/site BUNDLE/wheels/*.whl`` and with PYTHONPATH=/tmp/site:.), each part written to OUT as it ends:
     1. ``benchmarks.gpu_qsma`` on the three beams and ASB CD1, every friction model, 10,000 designs at 20 levels:
        stuck modes and levels on the GPU against the CPU kernels on every core (equality within 1e-10 relative,
-       flags counted; designs per second) -> gpu_qsma.md, gpu_qsma.json;
+       flags counted; designs per second), and one call of 1 to 16,384 designs on the GPU against one core ->
+       gpu_qsma.md, gpu_qsma.json;
     2. the beams' study at the paper's scale (5,000,000 designs per model, 4 models, 3 beams, 20 levels) by the
        study command's explore and analyse steps on a LocalCluster with compute.device=cuda, then the same steps
        with compute.device=cpu on the same cluster for ``--cpu-designs`` designs per model: wall time of each step,
@@ -30,8 +31,8 @@ One command there (the device tool's run, OUT its $OUT)::
     python3 -m pip install -q --no-index --no-deps --target /tmp/site build/gpu-check/wheels/*.whl &&
     PYTHONPATH=/tmp/site:. PYTHONUNBUFFERED=1 python3 -m benchmarks.gpu_check run $OUT
 
-With NUMBA_ENABLE_CUDASIM=1 and tiny sizes (``--designs 3 --levels 4 --study-designs 40 --cpu-designs 40
---chunk 20 --workers 2 --set pareto.generations=1 pareto.population=4``) the same run goes through numba-cuda's
+With NUMBA_ENABLE_CUDASIM=1 and tiny sizes (``--designs 3 --levels 4 --batches 1 2 --study-designs 40 --cpu-designs
+40 --chunk 20 --workers 2 --set pareto.generations=1 pareto.population=4``) the same run goes through numba-cuda's
 simulator here.
 """
 
@@ -232,7 +233,7 @@ def shared_chunks(gpu: Path, cpu: Path) -> dict:
 
 
 def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, cpu_designs: int, chunk: int,
-        workers: int | None, settings: tuple = (), timeout: float | None = None) -> None:
+        workers: int | None, settings: tuple = (), timeout: float | None = None, batches=gpu_qsma.BATCHES) -> None:
     """The check (module docstring), each part written to ``out`` as it ends."""
     out.mkdir(parents=True, exist_ok=True)
     record = {"python": sys.version, "cores": os.cpu_count(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}
@@ -247,7 +248,8 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
     write()
     worker_options = ["--workers", str(workers)] if workers else []
     gpu_qsma.main([str(out), "--designs", str(designs), "--levels", str(levels), "--rom", str(bundle / "rom"),
-                   "--asb-models", str(bundle / "asb-reduced-models"), *worker_options])
+                   "--asb-models", str(bundle / "asb-reduced-models"), "--batches", *map(str, batches),
+                   *worker_options])
     scratch = Path(os.environ.get("TMPDIR", "/tmp")) / "gpu-check"
     record["studies"] = []
     for device, n in (("cuda", study_designs), ("cpu", cpu_designs)):
@@ -345,6 +347,8 @@ def main(argv=None) -> int:
     checking.add_argument("--chunk", type=int, default=50_000, help="designs per chunk, both studies")
     checking.add_argument("--workers", type=int, default=None, help="CPU processes of the equality check (every core)")
     checking.add_argument("--study-timeout", type=float, default=240.0, help="seconds each study may take")
+    checking.add_argument("--batches", type=int, nargs="+", default=gpu_qsma.BATCHES,
+                          help="designs a call of the batch timings")
     checking.add_argument("--set", dest="settings", nargs="*", default=(), metavar="SECTION.FIELD=VALUE",
                           help="further settings of both studies")
     arguments = parser.parse_args(argv)
@@ -353,7 +357,7 @@ def main(argv=None) -> int:
     else:
         run(arguments.out, arguments.bundle, arguments.designs, arguments.levels, arguments.study_designs,
             arguments.cpu_designs, arguments.chunk, arguments.workers, tuple(arguments.settings),
-            arguments.study_timeout)
+            arguments.study_timeout, arguments.batches)
     return 0
 
 

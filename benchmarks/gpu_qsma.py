@@ -14,9 +14,12 @@ straddle: libdevice's exp2, log2 and pow and NVVM's fused multiply-adds are not 
 drift apart first is a defect. Timed: each kernel (``nonlinear.compute_devices``: the stuck modes and the levels;
 on the CPU summed over the processes and divided by W for the all-core rate, on the GPU with its transfers) and
 the whole evaluation's wall time; the GPU's first call (numba-cuda's compile, about a minute) is made on two
-designs before timing. Writes ``OUT/gpu_qsma.json`` (every measurement, the branch differences' status pairs)
-and ``OUT/gpu_qsma.md`` (the table). With NUMBA_ENABLE_CUDASIM=1 at a tiny size (``--designs 3 --levels 4
---structures BRB --workers 1``) it runs in numba-cuda's simulator, without a GPU.
+designs before timing. Batches: one call of B designs (``--batches``, default ``BATCHES``) on the first structure,
+GPU against one CPU core in this process (best of three): where a GPU gains and where it loses (a calibration's
+least-squares steps solve 2 (d + 1) designs a call, its screens thousands). Writes ``OUT/gpu_qsma.json`` (every
+measurement, the branch differences' status pairs) and ``OUT/gpu_qsma.md`` (the tables). With
+NUMBA_ENABLE_CUDASIM=1 at a tiny size (``--designs 3 --levels 4 --structures BRB --workers 1 --batches 1 2``) it
+runs in numba-cuda's simulator, without a GPU.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ AMPLITUDE_RANGE = (7e-6, 1.1e-4)  # m kg^0.5, the measured ASB backbones (as ben
 RELATIVE = 1e-10  # omega and zeta of a converged level: GPU against CPU
 ROM = Path("build/rom")
 SEED = 40
+BATCHES = (1, 10, 64, 256, 1024, 4096, 16384)  # designs per call of the batch timings
 
 
 @functools.cache
@@ -167,6 +171,28 @@ def measure(structure: tuple[str, Path], model: str, n_designs: int, amplitudes:
             "cpu_per_s": n_designs / cpu_wall, "gpu_per_s": n_designs / gpu[6], **compared(cpu, gpu[:4])}
 
 
+def batch_seconds(structure: tuple[str, Path], model: str, amplitudes: np.ndarray, sizes=BATCHES, repeats: int = 3
+                  ) -> list[dict]:
+    """The wall time (s) of one ``qsma_designs`` call of each batch size of ``sizes`` on the GPU and on one CPU
+    core (this process), the best of ``repeats``."""
+    rows = []
+    for size in sizes:
+        designs = random_designs(model, size, n_groups(structure), np.random.default_rng(SEED))
+        best = {device: min(evaluate(structure, model, designs, amplitudes, device)[6] for _ in range(repeats))
+                for device in ("cpu", "cuda")}
+        rows.append({"structure": structure[0], "model": model, "designs": size, "cpu_core_s": best["cpu"],
+                     "gpu_s": best["cuda"]})
+    return rows
+
+
+def batch_table(rows: list[dict]) -> list[str]:
+    """The markdown table of the batch timings."""
+    return ["| structure | model | designs a call | one CPU core (ms) | GPU (ms) | speed-up on the GPU |",
+            "|" + "---|" * 6,
+            *(f"| {r['structure']} | {r['model']} | {r['designs']} | {1e3 * r['cpu_core_s']:.2f} | "
+              f"{1e3 * r['gpu_s']:.2f} | {r['cpu_core_s'] / r['gpu_s']:.2f} |" for r in rows)]
+
+
 def table(rows: list[dict], workers: int) -> list[str]:
     """The markdown table of the measurements."""
     lines = [f"| structure | model | designs | stuck modes/s CPU ({workers} proc.) | GPU | levels/s CPU | GPU | "
@@ -190,6 +216,7 @@ def main(argv=None) -> int:
     parser.add_argument("--structures", nargs="+", default=None, help="names (default: every one found)")
     parser.add_argument("--models", nargs="+", default=list(MODEL_NAMES), choices=MODEL_NAMES)
     parser.add_argument("--workers", type=int, default=os.cpu_count())
+    parser.add_argument("--batches", type=int, nargs="+", default=BATCHES, help="designs a call, batch timings")
     parser.add_argument("--rom", type=Path, default=ROM, help="folder of the beams' superelements")
     parser.add_argument("--asb-models", type=Path, default=ASB_MODELS, help="folder of the ASB's reduced models")
     args = parser.parse_args(argv)
@@ -206,16 +233,18 @@ def main(argv=None) -> int:
         evaluate(structures[0], args.models[0], warm, amplitudes, "cuda")  # numba-cuda compiles the kernel
         compile_seconds = time.perf_counter() - start
         print(f"GPU kernel compiled and run on 2 designs: {compile_seconds:.1f} s", flush=True)
+        batches = batch_seconds(structures[0], args.models[0], amplitudes, args.batches)
+        print("\n".join(batch_table(batches)), flush=True)
         for structure in structures:
             for model in args.models:
                 rows.append(measure(structure, model, args.designs, amplitudes, pool, args.workers))
                 print(table(rows[-1:], args.workers)[-1], flush=True)
-    lines = table(rows, args.workers)
+    lines = [*table(rows, args.workers), "", *batch_table(batches)]
     print("\n".join(lines))
     (args.out / "gpu_qsma.md").write_text("\n".join(lines) + "\n")
     (args.out / "gpu_qsma.json").write_text(json.dumps(
         {"compile_seconds": compile_seconds, "levels": args.levels, "workers": args.workers,
-         "relative": RELATIVE, "rows": rows}, indent=1))
+         "relative": RELATIVE, "rows": rows, "batches": batches}, indent=1))
     return 0
 
 

@@ -58,9 +58,8 @@ from pymoo.termination.default import DefaultMultiObjectiveTermination
 from scipy.stats import qmc
 
 from calibration.local_fit import LocalFit, Uncertainty, local_fit, residual_rows, uncertainty
-from calibration.objectives import (FitSpace, FrontArchive, fit_space, linf_errors, model_curves, physical,
-                                   plain_errors, profiled_zeta0, unit_zeta0)
-from nonlinear.condensation import modal_split
+from calibration.objectives import (FitSpace, FrontArchive, backbone_solver, fit_space, linf_errors, model_curves,
+                                   physical, plain_errors, profiled_zeta0, unit_zeta0)
 from nonlinear.friction_models import STIFFNESS_PARAMETERS
 from nonlinear.joint import to_unit
 from nonlinear.qsma_vectorised import qsma_designs
@@ -146,21 +145,21 @@ def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.rando
     return np.column_stack([np.repeat(designs_unit, zeta0.shape[1], axis=0), zeta0.ravel()])
 
 
-def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0: float, rule: str, split
+def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0: float, rule: str, solver
                ) -> np.ndarray:
     """zeta_0 (n,) that the study's damping rule (``study.errors.structure_damping``) gives each of its designs
     (n, d unit) on ``structure`` from the case's value ``study_zeta0``: the joint's own damping at the lowest
     level comes from QSMA (zeta_0 at its floor, taken off again); the case's value where QSMA does not converge."""
     designs_unit = np.atleast_2d(designs_unit)
-    curves = model_curves(structure, space, np.column_stack([designs_unit, np.zeros(len(designs_unit))]), split)
+    curves = model_curves(structure, space, np.column_stack([designs_unit, np.zeros(len(designs_unit))]), solver)
     zeta0 = structure_damping(curves.damping - space.lower[-1], [study_zeta0], rule)[:, 0]
     return np.where(np.isfinite(zeta0), zeta0, study_zeta0)
 
 
-def chi_squared(structure: Structure, space: FitSpace, unit, split, archive: FrontArchive | None = None
+def chi_squared(structure: Structure, space: FitSpace, unit, solver, archive: FrontArchive | None = None
                 ) -> np.ndarray:
     """The plain chi^2 (w = 1/2) of unit points (n, d + 1): (n,)."""
-    return np.sum(residual_rows(structure, space, unit, 0.5, split, archive) ** 2, axis=1)
+    return np.sum(residual_rows(structure, space, unit, 0.5, solver, archive) ** 2, axis=1)
 
 
 def coordinate_scans(point: np.ndarray) -> np.ndarray:
@@ -172,22 +171,22 @@ def coordinate_scans(point: np.ndarray) -> np.ndarray:
     return points
 
 
-def scanned(structure: Structure, space: FitSpace, fit: LocalFit, split, archive: FrontArchive,
+def scanned(structure: Structure, space: FitSpace, fit: LocalFit, solver, archive: FrontArchive,
             continuations: int = 0) -> LocalFit:
     """``fit`` (w = 1/2) polished again from the best point of its coordinate scans while they lower its chi^2 by
     more than SCAN_GAIN, at most SCAN_SWEEPS times (module docstring); each fit restarted up to ``continuations``
     times where its budget stops it."""
     for _ in range(SCAN_SWEEPS):
         points = coordinate_scans(fit.unit)
-        values = chi_squared(structure, space, points, split, archive)
+        values = chi_squared(structure, space, points, solver, archive)
         best = int(np.argmin(values))
         if not values[best] < fit.chi_squared * (1.0 - SCAN_GAIN):
             break
-        fit = local_fit(structure, space, points[best], 0.5, split, continuations=continuations, archive=archive)
+        fit = local_fit(structure, space, points[best], 0.5, solver, continuations=continuations, archive=archive)
     return fit
 
 
-def anchored_points(structure: Structure, space: FitSpace, joint_unit, split) -> tuple[np.ndarray, np.ndarray]:
+def anchored_points(structure: Structure, space: FitSpace, joint_unit, solver) -> tuple[np.ndarray, np.ndarray]:
     """Unit joint points (n, d) moved onto the measured stuck frequency (module docstring, Escape): each point's
     stiffnesses (``STIFFNESS_PARAMETERS``, N/m) times one factor s, found by the secant method on ln s (at most
     ``ANCHOR_ITERATIONS`` steps, the points still off at once, s kept where every stiffness stays within its limits)
@@ -202,7 +201,7 @@ def anchored_points(structure: Structure, space: FitSpace, joint_unit, split) ->
         scaled = designs[rows]
         scaled[:, stiffness] *= np.exp(log_factor)[:, None]
         result = qsma_designs(structure.space, space.model, scaled, amplitudes=measurement.amplitude[:1],
-                              linear_damping=0.0, split=split)
+                              linear_damping=0.0, split=solver.split, device=solver.device)
         return result.frequency[:, 0] / (2.0 * np.pi) - measurement.frequency_hz[0]
 
     # the factors that keep every stiffness within its Table 3 limits
@@ -228,7 +227,7 @@ def anchored_points(structure: Structure, space: FitSpace, joint_unit, split) ->
     scaled = designs[held]
     scaled[:, stiffness] *= np.exp(current[held])[:, None]
     joint = to_unit(scaled, space.lower[:-1], space.upper[:-1], space.logarithmic[:-1])
-    curves = model_curves(structure, space, np.column_stack([joint, np.zeros(len(joint))]), split)
+    curves = model_curves(structure, space, np.column_stack([joint, np.zeros(len(joint))]), solver)
     joint_damping = curves.damping - space.lower[-1]
     zeta0 = profiled_zeta0(space, measurement, joint_damping)
     chi_squared_values = (np.sum(((curves.frequency_hz - measurement.frequency_hz) / measurement.sigma_frequency) ** 2,
@@ -247,32 +246,32 @@ def pinned_screen(n_points: int, dimension: int) -> np.ndarray:
     return np.clip((points - PIN) / (1.0 - 2.0 * PIN), 0.0, 1.0)
 
 
-def multistart(structure: Structure, space: FitSpace, split, archive: FrontArchive) -> list[LocalFit]:
+def multistart(structure: Structure, space: FitSpace, solver, archive: FrontArchive) -> list[LocalFit]:
     """The multistart's w = 1/2 fits (module docstring): from the MULTISTARTS points of lowest chi^2 among the
     first MULTISTART_POINTS of the unscrambled Sobol sequence over the unit box and from the MULTISTARTS of the
     anchored screen, each scanned."""
     points = qmc.Sobol(len(space.names), scramble=False).random(MULTISTART_POINTS)
-    values = chi_squared(structure, space, points, split, archive)
+    values = chi_squared(structure, space, points, solver, archive)
     anchored, anchored_values = anchored_points(structure, space, pinned_screen(ANCHORED_POINTS, len(space.names) - 1),
-                                                split)
+                                                solver)
     starts = [*points[np.argsort(values)[:MULTISTARTS]], *anchored[np.argsort(anchored_values)[:MULTISTARTS]]]
-    return [scanned(structure, space, local_fit(structure, space, start, 0.5, split, archive=archive), split, archive)
+    return [scanned(structure, space, local_fit(structure, space, start, 0.5, solver, archive=archive), solver, archive)
             for start in starts]
 
 
-def escaped(structure: Structure, space: FitSpace, fit: LocalFit, split, archive: FrontArchive) -> LocalFit:
+def escaped(structure: Structure, space: FitSpace, fit: LocalFit, solver, archive: FrontArchive) -> LocalFit:
     """``fit`` (w = 1/2) moved to the lower basin of an anchored cloud around it while one is found (module
     docstring, Escape), each new fit polished and scanned with ``CONTINUATIONS``."""
     offsets = 2.0 * qmc.Sobol(len(space.names) - 1, scramble=False).random(CLOUD_POINTS) - 1.0
     for _ in range(ESCAPES):
         for radius in CLOUD_RADII:
             points, values = anchored_points(structure, space, np.clip(fit.unit[:-1] + radius * offsets, 0.0, 1.0),
-                                             split)
+                                             solver)
             if not (values.size and values.min() < fit.chi_squared * (1.0 - SCAN_GAIN)):
                 continue
-            candidate = scanned(structure, space, local_fit(structure, space, points[np.argmin(values)], 0.5, split,
+            candidate = scanned(structure, space, local_fit(structure, space, points[np.argmin(values)], 0.5, solver,
                                                             continuations=CONTINUATIONS, archive=archive),
-                                split, archive, CONTINUATIONS)
+                                solver, archive, CONTINUATIONS)
             if candidate.chi_squared < fit.chi_squared * (1.0 - SCAN_GAIN):
                 fit = candidate
                 break
@@ -282,24 +281,25 @@ def escaped(structure: Structure, space: FitSpace, fit: LocalFit, split, archive
 
 
 def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study_zeta0: float, seed: int = 0,
-              max_generations: int = MAX_GENERATIONS, fitted_seeds=None, damping_rule: str = "added"
-              ) -> Calibration:
+              max_generations: int = MAX_GENERATIONS, fitted_seeds=None, damping_rule: str = "added",
+              device: str = "cpu") -> Calibration:
     """Calibrate ``model`` on ``structure`` (module docstring). seeds_unit: (n, d) the study's designs in Table 3
     unit coordinates; study_zeta0: the study's linear damping for the structure; seed: NSGA-II's random seed
     (the same seed gives the same calibration); max_generations: the global phase's cap; fitted_seeds: (k, d + 1)
     points of the fit's box (design and zeta_0), e.g. the calibrated front of the model this one contains: each
     weight is also polished from the one of lowest chi^2, so that the larger model fits at least as well;
-    damping_rule: the study's (``study.errors.DAMPING_RULES``), by which it gave each design its zeta_0."""
+    damping_rule: the study's (``study.errors.DAMPING_RULES``), by which it gave each design its zeta_0; device:
+    where every QSMA call of the calibration is solved (``calibration.objectives.BackboneSolver``)."""
     space = fit_space(model, n_groups, structure.measurement)
-    split = modal_split(structure.space)
+    solver = backbone_solver(structure, device)
     measurement = structure.measurement
     archive = FrontArchive(len(space.names))
 
     def objective(unit):
-        return linf_errors(measurement, model_curves(structure, space, unit, split, archive))
+        return linf_errors(measurement, model_curves(structure, space, unit, solver, archive))
 
     by_rule = (None if damping_rule == "added"
-               else rule_zeta0(structure, space, seeds_unit, study_zeta0, damping_rule, split))
+               else rule_zeta0(structure, space, seeds_unit, study_zeta0, damping_rule, solver))
     seeds = seed_points(space, seeds_unit, study_zeta0, np.random.default_rng(seed), by_rule)
     fitted_seeds = np.empty((0, len(space.names))) if fitted_seeds is None else np.atleast_2d(fitted_seeds)
     termination = DefaultMultiObjectiveTermination(n_max_gen=max_generations)
@@ -309,28 +309,28 @@ def calibrate(structure: Structure, model: str, n_groups: int, seeds_unit, study
     starts = np.vstack([found.designs, seeds])
     for weight in WEIGHTS:
         archive.source = f"polished w={weight:g}"
-        chi_squared_w = np.sum(residual_rows(structure, space, starts, weight, split) ** 2, axis=1)
-        fits += [local_fit(structure, space, starts[start], weight, split, archive=archive)
+        chi_squared_w = np.sum(residual_rows(structure, space, starts, weight, solver) ** 2, axis=1)
+        fits += [local_fit(structure, space, starts[start], weight, solver, archive=archive)
                  for start in np.argsort(chi_squared_w)[:STARTS]]
         if len(fitted_seeds):  # besides the search's own starts, not instead of them
-            fitted_chi_squared = np.sum(residual_rows(structure, space, fitted_seeds, weight, split, archive) ** 2,
+            fitted_chi_squared = np.sum(residual_rows(structure, space, fitted_seeds, weight, solver, archive) ** 2,
                                         axis=1)
-            fits.append(local_fit(structure, space, fitted_seeds[np.argmin(fitted_chi_squared)], weight, split,
+            fits.append(local_fit(structure, space, fitted_seeds[np.argmin(fitted_chi_squared)], weight, solver,
                                   archive=archive))
     archive.source = "polished w=0.5"
     fits += [local_fit(structure, space, min((fit for fit in fits if fit.weight == weight),
-                                             key=lambda fit: fit.chi_squared).unit, 0.5, split, archive=archive)
+                                             key=lambda fit: fit.chi_squared).unit, 0.5, solver, archive=archive)
              for weight in WEIGHTS if weight != 0.5]  # the sweep's other optima as starts of the best compromise
     archive.source = "multistart"
-    fits += multistart(structure, space, split, archive)
+    fits += multistart(structure, space, solver, archive)
     archive.source = "best compromise"
     best = min((fit for fit in fits if fit.weight == 0.5), key=lambda fit: fit.chi_squared)
-    best = scanned(structure, space, local_fit(structure, space, best.unit, 0.5, split, continuations=CONTINUATIONS,
-                                               archive=archive), split, archive, CONTINUATIONS)
-    best = escaped(structure, space, best, split, archive)
+    best = scanned(structure, space, local_fit(structure, space, best.unit, 0.5, solver, continuations=CONTINUATIONS,
+                                               archive=archive), solver, archive, CONTINUATIONS)
+    best = escaped(structure, space, best, solver, archive)
     fits.append(best)
-    best_curves = model_curves(structure, space, best.unit[None, :], split)
+    best_curves = model_curves(structure, space, best.unit[None, :], solver)
     front_unit, front_errors, front_source = archive.front()
     return Calibration(structure.name, space, front_unit, front_errors, front_source, tuple(fits), best,
-                       plain_errors(measurement, best_curves), uncertainty(structure, space, best.unit, split),
+                       plain_errors(measurement, best_curves), uncertainty(structure, space, best.unit, solver),
                        found.evaluations, found.generations)

@@ -12,12 +12,13 @@ from pathlib import Path
 
 from calibration.calibrate import MAX_GENERATIONS
 from calibration.workflow import calibrate_replicates, calibrate_study
+from study.commands import add_device_argument
 
 
 def run(arguments: argparse.Namespace) -> None:
     """Calibrate the study's models on its structures (and the replicate studies'); each (model, structure) once,
     skipped on a rerun; a nested model worse than one it contains is named on stderr."""
-    options = (arguments.models, arguments.structures, arguments.seed, arguments.max_generations)
+    options = (arguments.models, arguments.structures, arguments.seed, arguments.max_generations, arguments.device)
     replicates, defects = calibrate_replicates(arguments.replicates or (), arguments.study, arguments.out,
                                                *options)
     out, found = calibrate_study(arguments.study, arguments.out, *options, replicates=replicates)
@@ -42,4 +43,5 @@ def register(subparsers) -> None:
                          help="studies of the same inputs at other seeds: each calibrated into OUT/replicates/"
                               "seed-<seed>, and the spread of every best compromise's chi^2 over the seeds reported")
     command.add_argument("--out", type=Path, default=Path("results/fit"), help="output folder")
+    add_device_argument(command)
     command.set_defaults(run=run)

@@ -32,8 +32,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
-from calibration.objectives import FitSpace, FrontArchive, model_curves, normalised_residuals, physical
-from nonlinear.condensation import ModalSplit
+from calibration.objectives import (BackboneSolver, FitSpace, FrontArchive, model_curves, normalised_residuals,
+                                    physical)
 from nonlinear.joint import sampling_scale
 from study.structures import Structure
 
@@ -47,10 +47,10 @@ UNDETERMINED = 0.25
 
 
 def residual_rows(structure: Structure, space: FitSpace, unit, weight: float,
-                  split: ModalSplit | None = None, archive: FrontArchive | None = None) -> np.ndarray:
+                  solver: BackboneSolver = BackboneSolver(), archive: FrontArchive | None = None) -> np.ndarray:
     """Weighted residuals (n, 2 levels) of unit points (n, d + 1) (module docstring); every point evaluated is
     offered to ``archive``."""
-    curves = model_curves(structure, space, unit, split, archive)
+    curves = model_curves(structure, space, unit, solver, archive)
     frequency, damping = normalised_residuals(structure.measurement, curves)
     rows = np.hstack([np.sqrt(2.0 * weight) * frequency, np.sqrt(2.0 * (1.0 - weight)) * damping])
     rows[~curves.converged] = UNDEFINED_RESIDUAL
@@ -109,10 +109,10 @@ def continued_least_squares(residuals, start, lower=0.0, upper=1.0, max_evaluati
             return solution, evaluations, restarts
 
 
-def jacobian(structure: Structure, space: FitSpace, unit, weight: float, split: ModalSplit | None = None
+def jacobian(structure: Structure, space: FitSpace, unit, weight: float, solver: BackboneSolver = BackboneSolver()
              ) -> np.ndarray:
     """(2 levels, d + 1): d r / d u of the calibration's residual (``residual_rows``) by central differences."""
-    return central_jacobian(lambda points: residual_rows(structure, space, points, weight, split), unit)
+    return central_jacobian(lambda points: residual_rows(structure, space, points, weight, solver), unit)
 
 
 class LocalFit(NamedTuple):
@@ -132,13 +132,14 @@ class LocalFit(NamedTuple):
     restarts: int
 
 
-def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5, split: ModalSplit | None = None,
-              max_evaluations: int = 400, continuations: int = 0, archive: FrontArchive | None = None) -> LocalFit:
+def local_fit(structure: Structure, space: FitSpace, start, weight: float = 0.5,
+              solver: BackboneSolver = BackboneSolver(), max_evaluations: int = 400, continuations: int = 0,
+              archive: FrontArchive | None = None) -> LocalFit:
     """Weighted least squares from the unit point ``start`` (d + 1,), ``max_evaluations`` per run, restarted from
     where a run stopped on that budget up to ``continuations`` times (module docstring); every point evaluated is
     offered to ``archive``."""
     solution, evaluations, restarts = continued_least_squares(
-        lambda points: residual_rows(structure, space, points, weight, split, archive), start,
+        lambda points: residual_rows(structure, space, points, weight, solver, archive), start,
         max_evaluations=max_evaluations, continuations=continuations)
     design, zeta0 = physical(space, solution.x)
     return LocalFit(weight, solution.x, design[0], float(zeta0[0]), float(2.0 * solution.cost), int(solution.status),
@@ -158,12 +159,12 @@ class Uncertainty(NamedTuple):
     undetermined: tuple[str, ...]
 
 
-def uncertainty(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None) -> Uncertainty:
+def uncertainty(structure: Structure, space: FitSpace, unit, solver: BackboneSolver = BackboneSolver()) -> Uncertainty:
     """The covariance of the unit coordinates at the optimum ``unit`` from the plain residual's Jacobian
     (module docstring)."""
     unit = np.asarray(unit, dtype=float)
-    residual = residual_rows(structure, space, unit[None, :], 0.5, split)[0]
-    matrix = jacobian(structure, space, unit, 0.5, split)
+    residual = residual_rows(structure, space, unit[None, :], 0.5, solver)[0]
+    matrix = jacobian(structure, space, unit, 0.5, solver)
     dof = max(residual.size - unit.size, 1)
     reduced = float(residual @ residual / dof)
     covariance = reduced * np.linalg.pinv(matrix.T @ matrix, hermitian=True)

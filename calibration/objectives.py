@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nonlinear.condensation import ModalSplit
+from nonlinear.condensation import ModalSplit, modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from study.errors import curve_errors
@@ -69,6 +69,20 @@ def unit_zeta0(space: FitSpace, zeta0) -> np.ndarray:
     return np.clip(to_unit(zeta0, space.lower[-1], space.upper[-1], True), 0.0, 1.0)
 
 
+class BackboneSolver(NamedTuple):
+    """How a calibration solves one structure's backbones: its modal split, formed once for every call
+    (``nonlinear.condensation.modal_split``; None: formed at each call), and the compute device of the stuck modes
+    and QSMA levels (``nonlinear.compute_devices``: "cpu" or "cuda", the results agreeing to round-off)."""
+
+    split: ModalSplit | None = None
+    device: str = "cpu"
+
+
+def backbone_solver(structure: Structure, device: str = "cpu") -> BackboneSolver:
+    """The ``BackboneSolver`` of ``structure`` on ``device``, its modal split formed here."""
+    return BackboneSolver(modal_split(structure.space), device)
+
+
 class Curves(NamedTuple):
     """Model backbones at the measured levels: frequency_hz and damping (n, levels); converged (n,): QSMA
     converged at every level (rows that did not are NaN)."""
@@ -87,13 +101,14 @@ def profiled_zeta0(space: FitSpace, measurement: BackboneLevels, joint_damping) 
     return np.clip(optimum, space.lower[-1], space.upper[-1])
 
 
-def model_curves(structure: Structure, space: FitSpace, unit, split: ModalSplit | None = None,
+def model_curves(structure: Structure, space: FitSpace, unit, solver: BackboneSolver = BackboneSolver(),
                  archive: FrontArchive | None = None) -> Curves:
-    """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring); the points
-    and their L-infinity errors are offered to ``archive`` (``FrontArchive``) where one is given."""
+    """The backbones of unit points (n, d + 1) at the structure's measured levels (module docstring), solved by
+    ``solver``; the points and their L-infinity errors are offered to ``archive`` (``FrontArchive``) where one is
+    given."""
     designs, zeta0 = physical(space, unit)
     result = qsma_designs(structure.space, space.model, designs, amplitudes=structure.measurement.amplitude,
-                          linear_damping=0.0, split=split)
+                          linear_damping=0.0, split=solver.split, device=solver.device)
     converged = result.converged.all(axis=1)
     frequency = np.where(converged[:, None], result.frequency / (2.0 * np.pi), np.nan)
     damping = np.where(converged[:, None], result.damping + zeta0[:, None], np.nan)

@@ -15,8 +15,7 @@ from calibration.bounds import bounds_table, write_bounds
 from calibration.calibrate import MAX_GENERATIONS, METHOD, calibrate, chi_squared
 from calibration.files import (calibration_record, plot_fits, read_calibration, spread_table, write_fronts,
                                write_markdown, write_spread)
-from calibration.objectives import fit_space
-from nonlinear.condensation import modal_split
+from calibration.objectives import backbone_solver, fit_space
 from nonlinear.friction_models import MODEL_NAMES, friction_model
 from nonlinear.joint import contained_unit_designs, parameter_limits, parameter_names, to_unit
 from pipeline.cache import package_versions
@@ -128,16 +127,16 @@ def check_fronts(path: Path, model: str, n_groups: int, structures: list[str], n
                          "front of every structure the study analysed")
 
 
-def nested_row(record: dict, contained: dict, structure: Structure, n_groups: int) -> dict:
+def nested_row(record: dict, contained: dict, structure: Structure, n_groups: int, device: str = "cpu") -> dict:
     """A model's best compromise against that of the model it contains (``FrictionModel.contains``) on one
     structure: both chi^2, the chi^2 of the contained optimum mapped into the model's box (``contained_seeds``;
     it differs from the contained chi^2 by what the containment leaves: iwan4_core's weakest core, iwan4's
     Jenkins limit), and ``holds``: the model's chi^2 is at most the higher of the two (1e-9 relative; the
     calibration polishes from the mapped optimum, so it reaches at most that). A model that does not hold is a
-    defect of the calibration: it missed an optimum it contains."""
+    defect of the calibration: it missed an optimum it contains. device: where the mapped optimum is solved."""
     mapped = contained_seeds(record["model"], n_groups, structure.measurement, contained)[-1:]
     space = fit_space(record["model"], n_groups, structure.measurement)
-    at_contained = float(chi_squared(structure, space, mapped, modal_split(structure.space))[0])
+    at_contained = float(chi_squared(structure, space, mapped, backbone_solver(structure, device))[0])
     model_chi, contained_chi = record["best"]["chi_squared"], contained["best"]["chi_squared"]
     return {"model": record["model"], "contains": contained["model"], "structure": structure.name,
             "chi_squared": model_chi, "contained_chi_squared": contained_chi,
@@ -146,14 +145,16 @@ def nested_row(record: dict, contained: dict, structure: Structure, n_groups: in
 
 
 def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: int = 0,
-                    max_generations: int = MAX_GENERATIONS, replicates=()) -> tuple[Path, list[str]]:
+                    max_generations: int = MAX_GENERATIONS, device: str | None = None, replicates=()
+                    ) -> tuple[Path, list[str]]:
     """Calibrate ``models`` (default: the study's; in the registry's order) on ``structures`` (default: the
     study's) of the study in ``study``, seeded with its Pareto designs and its zeta_0, and a model that contains
     another one calibrated here (``FrictionModel.contains``) also with that one's calibrated front; write ``out``
     (``calibration.files``) and return it with the nested models' defects (``nested_row``), one line each.
     replicates: study seed -> folder of a calibration (``calibrate_replicates``) of a study of the same inputs at
     that seed: the spread of each best compromise's chi^2 over them and this one is written (``spread.csv``,
-    ``calibration.md``).
+    ``calibration.md``). device: where the calibrations are solved (``nonlinear.compute_devices``; default the
+    study's ``compute.device``).
     Raises ValueError for an unknown model, a model or structure the study does not hold, a cap below one, or a
     study without its analysis or with a fronts file that cannot be read (``check_fronts``), before the output folder
     is touched. A record whose key matches but which lacks a field this run reads is calibrated again
@@ -162,7 +163,7 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
     if unknown:
         raise ValueError(f"option --models: {unknown[0]!r}: not a friction model; expected some of "
                          f"{list(MODEL_NAMES)}")
-    paths, parameters, explored = read_study(study)
+    paths, parameters, explored = read_study(study, device)
     models = sorted(models or explored.models, key=MODEL_NAMES.index)  # a contained model before its container
     structures = list(structures or explored.names)
     unknown = [m for m in models if m not in explored.models] + [s for s in structures if s not in explored.names]
@@ -193,7 +194,7 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                 result = calibrate(structure, model, explored.n_groups,
                                    to_unit(front.designs, *parameter_limits(model, explored.n_groups)),
                                    explored.damping_cases[case][index], seed + index, max_generations, fitted,
-                                   explored.damping_rule)
+                                   explored.damping_rule, explored.device)
                 sources = {name: front.errors[[label.startswith(name) for label in front.labels]]
                            for name in ("sample", "nsga2")}
                 record = calibration_record(result, key, {k: v for k, v in sources.items() if len(v)})
@@ -213,7 +214,8 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
         bounds = bounds_table(every, [study_errors(explored, case, record) for record in every],
                               {name: s.measurement for name, s in structure_of.items()}, case)
         write_bounds(bounds, out / "bounds.csv")
-        nested = [nested_row(record, calibrated[contained, index], explored.structures[index], explored.n_groups)
+        nested = [nested_row(record, calibrated[contained, index], explored.structures[index], explored.n_groups,
+                             explored.device)
                   for (model, index), record in calibrated.items()
                   if (contained := friction_model(model).contains) and (contained, index) in calibrated]
         spread = None
@@ -242,7 +244,8 @@ def replicate_records(folder: Path, records: list[dict]) -> list[dict]:
 
 
 def calibrate_replicates(studies, primary: Path, out: Path, models=None, structures=None, seed: int = 0,
-                         max_generations: int = MAX_GENERATIONS) -> tuple[dict[int, Path], list[str]]:
+                         max_generations: int = MAX_GENERATIONS, device: str | None = None
+                         ) -> tuple[dict[int, Path], list[str]]:
     """Calibrate each study folder of ``studies`` (the inputs of the study ``primary`` at other sample seeds) as
     ``calibrate_study`` does, into ``out``/replicates/seed-<its seed>; returns study seed -> folder and their
     defects, each line prefixed with the seed. Raises ValueError, before any calibration, for a study of the
@@ -259,6 +262,6 @@ def calibrate_replicates(studies, primary: Path, out: Path, models=None, structu
     folders, defects = {}, []
     for study_seed, study in list(seeds.items())[1:]:
         folders[study_seed], found = calibrate_study(study, out / "replicates" / f"seed-{study_seed}", models,
-                                                     structures, seed, max_generations)
+                                                     structures, seed, max_generations, device)
         defects += [f"seed {study_seed}: {line}" for line in found]
     return folders, defects

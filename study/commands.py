@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nonlinear.compute_devices import DEVICES
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
@@ -73,6 +74,13 @@ def register(subparsers) -> None:
     register_confidence(subparsers)
 
 
+def add_device_argument(command: argparse.ArgumentParser) -> None:
+    """Add ``--device``, the compute device of a command that reads a finished study (``study.workflow.read_study``)."""
+    command.add_argument("--device", choices=DEVICES,
+                         help="where the stuck modes and QSMA levels are solved (default: the study's compute.device; "
+                              "the results agree to round-off)")
+
+
 CONFIDENCE_DESCRIPTION = """``surrogacy confidence``: SC_IJ at acceptance bounds where random designs rarely fall into a
 surrogate's acceptance region, by subset simulation (``study.confidence``; docs/design.md section 7).
 
@@ -92,7 +100,7 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     """Subset simulation of each surrogate; writes the CSV (with the study's own sample counted at the same
     bounds beside it where the sample exists) and prints its main columns."""
     estimate = estimate_inputs(arguments.study, arguments.model, arguments.out, arguments.damping_case,
-                               arguments.bounds, arguments.frequency_bound, arguments.damping_bound)
+                               arguments.bounds, arguments.frequency_bound, arguments.damping_bound, arguments.device)
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
     table, figure = surrogacy_confidence(estimate.folder, arguments.model, estimate.case, estimate.frequency_bounds,
@@ -133,4 +141,5 @@ def register_confidence(subparsers) -> None:
     command.add_argument("--scheduler", help="dask.distributed scheduler address, or 'local' for a LocalCluster "
                                              "(default: evaluate in this process)")
     command.add_argument("--out", type=Path, required=True, help="CSV file to write")
+    add_device_argument(command)
     command.set_defaults(run=run_confidence)

@@ -101,15 +101,17 @@ class Estimate(NamedTuple):
 
 
 def estimate_inputs(study: Path, model: str, out: Path, case: str | None = None, bounds: Path | None = None,
-                    frequency_bound: float | None = None, damping_bound: float | None = None) -> Estimate:
-    """The study in the folder ``study`` (``study.workflow.read_study``), the damping case (``damping_case``) and the
-    bounds (``acceptance_bounds``) of an estimate of ``model`` to be written to the CSV ``out``, checked in this
-    order before anything is computed: the bounds given one way (``check_bounds_given``), ``out`` and its levels
-    folder ``<out>.levels`` writable, the study readable, the bounds CSV holding the model's rows for that case."""
+                    frequency_bound: float | None = None, damping_bound: float | None = None,
+                    device: str | None = None) -> Estimate:
+    """The study in the folder ``study`` (``study.workflow.read_study``, its evaluations on ``device``: default the
+    study's compute device), the damping case (``damping_case``) and the bounds (``acceptance_bounds``) of an
+    estimate of ``model`` to be written to the CSV ``out``, checked in this order before anything is computed: the
+    bounds given one way (``check_bounds_given``), ``out`` and its levels folder ``<out>.levels`` writable, the
+    study readable, the bounds CSV holding the model's rows for that case."""
     check_bounds_given(bounds, frequency_bound, damping_bound)
     check_output_file(out)
     check_output_folder(out.with_name(out.name + ".levels"))
-    folder = workflow.read_study(study)
+    folder = workflow.read_study(study, device)
     chosen = damping_case(folder, case)
     return Estimate(folder, chosen, *acceptance_bounds(folder, model, chosen, bounds, frequency_bound, damping_bound))
 

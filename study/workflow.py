@@ -135,19 +135,22 @@ class StudyFolder(NamedTuple):
     exploration: Exploration
 
 
-def read_study(folder: Path) -> StudyFolder:
+def read_study(folder: Path, device: str | None = None) -> StudyFolder:
     """A study's folder (``surrogacy study`` output: study.json, measurements/): its configuration resolved and its
     structures rebuilt from the measurement files, and its exploration, where it has one, checked as the analyse
     step checks it (``check_explored``: made for these inputs, every chunk with the rows its seed regenerates)
     before any reader uses it: a measurement edited after the study, or a chunk copied, cut or removed, is
-    refused, never read. Raises
-    ValueError naming study.json where it is missing, StudyError naming the first file that differs."""
+    refused, never read. device: the reader's compute device (``compute.device``; default the study's: the
+    machine that reads a study need not be the one that explored it). Raises ValueError naming study.json where
+    it is missing, StudyError naming the first file that differs."""
     folder = Path(folder)
     record_path = folder / "study.json"
     if not record_path.exists():
         raise ValueError(f"{record_path}: missing (not a study folder: run surrogacy study first)")
     record = json.loads(record_path.read_text())
-    parameters = resolve(defaults(), record["configuration"], source=str(record_path))
+    configuration = record["configuration"] if device is None else {**record["configuration"],
+                                                                    "compute": {"device": device}}
+    parameters = resolve(defaults(), configuration, source=str(record_path))
     inputs = record["inputs"]
     paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]),
                   None if inputs.get("reference") is None else Path(inputs["reference"]))

@@ -1,9 +1,12 @@
-"""Helpers of the interruption and determinism tests: a stage run as a real ``surrogacy`` process, and the
-digest of a stage's output folder that two runs are compared by."""
+"""Helpers of the interruption, determinism and compute-device tests: a stage run as a real ``surrogacy`` process,
+the digest of a stage's output folder that two runs are compared by, and a run that counts which device's kernels
+its evaluations called."""
 
 from __future__ import annotations
 
 import hashlib
+import json
+import os
 import signal
 import subprocess
 import sys
@@ -12,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from locations import REPOSITORY
 from pipeline.files import PARTIAL, sha256_file
 
 SURROGACY = Path(sys.executable).with_name("surrogacy")  # the console script beside the venv's python
@@ -64,3 +68,39 @@ def digests(folder: Path) -> dict[str, str]:
 def run_to_end(arguments: list[str], log: Path, timeout: float = 600.0) -> int:
     """Run ``surrogacy <arguments>`` uninterrupted (stderr in ``log``); its exit status."""
     return start(arguments, log).wait(timeout=timeout)
+
+
+# ``surrogacy`` with its arguments (after the first, "simulated" or "cpu"), counting the calls of each compute
+# device's kernels (``nonlinear.compute_devices``); with "cpu", the CUDA path's kernels are the CPU kernels they are
+# compiled from (a command's plumbing to the device, at the CPU's speed; the simulator tests check the kernels).
+COUNTED_DEVICES = """
+import json
+import sys
+from cli.console import main
+from nonlinear import compute_devices, qsma_cuda
+stand_in = sys.argv.pop(1) == "cpu"
+cpu, calls = compute_devices.CPU, {}
+def counted(key, kernel):
+    calls[key] = 0
+    def call(*arguments):
+        calls[key] += 1
+        return kernel(*arguments)
+    return call
+for name in compute_devices.Kernels._fields:
+    setattr(qsma_cuda, name, counted(f"cuda {name}", getattr(cpu if stand_in else qsma_cuda, name)))
+compute_devices.CPU = compute_devices.Kernels(*(counted(f"cpu {name}", kernel)
+                                                for name, kernel in cpu._asdict().items()))
+status = main(sys.argv[1:])
+print(json.dumps(calls))
+sys.exit(status)
+"""
+
+
+def device_calls(arguments: list[str], cuda_kernels: str) -> dict[str, int]:
+    """Run ``surrogacy <arguments>`` in numba-cuda's simulator (NUMBA_ENABLE_CUDASIM=1), with the CUDA
+    path's kernels "simulated" (the simulator's) or "cpu" (the CPU kernels as stand-ins); returns the calls of each
+    device's kernels ("cpu stuck_designs", "cuda solve_levels", ...). Fails the test where the run fails."""
+    run = subprocess.run([sys.executable, "-c", COUNTED_DEVICES, cuda_kernels, *arguments], cwd=REPOSITORY,
+                         env={**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-4000:]
+    return json.loads(run.stdout.splitlines()[-1])

@@ -14,11 +14,10 @@ import pytest
 
 from calibration.calibrate import anchored_points, calibrate, escaped, multistart
 from calibration.local_fit import STEP, difference_points, jacobian, local_fit, residual_rows, uncertainty
-from calibration.objectives import (FrontArchive, fit_space, linf_errors, model_curves, physical, profiled_zeta0,
-                                   unit_zeta0)
+from calibration.objectives import (FrontArchive, backbone_solver, fit_space, linf_errors, model_curves, physical,
+                                   profiled_zeta0, unit_zeta0)
 from experiment.measured_files import read_mode_backbone
 from locations import SHARED
-from nonlinear.condensation import modal_split
 from nonlinear.joint import parameter_limits, random_designs, to_unit
 from nonlinear.qsma_vectorised import qsma_designs
 from cli.console import main as surrogacy
@@ -90,11 +89,11 @@ def with_noise(virtual, seed: int):
 def test_the_truth_is_an_exact_fit_and_a_start_away_from_it_returns_to_its_backbone(cd1):
     virtual, truth = cd1
     space = fit_space(MODEL, 1, virtual.measurement)
-    split = modal_split(virtual.space)
-    errors = linf_errors(virtual.measurement, model_curves(virtual, space, truth[None, :], split))[0]
+    solver = backbone_solver(virtual)
+    errors = linf_errors(virtual.measurement, model_curves(virtual, space, truth[None, :], solver))[0]
     assert errors[0] < 1e-9 * virtual.measurement.frequency_hz[0] and errors[1] < 1e-12
     start = np.clip(truth + np.random.default_rng(1).normal(0.0, 0.03, truth.size), 0.0, 1.0)
-    fit = local_fit(virtual, space, start, 0.5, split)
+    fit = local_fit(virtual, space, start, 0.5, solver)
     # noise-free data: the fit returns to the truth as far as the tolerances 1e-10 let it (measured: chi^2 5e-18 in
     # units of the floors 1e-4 f and 2 % zeta, zeta_0 to 8e-11, every unit coordinate to 8e-11)
     assert fit.converged and fit.chi_squared < 1e-12
@@ -107,11 +106,11 @@ def test_a_fit_stopped_by_its_budget_is_not_converged_and_continued_reaches_the_
     speak of (the truth: below 1e-12)."""
     virtual, truth = cd1
     space = fit_space(MODEL, 1, virtual.measurement)
-    split = modal_split(virtual.space)
+    solver = backbone_solver(virtual)
     start = np.clip(truth + np.random.default_rng(1).normal(0.0, 0.03, truth.size), 0.0, 1.0)
-    stopped = local_fit(virtual, space, start, 0.5, split, max_evaluations=5)
+    stopped = local_fit(virtual, space, start, 0.5, solver, max_evaluations=5)
     assert stopped.status == 0 and not stopped.converged and stopped.restarts == 0 and stopped.evaluations == 5
-    continued = local_fit(virtual, space, start, 0.5, split, max_evaluations=5, continuations=100)
+    continued = local_fit(virtual, space, start, 0.5, solver, max_evaluations=5, continuations=100)
     assert continued.converged and 0 < continued.restarts < 100 and continued.evaluations > 5
     assert continued.chi_squared < 1e-12 and continued.zeta0 == pytest.approx(ZETA0, rel=1e-6)
 
@@ -127,12 +126,12 @@ def test_a_study_design_seeded_at_its_rule_s_zeta0_has_the_errors_the_study_gave
 
     virtual, _ = cd1
     space = fit_space(MODEL, 1, virtual.measurement)
-    split = modal_split(virtual.space)
+    solver = backbone_solver(virtual)
     designs = random_designs(MODEL, 200, 1, np.random.default_rng(5))
     unit = to_unit(designs, *parameter_limits(MODEL, 1))
     case = virtual.measurement.damping[0]
-    zeta0 = rule_zeta0(virtual, space, unit, case, "outside_joint", split)
-    study = design_errors(virtual, MODEL, designs, [case], split, rule="outside_joint")
+    zeta0 = rule_zeta0(virtual, space, unit, case, "outside_joint", solver)
+    study = design_errors(virtual, MODEL, designs, [case], solver.split, rule="outside_joint")
     ours = linf_errors(virtual.measurement, model_curves(virtual, space, np.column_stack([unit, unit_zeta0(space,
                                                                                                           zeta0)])))
     both = study.converged
@@ -178,9 +177,9 @@ def test_the_stated_uncertainty_of_zeta0_matches_its_scatter_over_noisy_replicat
     for seed in range(12):
         noisy = with_noise(virtual, seed)
         space = fit_space(MODEL, 1, noisy.measurement)
-        split = modal_split(noisy.space)
-        fit = local_fit(noisy, space, truth, 0.5, split)
-        spread = uncertainty(noisy, space, fit.unit, split)
+        solver = backbone_solver(noisy)
+        fit = local_fit(noisy, space, truth, 0.5, solver)
+        spread = uncertainty(noisy, space, fit.unit, solver)
         fitted.append(np.log(fit.zeta0))
         stated.append(np.log(spread.physical[-1]))
         reduced.append(spread.reduced_chi_squared)
@@ -220,18 +219,18 @@ def test_the_escape_leaves_the_kink_minima_of_a_jenkins_joint_on_the_measured_c4
     frequency at the lowest level within its standard uncertainty."""
     c4a = measured_asb("C4a")
     space = fit_space("jenkins", 1, c4a.measurement)
-    split = modal_split(c4a.space)
+    solver = backbone_solver(c4a)
     starts = to_unit(np.array([[16.4908632, 8.6212725e8, 5.6632595e7, 4.5376e-4],
                                [10.0, 1.02653439e9, 5.36436254e7, 4.4891e-4]]), space.lower, space.upper,
                      space.logarithmic)
-    stopped = [local_fit(c4a, space, start, 0.5, split) for start in starts]
-    escapes = [escaped(c4a, space, fit, split, None) for fit in stopped]
+    stopped = [local_fit(c4a, space, start, 0.5, solver) for start in starts]
+    escapes = [escaped(c4a, space, fit, solver, None) for fit in stopped]
     print("stopped chi^2", [fit.chi_squared for fit in stopped], "escaped", [fit.chi_squared for fit in escapes])
     assert all(fit.converged for fit in stopped + escapes)
     assert escapes[0].chi_squared == pytest.approx(escapes[1].chi_squared, rel=1e-6)
     assert all(escape.chi_squared < 0.88 * fit.chi_squared for fit, escape in zip(stopped, escapes))
     points, _ = anchored_points(c4a, space, np.clip(escapes[0].unit[:-1] + 0.03 * (
-        np.random.default_rng(1).random((64, len(space.names) - 1)) - 0.5), 0.0, 1.0), split)
+        np.random.default_rng(1).random((64, len(space.names) - 1)) - 0.5), 0.0, 1.0), solver)
     designs, _ = physical(space, points)
     lowest = qsma_designs(c4a.space, "jenkins", designs, amplitudes=c4a.measurement.amplitude[:1])
     assert len(points) > 32
@@ -252,7 +251,7 @@ def test_the_multistart_reaches_the_stuck_core_s_corner_optimum_on_the_measured_
     three and the plain Sobol screen never (its 8 starts end at 989.0): the anchored screen's starts reach it."""
     c2 = measured_asb("C2")
     space = fit_space("iwan4_core", 1, c2.measurement)
-    fits = multistart(c2, space, modal_split(c2.space), FrontArchive(len(space.names)))
+    fits = multistart(c2, space, backbone_solver(c2), FrontArchive(len(space.names)))
     best = min(fits, key=lambda fit: fit.chi_squared)
     print("multistart chi^2", sorted(fit.chi_squared for fit in fits))
     assert best.chi_squared < 420.0
@@ -293,8 +292,8 @@ def test_the_multistart_alone_recovers_the_virtual_joint(cd1):
 
     virtual, truth = cd1
     space = fit_space(MODEL, 1, virtual.measurement)
-    split = modal_split(virtual.space)
-    runs = [multistart(virtual, space, split, FrontArchive(truth.size)) for _ in range(2)]
+    solver = backbone_solver(virtual)
+    runs = [multistart(virtual, space, solver, FrontArchive(truth.size)) for _ in range(2)]
     best = min(runs[0], key=lambda fit: fit.chi_squared)
     assert best.chi_squared / (2 * N_LEVELS) < 1e-12 and best.zeta0 == pytest.approx(ZETA0, rel=1e-6)
     assert [fit.chi_squared for fit in runs[0]] == [fit.chi_squared for fit in runs[1]]
@@ -308,17 +307,17 @@ def test_the_calibration_recovers_a_virtual_stuck_core(cd1_core):
     motion); chi and beta, which the microslip levels see only through R, are named undetermined."""
     virtual, truth = cd1_core
     space = fit_space(CORE_MODEL, 1, virtual.measurement)
-    split = modal_split(virtual.space)
+    solver = backbone_solver(virtual)
     true_design, _ = physical(space, truth[None, :])
     start = np.clip(truth + np.random.default_rng(1).normal(0.0, 0.03, truth.size), 0.0, 1.0)
-    fit = local_fit(virtual, space, start, 0.5, split)
+    fit = local_fit(virtual, space, start, 0.5, solver)
     assert fit.converged and fit.chi_squared < 1e-12
     assert fit.design[CORE] == pytest.approx(true_design[0, CORE], rel=1e-6)
     assert fit.zeta0 == pytest.approx(ZETA0, rel=1e-6)
     for seed in range(3):
         noisy = with_noise(virtual, seed)
-        fit = local_fit(noisy, space, truth, 0.5, split)
-        spread = uncertainty(noisy, space, fit.unit, split)
+        fit = local_fit(noisy, space, truth, 0.5, solver)
+        spread = uncertainty(noisy, space, fit.unit, solver)
         assert "K_c[0]" not in spread.undetermined and {"chi[0]", "beta[0]"} <= set(spread.undetermined)
         factor = spread.physical[CORE]
         assert 1.0 < factor < 1.1
@@ -451,6 +450,40 @@ def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp
     assert unreached["confidence"].isna().all()
     assert unreached["note"].str.contains("not reached with 300 to 2400 designs per level").all()
     assert "ASB C1: not estimated" in capsys.readouterr().out
+
+
+def test_fit_and_confidence_solve_on_the_device_the_study_or_the_option_names(small_study, tmp_path):
+    """``surrogacy fit`` of a study explored with compute.device=cuda solves every stuck mode and QSMA level of the
+    calibration on the CUDA path, and ``surrogacy confidence --device cuda`` of a CPU study every one of the
+    subset simulation's, with the CUDA kernels replaced by the CPU kernels they are compiled from
+    (``stage_runs.device_calls``): no call of theirs reaches the CPU kernels, and the records and the table are
+    the CPU run's, so the device changes nothing else (the kernels' equality is the simulator tests')."""
+    import shutil
+
+    import pandas as pd
+
+    from stage_runs import device_calls
+
+    on_cuda = tmp_path / "study"
+    shutil.copytree(small_study, on_cuda)
+    record = json.loads((on_cuda / "study.json").read_text())
+    record["configuration"]["compute"] = {"device": "cuda"}
+    (on_cuda / "study.json").write_text(json.dumps(record))
+    fit = ["fit", "--structures", "ASB CD1", "--max-generations", "3"]
+    calls = device_calls([*fit, "--study", str(on_cuda), "--out", str(tmp_path / "fit-cuda")], "cpu")
+    assert calls["cuda solve_levels"] > 100 and calls["cuda stuck_designs"] > 100, calls
+    # one call on the CPU: the figure of the best compromise's backbone (``study.figures.plot_responses``)
+    assert calls["cpu solve_levels"] == calls["cpu stuck_designs"] == 1, calls
+    assert surrogacy([*fit, "--study", str(small_study), "--out", str(tmp_path / "fit-cpu")]) == 0
+    cuda, cpu = (json.loads((tmp_path / folder / "jenkins" / "ASB_CD1.json").read_text())
+                 for folder in ("fit-cuda", "fit-cpu"))
+    assert cuda == cpu
+    confidence = ["confidence", "--study", str(small_study), "--model", "jenkins", "--surrogate", "ASB C1",
+                  "--frequency-bound", "2.0", "--damping-bound", "5e-3", "--per-level", "300", "--conditional", "300"]
+    calls = device_calls([*confidence, "--device", "cuda", "--out", str(tmp_path / "cuda.csv")], "cpu")
+    assert calls["cuda solve_levels"] > 0 and calls["cpu solve_levels"] == calls["cpu stuck_designs"] == 0, calls
+    assert surrogacy([*confidence, "--out", str(tmp_path / "cpu.csv")]) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "cuda.csv"), pd.read_csv(tmp_path / "cpu.csv"))
 
 
 @pytest.mark.slow

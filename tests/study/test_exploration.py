@@ -36,6 +36,7 @@ from experiment.backbone_files import read_asb_backbone
 from locations import ASB_MODELS, REPOSITORY
 from nonlinear.joint import parameter_names
 from pipeline import runners
+from stage_runs import device_calls
 from study.exploration import (ChunkTiming, Explored, Exploration, Sample, StudyError, check_explored, chunk_path,
                                chunk_tables, explore, finished_chunks, manifest, read_exploration, write_chunk)
 from study.structures import asb_superelement, structure
@@ -637,25 +638,6 @@ def test_analyse_step_refuses_inputs_the_exploration_did_not_use(asb_cli_study, 
         assert_same_chunk(chunk, asb_cli_study / "designs" / "jenkins" / "chunk-000001.parquet")
 
 
-# ``surrogacy study`` with its arguments, counting the calls of the CUDA path's two kernels (``nonlinear.qsma_cuda``).
-COUNTED_CUDA_STUDY = """
-import sys
-from cli.console import main
-from nonlinear import qsma_cuda
-calls = {"stuck_designs": 0, "solve_levels": 0}
-def counted(name, kernel):
-    def call(*arguments):
-        calls[name] += 1
-        return kernel(*arguments)
-    return call
-for name in calls:
-    setattr(qsma_cuda, name, counted(name, getattr(qsma_cuda, name)))
-status = main(sys.argv[1:])
-print(calls["stuck_designs"], calls["solve_levels"])
-sys.exit(status)
-"""
-
-
 def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_study, tmp_path):
     """``--set compute.device=cuda``: the explore step forms every structure's stuck modes and solves its levels
     of every chunk by the CUDA path (``qsma_designs(device="cuda")``), here numba-cuda's simulator
@@ -665,11 +647,9 @@ def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_stu
     folder = tmp_path / "study"
     shutil.copytree(asb_cli_study, folder)
     shutil.rmtree(folder / "designs")
-    environment = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
-    run = subprocess.run([sys.executable, "-c", COUNTED_CUDA_STUDY, *asb_study_arguments(folder, "explore"),
-                          "--set", "compute.device=cuda"], cwd=REPOSITORY, env=environment, check=True,
-                         capture_output=True, text=True)
-    assert run.stdout.splitlines()[-1] == "12 12"  # the six ASB configurations x 2 chunks, each kernel
+    calls = device_calls([*asb_study_arguments(folder, "explore"), "--set", "compute.device=cuda"], "simulated")
+    # the six ASB configurations x 2 chunks, each kernel
+    assert calls == {"cuda stuck_designs": 12, "cuda solve_levels": 12, "cpu stuck_designs": 0, "cpu solve_levels": 0}
     assert json.loads((folder / "study.json").read_text())["configuration"]["compute"] == {"device": "cuda"}
     for chunk in (0, 1):
         cuda, cpu = (pq.read_table(chunk_path(root / "designs", "jenkins", chunk)).to_pandas()
