@@ -58,8 +58,8 @@ from pymoo.termination.default import DefaultMultiObjectiveTermination
 from scipy.stats import qmc
 
 from calibration.local_fit import LocalFit, Uncertainty, local_fit, residual_rows, uncertainty
-from calibration.objectives import (FitSpace, FrontArchive, backbone_solver, fit_space, linf_errors, model_curves,
-                                   physical, plain_errors, profiled_zeta0, unit_zeta0)
+from calibration.objectives import (BackboneSolver, FitSpace, FrontArchive, backbone_solver, fit_space, linf_errors,
+                                   model_curves, physical, plain_errors, profiled_zeta0, unit_zeta0)
 from nonlinear.friction_models import STIFFNESS_PARAMETERS
 from nonlinear.joint import to_unit
 from nonlinear.qsma_vectorised import qsma_designs
@@ -145,8 +145,8 @@ def seed_points(space: FitSpace, designs_unit, study_zeta0: float, rng: np.rando
     return np.column_stack([np.repeat(designs_unit, zeta0.shape[1], axis=0), zeta0.ravel()])
 
 
-def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0: float, rule: str, solver
-               ) -> np.ndarray:
+def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0: float, rule: str,
+               solver: BackboneSolver) -> np.ndarray:
     """zeta_0 (n,) that the study's damping rule (``study.errors.structure_damping``) gives each of its designs
     (n, d unit) on ``structure`` from the case's value ``study_zeta0``: the joint's own damping at the lowest
     level comes from QSMA (zeta_0 at its floor, taken off again); the case's value where QSMA does not converge."""
@@ -156,7 +156,7 @@ def rule_zeta0(structure: Structure, space: FitSpace, designs_unit, study_zeta0:
     return np.where(np.isfinite(zeta0), zeta0, study_zeta0)
 
 
-def chi_squared(structure: Structure, space: FitSpace, unit, solver, archive: FrontArchive | None = None
+def chi_squared(structure: Structure, space: FitSpace, unit, solver: BackboneSolver, archive: FrontArchive | None = None
                 ) -> np.ndarray:
     """The plain chi^2 (w = 1/2) of unit points (n, d + 1): (n,)."""
     return np.sum(residual_rows(structure, space, unit, 0.5, solver, archive) ** 2, axis=1)
@@ -171,7 +171,7 @@ def coordinate_scans(point: np.ndarray) -> np.ndarray:
     return points
 
 
-def scanned(structure: Structure, space: FitSpace, fit: LocalFit, solver, archive: FrontArchive,
+def scanned(structure: Structure, space: FitSpace, fit: LocalFit, solver: BackboneSolver, archive: FrontArchive,
             continuations: int = 0) -> LocalFit:
     """``fit`` (w = 1/2) polished again from the best point of its coordinate scans while they lower its chi^2 by
     more than SCAN_GAIN, at most SCAN_SWEEPS times (module docstring); each fit restarted up to ``continuations``
@@ -186,7 +186,8 @@ def scanned(structure: Structure, space: FitSpace, fit: LocalFit, solver, archiv
     return fit
 
 
-def anchored_points(structure: Structure, space: FitSpace, joint_unit, solver) -> tuple[np.ndarray, np.ndarray]:
+def anchored_points(structure: Structure, space: FitSpace, joint_unit, solver: BackboneSolver
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Unit joint points (n, d) moved onto the measured stuck frequency (module docstring, Escape): each point's
     stiffnesses (``STIFFNESS_PARAMETERS``, N/m) times one factor s, found by the secant method on ln s (at most
     ``ANCHOR_ITERATIONS`` steps, the points still off at once, s kept where every stiffness stays within its limits)
@@ -246,7 +247,7 @@ def pinned_screen(n_points: int, dimension: int) -> np.ndarray:
     return np.clip((points - PIN) / (1.0 - 2.0 * PIN), 0.0, 1.0)
 
 
-def multistart(structure: Structure, space: FitSpace, solver, archive: FrontArchive) -> list[LocalFit]:
+def multistart(structure: Structure, space: FitSpace, solver: BackboneSolver, archive: FrontArchive) -> list[LocalFit]:
     """The multistart's w = 1/2 fits (module docstring): from the MULTISTARTS points of lowest chi^2 among the
     first MULTISTART_POINTS of the unscrambled Sobol sequence over the unit box and from the MULTISTARTS of the
     anchored screen, each scanned."""
@@ -259,7 +260,8 @@ def multistart(structure: Structure, space: FitSpace, solver, archive: FrontArch
             for start in starts]
 
 
-def escaped(structure: Structure, space: FitSpace, fit: LocalFit, solver, archive: FrontArchive) -> LocalFit:
+def escaped(structure: Structure, space: FitSpace, fit: LocalFit, solver: BackboneSolver, archive: FrontArchive
+            ) -> LocalFit:
     """``fit`` (w = 1/2) moved to the lower basin of an anchored cloud around it while one is found (module
     docstring, Escape), each new fit polished and scanned with ``CONTINUATIONS``."""
     offsets = 2.0 * qmc.Sobol(len(space.names) - 1, scramble=False).random(CLOUD_POINTS) - 1.0
