@@ -50,6 +50,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from importlib import metadata
 from pathlib import Path
@@ -233,7 +234,8 @@ def shared_chunks(gpu: Path, cpu: Path) -> dict:
 
 
 def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, cpu_designs: int, chunk: int,
-        workers: int | None, settings: tuple = (), timeout: float | None = None, batches=gpu_qsma.BATCHES) -> None:
+        workers: int | None, settings: tuple = (), timeout: float | None = None,
+        batches: Sequence[int] = gpu_qsma.BATCHES) -> None:
     """The check (module docstring), each part written to ``out`` as it ends."""
     out.mkdir(parents=True, exist_ok=True)
     record = {"python": sys.version, "cores": os.cpu_count(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}

@@ -36,6 +36,7 @@ import json  # noqa: E402
 import multiprocessing  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -171,8 +172,8 @@ def measure(structure: tuple[str, Path], model: str, n_designs: int, amplitudes:
             "cpu_per_s": n_designs / cpu_wall, "gpu_per_s": n_designs / gpu[6], **compared(cpu, gpu[:4])}
 
 
-def batch_seconds(structure: tuple[str, Path], model: str, amplitudes: np.ndarray, sizes=BATCHES, repeats: int = 3
-                  ) -> list[dict]:
+def batch_seconds(structure: tuple[str, Path], model: str, amplitudes: np.ndarray, sizes: Sequence[int] = BATCHES,
+                  repeats: int = 3) -> list[dict]:
     """The wall time (s) of one ``qsma_designs`` call of each batch size of ``sizes`` on the GPU and on one CPU
     core (this process), the best of ``repeats``."""
     rows = []

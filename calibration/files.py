@@ -167,11 +167,11 @@ def write_spread(table: pd.DataFrame, destination: Path) -> None:
         table.to_csv(temporary, index=False)
 
 
-def plot_fits(path: Path, model: str, curves: list) -> None:
-    """fits_<model>.png: per structure the measurement and the best compromise (``study.figures.plot_responses``;
-    curves: (Structure, labels, designs (1, d), zeta_0))."""
-    figures.plot_responses(path, model, curves,
-                           f"{model}: the calibration's best compromise against the measurement")
+def plot_fits(path: Path, model: str, curves: list, device: str = "cpu") -> None:
+    """fits_<model>.png: per structure the measurement and the best compromise (``study.figures.plot_responses``,
+    solved on ``device``; curves: (Structure, labels, designs (1, d), zeta_0))."""
+    figures.plot_responses(path, model, curves, f"{model}: the calibration's best compromise against the measurement",
+                           device=device)
 
 
 def markdown(records: list[dict], bounds: pd.DataFrame, nested=(), spread: pd.DataFrame | None = None) -> str:

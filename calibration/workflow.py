@@ -23,7 +23,7 @@ from pipeline.files import sha256_file, sha256_json, stage_folder, write_json
 from study.datasets import dataset
 from study.exploration import Exploration, structure_errors
 from study.structures import Structure
-from study.workflow import Paths, front_designs, read_study
+from study.workflow import Paths, check_reader_device, front_designs, read_study
 
 VERSIONS = package_versions("numpy", "scipy", "numba", "pymoo")
 
@@ -155,15 +155,17 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
     that seed: the spread of each best compromise's chi^2 over them and this one is written (``spread.csv``,
     ``calibration.md``). device: where the calibrations are solved (``nonlinear.compute_devices``; default the
     study's ``compute.device``).
-    Raises ValueError for an unknown model, a model or structure the study does not hold, a cap below one, or a
-    study without its analysis or with a fronts file that cannot be read (``check_fronts``), before the output folder
-    is touched. A record whose key matches but which lacks a field this run reads is calibrated again
-    (``calibration.files.read_calibration``)."""
+    Raises ValueError for an unknown model, a model or structure the study does not hold, a cap below one, a
+    device that cannot run here (``study.workflow.check_reader_device``), or a study without its analysis or with a
+    fronts file that cannot be read (``check_fronts``), before the output folder is touched. A record whose key
+    matches but which lacks a field this run reads is calibrated again (``calibration.files.read_calibration``)."""
     unknown = [model for model in models or () if model not in MODEL_NAMES]
     if unknown:
         raise ValueError(f"option --models: {unknown[0]!r}: not a friction model; expected some of "
                          f"{list(MODEL_NAMES)}")
-    paths, parameters, explored = read_study(study, device)
+    folder = read_study(study, device)
+    check_reader_device(folder)
+    paths, parameters, explored = folder
     models = sorted(models or explored.models, key=MODEL_NAMES.index)  # a contained model before its container
     structures = list(structures or explored.names)
     unknown = [m for m in models if m not in explored.models] + [s for s in structures if s not in explored.names]
@@ -209,7 +211,7 @@ def calibrate_study(study: Path, out: Path, models=None, structures=None, seed: 
                 model, explored.n_groups, structure_of[record["structure"]].measurement))
             plot_fits(out / f"fits_{model}.png", model, [
                 (structure_of[r["structure"]], ["best compromise"], [[r["best"]["parameters"][n] for n in names]],
-                 r["best"]["parameters"]["zeta_0"]) for r in model_records])
+                 r["best"]["parameters"]["zeta_0"]) for r in model_records], explored.device)
         every = [r for model_records in records.values() for r in model_records]
         bounds = bounds_table(every, [study_errors(explored, case, record) for record in every],
                               {name: s.measurement for name, s in structure_of.items()}, case)

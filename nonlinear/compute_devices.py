@@ -42,3 +42,12 @@ def kernels(device: str) -> Kernels:
                            "extra (pip install -e '.[gpu]') or use device='cpu'") from None
     qsma_cuda.require_gpu()
     return Kernels(qsma_cuda.stuck_designs, qsma_cuda.solve_levels)
+
+
+def check_device(device: str, setting: str) -> None:
+    """ValueError naming ``setting`` (where the user chose the device) unless ``device``'s kernels can run in this
+    process (``kernels``: numba-cuda and a GPU for "cuda"); for a command to check before it writes anything."""
+    try:
+        kernels(device)
+    except RuntimeError as error:
+        raise ValueError(f"{setting}: {error}") from None

@@ -101,6 +101,8 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     bounds beside it where the sample exists) and prints its main columns."""
     estimate = estimate_inputs(arguments.study, arguments.model, arguments.out, arguments.damping_case,
                                arguments.bounds, arguments.frequency_bound, arguments.damping_bound, arguments.device)
+    if arguments.scheduler in (None, "", "local"):  # evaluated on this machine
+        workflow.check_reader_device(estimate.folder)
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)
     table, figure = surrogacy_confidence(estimate.folder, arguments.model, estimate.case, estimate.frequency_bounds,

@@ -50,11 +50,13 @@ def plot_fronts(destination: Path, model: str, names, errors, n_designs: int, fr
     save(figure, destination)
 
 
-def plot_responses(destination: Path, model: str, curves, title: str | None = None, rule: str = "added") -> None:
+def plot_responses(destination: Path, model: str, curves, title: str | None = None, rule: str = "added",
+                   device: str = "cpu") -> None:
     """Frequency and damping against modal amplitude: the measurement (labelled virtual where it is) and the
-    QSMA backbones of representative designs. curves: per structure (Structure, design indices, designs
-    (k, d), the damping case's value made zeta_0 by ``rule``, ``study.errors.structure_damping``); title: the
-    figure's (default: the study's representative Pareto designs)."""
+    QSMA backbones of representative designs, solved on ``device`` (``nonlinear.compute_devices``). curves: per
+    structure (Structure, design indices, designs (k, d), the damping case's value made zeta_0 by ``rule``,
+    ``study.errors.structure_damping``); title: the figure's (default: the study's representative Pareto
+    designs)."""
     figure, axes = plt.subplots(2, len(curves), figsize=(4.2 * len(curves), 6.0), squeeze=False)
     for column, (structure, indices, designs, zeta0) in enumerate(curves):
         measurement = structure.measurement
@@ -63,7 +65,8 @@ def plot_responses(destination: Path, model: str, curves, title: str | None = No
         axes[1, column].semilogx(measurement.amplitude, measurement.damping, "ko", ms=3, label=label)
         if len(designs):
             amplitude = np.geomspace(measurement.amplitude[0], measurement.amplitude[-1], 40)
-            result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=0.0)
+            result = qsma_designs(structure.space, model, designs, amplitudes=amplitude, linear_damping=0.0,
+                                  device=device)
             damping = result.damping + structure_damping(result.damping, [zeta0], rule)
             for k, index in enumerate(indices):
                 axes[0, column].semilogx(amplitude, result.frequency[k] / (2 * np.pi), label=f"design {index}")

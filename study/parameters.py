@@ -74,8 +74,8 @@ class ParetoParameters:
 class ComputeParameters:
     """[compute]: where the stuck modes and QSMA levels of the study's designs are solved (``device``: "cpu", the
     compiled CPU kernels, or "cuda", the same kernels on a CUDA GPU; ``nonlinear.compute_devices``). The explore
-    step, the analyse step's NSGA-II and what reads the study (``surrogacy fit``'s study errors, ``surrogacy
-    confidence``) use it; the results agree to round-off across devices, so it is not part of the study key."""
+    and analyse steps use it, and so do ``surrogacy fit`` and ``surrogacy confidence`` unless their ``--device``
+    names another; the results agree to round-off across devices, so it is not part of the study key."""
 
     device: str = "cpu"
 

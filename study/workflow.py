@@ -23,6 +23,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 import pandas as pd
 
+from nonlinear.compute_devices import DEVICES, check_device
 from nonlinear.condensation import modal_split
 from nonlinear.joint import from_unit, parameter_limits, parameter_names, to_unit
 from pipeline.cache import is_current, package_versions, read_sidecar, sidecar_record
@@ -148,9 +149,10 @@ def read_study(folder: Path, device: str | None = None) -> StudyFolder:
     if not record_path.exists():
         raise ValueError(f"{record_path}: missing (not a study folder: run surrogacy study first)")
     record = json.loads(record_path.read_text())
-    configuration = record["configuration"] if device is None else {**record["configuration"],
-                                                                    "compute": {"device": device}}
-    parameters = resolve(defaults(), configuration, source=str(record_path))
+    if device not in (None, *DEVICES):
+        raise ValueError(f"device {device!r}: expected one of {DEVICES}")
+    parameters = resolve(defaults(), record["configuration"], [("compute", "device", device)] if device else (),
+                         source=str(record_path))
     inputs = record["inputs"]
     paths = Paths(folder, Path(inputs["rom"]), Path(inputs["data"]),
                   None if inputs.get("reference") is None else Path(inputs["reference"]))
@@ -158,6 +160,13 @@ def read_study(folder: Path, device: str | None = None) -> StudyFolder:
     if (paths.designs / "exploration.json").exists():  # a study of its measurements only has no sample to check
         check_explored(explored, paths.designs)
     return StudyFolder(paths, parameters, explored)
+
+
+def check_reader_device(folder: StudyFolder) -> None:
+    """ValueError where the compute device a reader of a finished study evaluates on (``read_study``'s: the study's
+    compute.device or the command's --device) cannot run in this process; for a command to call before it writes
+    anything."""
+    check_device(folder.exploration.device, "compute device (option --device, default: the study's compute.device)")
 
 
 class FrontDesigns(NamedTuple):
@@ -309,7 +318,8 @@ def responses(paths: Paths, parameters: dict, explored: Exploration, model: str,
                                         parameters["pareto"].representatives)
         designs = design_rows(paths.designs, model, front.design[chosen], names)
         curves.append((structure, front.design[chosen], designs, explored.damping_cases[case][index]))
-    figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves, rule=explored.damping_rule)
+    figures.plot_responses(paths.analysis / f"responses_{model}.png", model, curves, rule=explored.damping_rule,
+                           device=explored.device)
 
 
 def report(paths: Paths, parameters: dict) -> Path:

@@ -100,7 +100,8 @@ def device_calls(arguments: list[str], cuda_kernels: str) -> dict[str, int]:
     """Run ``surrogacy <arguments>`` in numba-cuda's simulator (NUMBA_ENABLE_CUDASIM=1), with the CUDA
     path's kernels "simulated" (the simulator's) or "cpu" (the CPU kernels as stand-ins); returns the calls of each
     device's kernels ("cpu stuck_designs", "cuda solve_levels", ...). Fails the test where the run fails."""
+    assert cuda_kernels in ("simulated", "cpu"), cuda_kernels
     run = subprocess.run([sys.executable, "-c", COUNTED_DEVICES, cuda_kernels, *arguments], cwd=REPOSITORY,
-                         env={**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}, capture_output=True, text=True)
+                         env={**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr[-4000:]
     return json.loads(run.stdout.splitlines()[-1])

@@ -453,11 +453,11 @@ def test_bounds_from_the_calibration_and_the_confidence_at_them(small_study, tmp
 
 
 def test_fit_and_confidence_solve_on_the_device_the_study_or_the_option_names(small_study, tmp_path):
-    """``surrogacy fit`` of a study explored with compute.device=cuda solves every stuck mode and QSMA level of the
-    calibration on the CUDA path, and ``surrogacy confidence --device cuda`` of a CPU study every one of the
-    subset simulation's, with the CUDA kernels replaced by the CPU kernels they are compiled from
-    (``stage_runs.device_calls``): no call of theirs reaches the CPU kernels, and the records and the table are
-    the CPU run's, so the device changes nothing else (the kernels' equality is the simulator tests')."""
+    """``surrogacy fit`` of a study explored with compute.device=cuda solves every stuck mode and QSMA level (the
+    calibration's and its figure's) on the CUDA path, and with ``--device cpu`` on the CPU; ``surrogacy confidence
+    --device cuda`` of a CPU study solves every one of the subset simulation's on the CUDA path: counted with the
+    CUDA kernels replaced by the CPU kernels they are compiled from (``stage_runs.device_calls``), so the records
+    and the tables of both devices must be equal (the kernels' own equality is the simulator tests')."""
     import shutil
 
     import pandas as pd
@@ -470,20 +470,40 @@ def test_fit_and_confidence_solve_on_the_device_the_study_or_the_option_names(sm
     record["configuration"]["compute"] = {"device": "cuda"}
     (on_cuda / "study.json").write_text(json.dumps(record))
     fit = ["fit", "--structures", "ASB CD1", "--max-generations", "3"]
-    calls = device_calls([*fit, "--study", str(on_cuda), "--out", str(tmp_path / "fit-cuda")], "cpu")
-    assert calls["cuda solve_levels"] > 100 and calls["cuda stuck_designs"] > 100, calls
-    # one call on the CPU: the figure of the best compromise's backbone (``study.figures.plot_responses``)
-    assert calls["cpu solve_levels"] == calls["cpu stuck_designs"] == 1, calls
-    assert surrogacy([*fit, "--study", str(small_study), "--out", str(tmp_path / "fit-cpu")]) == 0
+    for device, option in (("cuda", []), ("cpu", ["--device", "cpu"])):
+        calls = device_calls([*fit, "--study", str(on_cuda), *option, "--out", str(tmp_path / f"fit-{device}")],
+                             "cpu")
+        other = "cpu" if device == "cuda" else "cuda"
+        assert calls[f"{device} solve_levels"] > 100 and calls[f"{device} stuck_designs"] > 100, calls
+        assert calls[f"{other} solve_levels"] == calls[f"{other} stuck_designs"] == 0, calls
     cuda, cpu = (json.loads((tmp_path / folder / "jenkins" / "ASB_CD1.json").read_text())
                  for folder in ("fit-cuda", "fit-cpu"))
     assert cuda == cpu
     confidence = ["confidence", "--study", str(small_study), "--model", "jenkins", "--surrogate", "ASB C1",
                   "--frequency-bound", "2.0", "--damping-bound", "5e-3", "--per-level", "300", "--conditional", "300"]
     calls = device_calls([*confidence, "--device", "cuda", "--out", str(tmp_path / "cuda.csv")], "cpu")
-    assert calls["cuda solve_levels"] > 0 and calls["cpu solve_levels"] == calls["cpu stuck_designs"] == 0, calls
+    assert calls["cuda solve_levels"] > 0 and calls["cuda stuck_designs"] > 0, calls
+    assert calls["cpu solve_levels"] == calls["cpu stuck_designs"] == 0, calls
     assert surrogacy([*confidence, "--out", str(tmp_path / "cpu.csv")]) == 0
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "cuda.csv"), pd.read_csv(tmp_path / "cpu.csv"))
+
+
+@pytest.mark.parametrize("command", ["fit", "confidence"])
+def test_a_device_this_machine_lacks_is_refused_before_anything_is_written(small_study, tmp_path, capsys, command):
+    """``--device cuda`` where numba-cuda finds no GPU: exit 2 with one line naming the option and what is
+    missing, and no output written."""
+    from numba import cuda
+
+    if cuda.is_available():
+        pytest.skip("numba-cuda finds a GPU (or its simulator) here: cuda can run")
+    out = tmp_path / "out"
+    arguments = {"fit": ["fit", "--study", str(small_study), "--out", str(out)],
+                 "confidence": ["confidence", "--study", str(small_study), "--model", "jenkins", "--frequency-bound",
+                                "2.0", "--damping-bound", "5e-3", "--out", str(out / "c.csv")]}[command]
+    assert surrogacy([*arguments, "--device", "cuda"]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "option --device" in error[0] and "no usable CUDA GPU" in error[0], error
+    assert not out.exists() and not list(tmp_path.iterdir())
 
 
 @pytest.mark.slow
