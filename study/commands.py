@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from nonlinear.compute_devices import DEVICES
+from nonlinear.compute_devices import DEVICES, check_device
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
 from study import workflow
@@ -35,8 +35,11 @@ from study.subset_simulation import Settings
 
 
 def run(arguments: argparse.Namespace) -> None:
-    """Run the chosen steps of the study."""
+    """Run the chosen steps of the study; the compute device checked first where this machine evaluates designs
+    (the analyse step, and the explore step without a remote scheduler)."""
     parameters = configuration(arguments, defaults())
+    if "analyse" in arguments.steps or "explore" in arguments.steps and arguments.scheduler in (None, "", "local"):
+        check_device(parameters["compute"].device, "[compute] device")
     paths = workflow.Paths(Path(arguments.out), Path(arguments.rom), Path(arguments.data), arguments.reference)
     with stage_folder(arguments.out):
         for step, result in workflow.run_steps(paths, parameters, arguments.steps, arguments.scheduler,

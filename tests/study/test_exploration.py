@@ -662,6 +662,23 @@ def test_compute_device_cuda_explores_the_same_rows_in_the_simulator(asb_cli_stu
                 assert cuda[name].tolist() == cpu[name].tolist(), name
 
 
+@pytest.mark.parametrize("steps", [["measurements", "explore"], ["analyse"]])
+def test_a_cuda_study_where_numba_cuda_finds_no_gpu_is_refused_before_any_step(tmp_path, capsys, steps):
+    """``--set compute.device=cuda`` on a machine without a GPU, with a step that evaluates designs here: exit 2
+    with one line naming the setting and what is missing, and no folder made."""
+    from numba import cuda
+
+    from cli.console import main as surrogacy
+
+    if cuda.is_available():
+        pytest.skip("numba-cuda finds a GPU (or its simulator) here: cuda can run")
+    folder = tmp_path / "study"
+    assert surrogacy([*asb_study_arguments(folder, *steps), "--set", "compute.device=cuda"]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "[compute] device" in error[0] and "no usable CUDA GPU" in error[0], error
+    assert not folder.exists()
+
+
 def test_study_of_another_dataset_is_refused_before_any_step(asb_cli_study, tmp_path, capsys):
     """A beams study into an ASB study's folder: exit 2 at once, one line naming the file that records the ASB
     dataset, and the folder untouched (no virtual experiment run, no measurement file added)."""
