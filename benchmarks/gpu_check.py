@@ -25,15 +25,19 @@ build/ and so ignored by git) writes what the check reads, in about 35 MiB:
        with compute.device=cpu on the same cluster for ``--cpu-designs`` designs per model: wall time of each step,
        peak resident memory of the process tree and peak GPU memory (sampled), the exploration's designs per
        second; the chunks both runs share compared row by row (errors within 1e-10 relative, flags and reasons
-       equal) -> gpu_check.json, gpu_check.md, the two runs' output in gpu_study.log and cpu_study.log.
+       equal) -> gpu_check.json, gpu_check.md, the two runs' output in gpu_study.log and cpu_study.log;
+    3. on the CPU study, where it finished, ``surrogacy confidence`` (Jenkins, the BRB as surrogate, half the
+       paper's acceptance bounds, 2,000 designs per level, a LocalCluster) with --device cuda and with cpu: wall
+       times, and the two tables compared as the chunks are -> gpu_check.json, gpu_check.md,
+       confidence_cuda.log and confidence_cpu.log.
 One command there (the device tool's run, OUT its $OUT)::
 
     python3 -m pip install -q --no-index --no-deps --target /tmp/site build/gpu-check/wheels/*.whl &&
     PYTHONPATH=/tmp/site:. PYTHONUNBUFFERED=1 python3 -m benchmarks.gpu_check run $OUT
 
 With NUMBA_ENABLE_CUDASIM=1 and tiny sizes (``--designs 3 --levels 4 --batches 1 2 --study-designs 40 --cpu-designs
-40 --chunk 20 --workers 2 --set pareto.generations=1 pareto.population=4``) the same run goes through numba-cuda's
-simulator here.
+40 --chunk 20 --workers 2 --confidence-designs 20 --set pareto.generations=1 pareto.population=4``) the same run
+goes through numba-cuda's simulator here.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+import pandas as pd
 import psutil
 import pyarrow.parquet as pq
 
@@ -65,6 +70,7 @@ from benchmarks.table import row
 from nonlinear import compute_devices
 from nonlinear.friction_models import MODEL_NAMES
 from pipeline.runners import runner
+from study.errors import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE_HZ
 from study.exploration import Exploration, Sample, explore
 
 ROM = Path("build/rom")
@@ -170,8 +176,23 @@ commands.register(parser.add_subparsers(dest="command"))
 arguments = parser.parse_args(sys.argv[1:])
 arguments.run(arguments)
 """
-"""The study command's own parser and run (``study.commands``), without the other stages' imports (gmsh, PyVista,
-pyuff, pooch: not on the GPU machine)."""
+"""The study and confidence commands' own parser and run (``study.commands``), without the other stages' imports
+(gmsh, PyVista, pyuff, pooch: not on the GPU machine)."""
+
+
+def timed_command(command: list[str], log: Path, timeout: float | None) -> tuple:
+    """Run ``command``, its output in ``log``, killed with its process group (a LocalCluster's processes) after
+    ``timeout`` s: (exit status or "timed out", wall time s, its ``PeakSampler``)."""
+    start = time.perf_counter()
+    with PeakSampler() as peak, open(log, "w") as output:
+        process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT, start_new_session=True)
+        try:
+            status = process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+            status = "timed out"
+    return status, time.perf_counter() - start, peak
 
 
 def study_run(bundle: Path, folder: Path, device: str, designs: int, chunk: int, log: Path,
@@ -187,16 +208,7 @@ def study_run(bundle: Path, folder: Path, device: str, designs: int, chunk: int,
                "--steps", "explore", "analyse", "--scheduler", "local", "--set", f"compute.device={device}",
                "--set", f"sample.n_designs={designs}", "--set", f"sample.chunk_size={chunk}",
                *(option for setting in settings for option in ("--set", setting))]
-    start = time.perf_counter()
-    with PeakSampler() as peak, open(log, "w") as output:
-        process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT, start_new_session=True)
-        try:
-            status = process.wait(timeout)
-        except subprocess.TimeoutExpired:  # the command with its cluster's processes
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-            status = "timed out"
-    seconds = time.perf_counter() - start
+    status, seconds, peak = timed_command(command, log, timeout)
     manifest = folder / "designs" / "exploration.json"
     models = json.loads(manifest.read_text())["models"] if manifest.exists() else []
     explored = re.search(r"explored \d+ chunk\(s\) .* in (\d+) s", log.read_text())
@@ -208,34 +220,68 @@ def study_run(bundle: Path, folder: Path, device: str, designs: int, chunk: int,
             "peak_host_mib": peak.host_mib, "peak_gpu_mib": peak.gpu_mib}
 
 
+def compared_columns(expected, found, where: str) -> tuple[float, list[str]]:
+    """Two tables (pandas DataFrames of the same columns) column by column: the largest relative difference of the
+    float columns from the CPU's ``expected`` (NaN where it is NaN), and the columns, named with ``where``, whose
+    NaNs or other values differ."""
+    worst, differing = 0.0, []
+    for name in expected.columns:
+        if expected[name].dtype.kind == "f":
+            a, b = expected[name].to_numpy(), found[name].to_numpy(dtype=float)
+            if not np.array_equal(np.isnan(a), np.isnan(b)):
+                differing.append(f"{where}: {name} NaN elsewhere")
+                continue
+            scale = np.abs(a)
+            relative = np.abs(b - a)[scale > 0] / scale[scale > 0]
+            worst = max(worst, float(relative.max(initial=0.0)))
+        elif expected[name].astype(str).tolist() != found[name].astype(str).tolist():
+            differing.append(f"{where}: {name}")
+    return worst, differing
+
+
 def shared_chunks(gpu: Path, cpu: Path) -> dict:
     """The chunk files both studies wrote (the same designs: a chunk's designs depend on its seed and index only),
-    compared column by column: floats within RELATIVE of the CPU's (NaN where the CPU's is), the rest equal."""
+    compared column by column (``compared_columns``)."""
     worst, differing, files = 0.0, [], 0
     for path in sorted((cpu / "designs").glob("*/chunk-*.parquet")):
         other = gpu / "designs" / path.parent.name / path.name
         if not other.exists():
             continue
         files += 1
-        expected, found = pq.read_table(path).to_pandas(), pq.read_table(other).to_pandas()
-        for name in expected.columns:
-            if expected[name].dtype.kind == "f":
-                a, b = expected[name].to_numpy(), found[name].to_numpy()
-                if not np.array_equal(np.isnan(a), np.isnan(b)):
-                    differing.append(f"{other}: {name} NaN elsewhere")
-                    continue
-                scale = np.abs(a)
-                relative = np.abs(b - a)[scale > 0] / scale[scale > 0]
-                worst = max(worst, float(relative.max(initial=0.0)))
-            elif expected[name].astype(str).tolist() != found[name].astype(str).tolist():
-                differing.append(f"{other}: {name}")
+        chunk_worst, chunk_differing = compared_columns(pq.read_table(path).to_pandas(),
+                                                        pq.read_table(other).to_pandas(), str(other))
+        worst, differing = max(worst, chunk_worst), differing + chunk_differing
     return {"files": files, "max_relative": worst, "within": worst <= RELATIVE, "differing": differing[:20],
             "n_differing": len(differing)}
 
 
+def confidence_runs(study: Path, designs: int, out: Path, scratch: Path, timeout: float | None) -> dict:
+    """``surrogacy confidence`` of Jenkins with the BRB as surrogate on the finished ``study``, at half the paper's
+    acceptance bounds, on a LocalCluster (a worker per core), ``designs`` per level and in the acceptance region,
+    no restarts, with --device cuda and then cpu: each one's wall time and status (its output in
+    OUT/confidence_<device>.log), the two tables compared (``compared_columns``) and the CPU table's rows with an
+    estimate (none where the region was not reached)."""
+    runs, tables = [], {}
+    for device in ("cuda", "cpu"):
+        table = scratch / f"confidence-{device}.csv"
+        shutil.rmtree(table.with_name(table.name + ".levels"), ignore_errors=True)  # a run's state is resumed
+        command = [sys.executable, "-c", STUDY_COMMAND, "confidence", "--study", str(study), "--model", "jenkins",
+                   "--surrogate", "BRB", "--frequency-bound", str(FREQUENCY_TOLERANCE_HZ / 2),
+                   "--damping-bound", str(DAMPING_TOLERANCE / 2), "--per-level", str(designs), "--conditional",
+                   str(designs), "--restarts", "0", "--scheduler", "local", "--device", device, "--out", str(table)]
+        status, seconds, _ = timed_command(command, out / f"confidence_{device}.log", timeout)
+        runs.append({"device": device, "status": status, "seconds": seconds})
+        tables[device] = pd.read_csv(table) if status == 0 else None
+    if tables["cuda"] is None or tables["cpu"] is None:
+        return {"runs": runs, "max_relative": None, "differing": []}
+    worst, differing = compared_columns(tables["cpu"], tables["cuda"], "confidence table")
+    return {"runs": runs, "max_relative": worst, "within": worst <= RELATIVE, "differing": differing,
+            "estimated": int(tables["cpu"]["confidence"].notna().sum())}
+
+
 def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, cpu_designs: int, chunk: int,
         workers: int | None, settings: tuple = (), timeout: float | None = None,
-        batches: Sequence[int] = gpu_qsma.BATCHES) -> None:
+        batches: Sequence[int] = gpu_qsma.BATCHES, confidence_designs: int = 2000) -> None:
     """The check (module docstring), each part written to ``out`` as it ends."""
     out.mkdir(parents=True, exist_ok=True)
     record = {"python": sys.version, "cores": os.cpu_count(), "started": time.strftime("%Y-%m-%d %H:%M:%S")}
@@ -260,6 +306,9 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
                                            timeout))
         write()
     record["shared_chunks"] = shared_chunks(scratch / "cuda", scratch / "cpu")
+    write()
+    if record["studies"][-1]["status"] == 0:  # the CPU study, explored and analysed
+        record["confidence"] = confidence_runs(scratch / "cpu", confidence_designs, out, scratch, timeout)
     record["ended"] = time.strftime("%Y-%m-%d %H:%M:%S")
     write()
     lines = ["| device | designs per model | chunk | status | explore and analyse (s) | explore (s) | "
@@ -273,6 +322,17 @@ def run(out: Path, bundle: Path, designs: int, levels: int, study_designs: int, 
     shared = record["shared_chunks"]
     lines.append(f"\nShared chunks: {shared['files']} files, largest relative difference {shared['max_relative']:.1e}, "
                  f"{shared['n_differing']} columns differing in flags or NaNs.")
+    confidence = record.get("confidence")
+    if confidence is None:
+        lines.append("\nConfidence: not run (the CPU study did not finish).")
+    else:
+        worst = confidence["max_relative"]
+        lines.append("\nConfidence (jenkins, BRB as surrogate, subset simulation on a LocalCluster): "
+                     + ", ".join(f"{run['device']} {run['seconds']:.0f} s (status {run['status']})"
+                                 for run in confidence["runs"])
+                     + (f"; tables: {confidence['estimated']} rows estimated, largest relative difference "
+                        f"{worst:.1e}, {len(confidence['differing'])} columns differing otherwise."
+                        if worst is not None else "."))
     (out / "gpu_check.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
@@ -351,6 +411,8 @@ def main(argv=None) -> int:
     checking.add_argument("--study-timeout", type=float, default=240.0, help="seconds each study may take")
     checking.add_argument("--batches", type=int, nargs="+", default=gpu_qsma.BATCHES,
                           help="designs a call of the batch timings")
+    checking.add_argument("--confidence-designs", type=int, default=2000,
+                          help="designs per level and in the acceptance region, confidence runs")
     checking.add_argument("--set", dest="settings", nargs="*", default=(), metavar="SECTION.FIELD=VALUE",
                           help="further settings of both studies")
     arguments = parser.parse_args(argv)
@@ -359,7 +421,7 @@ def main(argv=None) -> int:
     else:
         run(arguments.out, arguments.bundle, arguments.designs, arguments.levels, arguments.study_designs,
             arguments.cpu_designs, arguments.chunk, arguments.workers, tuple(arguments.settings),
-            arguments.study_timeout, arguments.batches)
+            arguments.study_timeout, arguments.batches, arguments.confidence_designs)
     return 0
 
 
