@@ -153,6 +153,11 @@ def local_cluster(n_workers: int | None = None, **options):
         yield cluster
 
 
+def on_this_machine(scheduler: str | None) -> bool:
+    """Whether the runner a ``--scheduler`` option names evaluates on this machine (none, or ``local``)."""
+    return not scheduler or scheduler == "local"
+
+
 @contextlib.contextmanager
 def runner(scheduler: str | None):
     """The runner a ``--scheduler`` option names: None or empty, ``SERIAL``; ``local``, a ``Dask`` runner on a

@@ -28,6 +28,7 @@ from pathlib import Path
 from nonlinear.compute_devices import DEVICES, check_device
 from pipeline.config import add_config_arguments, configuration
 from pipeline.files import stage_folder
+from pipeline.runners import on_this_machine
 from study import workflow
 from study.confidence import estimate_inputs, surrogacy_confidence
 from study.parameters import defaults
@@ -38,7 +39,7 @@ def run(arguments: argparse.Namespace) -> None:
     """Run the chosen steps of the study; the compute device checked first where this machine evaluates designs
     (the analyse step, and the explore step without a remote scheduler)."""
     parameters = configuration(arguments, defaults())
-    if "analyse" in arguments.steps or "explore" in arguments.steps and arguments.scheduler in (None, "", "local"):
+    if "analyse" in arguments.steps or ("explore" in arguments.steps and on_this_machine(arguments.scheduler)):
         check_device(parameters["compute"].device, "[compute] device")
     paths = workflow.Paths(Path(arguments.out), Path(arguments.rom), Path(arguments.data), arguments.reference)
     with stage_folder(arguments.out):
@@ -104,7 +105,7 @@ def run_confidence(arguments: argparse.Namespace) -> None:
     bounds beside it where the sample exists) and prints its main columns."""
     estimate = estimate_inputs(arguments.study, arguments.model, arguments.out, arguments.damping_case,
                                arguments.bounds, arguments.frequency_bound, arguments.damping_bound, arguments.device)
-    if arguments.scheduler in (None, "", "local"):  # evaluated on this machine
+    if on_this_machine(arguments.scheduler):
         workflow.check_reader_device(estimate.folder)
     settings = Settings(arguments.seed, arguments.per_level, arguments.level_probability, arguments.conditional,
                         restarts=arguments.restarts)

@@ -3,7 +3,7 @@
 
 import operator
 
-from pipeline.runners import SERIAL, process_pool
+from pipeline.runners import SERIAL, on_this_machine, process_pool
 
 TASKS = [(number, 10 * number) for number in range(7)]
 
@@ -18,3 +18,9 @@ def test_a_process_pool_gives_the_serial_results():
         assert runner.map(operator.mul, [(shared, number) for number in range(5)]) == [0, 3, 6, 9, 12]
         assert runner.map(operator.add, TASKS) == serial
         assert sorted(runner.completed(operator.add, TASKS)) == serial
+
+
+def test_only_a_remote_scheduler_evaluates_elsewhere():
+    """None, empty and ``local`` run on this machine (in this process, or a LocalCluster); an address does not."""
+    assert on_this_machine(None) and on_this_machine("") and on_this_machine("local")
+    assert not on_this_machine("tcp://10.0.0.2:8786")
