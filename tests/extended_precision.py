@@ -60,6 +60,22 @@ class ReferenceLevel(NamedTuple):
     newton_steps: int
 
 
+class Factorised:
+    """A square mpmath matrix's LU factors, computed once: ``solve`` is ``mpmath.lu_solve`` step for step (the
+    factors and both triangular solves with 10 guard bits) without factorising the matrix again for every right-hand
+    side, as ``lu_solve`` does (its copy of the matrix drops mpmath's cache of the factors)."""
+
+    def __init__(self, matrix):
+        with mpmath.workprec(mpmath.mp.prec + 10):
+            self.factors, self.pivots = mpmath.mp.LU_decomp(matrix.copy())
+
+    def solve(self, right_hand_side):
+        """x with A x = b for a column b (an mpmath matrix)."""
+        with mpmath.workprec(mpmath.mp.prec + 10):
+            forward = mpmath.mp.L_solve(self.factors, mpmath.matrix(right_hand_side), self.pivots)
+            return mpmath.mp.U_solve(self.factors, forward)
+
+
 def _slip_law(x, r, s, chi, theta):
     """Slip deficit g, its slope and its integral G of one element in scaled slip (``nonlinear.slip_laws``)."""
     a = abs(x)
@@ -98,6 +114,7 @@ class ReferenceDesign:
                 matrix[i, j] = matrix[j, i] = value
             matrix[i, i] += self.eigenvalues[i]
         self.matrix, self.joint_modes, self.joint_stiffness = matrix, joint_modes, stiffness
+        self.factorised = Factorised(matrix)
         self.eigenvalue, self.shape = self._target_mode(space, joint_stiffness)
         rows = [int(i) for i in tangential_rows(space.superelement.n_patches)]
         self.rows = rows
@@ -105,7 +122,7 @@ class ReferenceDesign:
         self.joint_shape = mpmath.matrix([joint_shape[i] for i in rows])
         tangential_modes = mpmath.matrix([[joint_modes[i, j] for j in range(n_modes)] for i in rows])
         self.tangential_modes = tangential_modes
-        solved = [mpmath.lu_solve(matrix, tangential_modes.T.column(k)) for k in range(len(rows))]
+        solved = [self.factorised.solve(tangential_modes.T.column(k)) for k in range(len(rows))]
         compliance = mpmath.matrix([[(tangential_modes.T.column(i).T * column)[0] for column in solved]
                                     for i in range(len(rows))])
         m = len(rows)
@@ -139,8 +156,9 @@ class ReferenceDesign:
         shift = mpmath.mpf(float(start.eigenvalue))
         shifted = self.matrix - shift * mpmath.eye(self.matrix.rows)
         eigenvalue = shift
+        factorised = Factorised(shifted)
         for _ in range(8):
-            shape = mpmath.lu_solve(shifted, shape)
+            shape = factorised.solve(shape)
             shape = shape / mpmath.norm(shape)
             updated = (shape.T * self.matrix * shape)[0]
             converged = abs(updated - eigenvalue) <= mpmath.mpf(10) ** (-DIGITS + 4) * abs(updated)
@@ -221,7 +239,7 @@ class ReferenceDesign:
         """max |Lambda eta + Phi^T f_J(Phi eta) - alpha psi| / largest term, with eta = A^-1 (alpha psi +
         Phi_t^T g) and f_J = K_d (Phi eta) - g on the tangential rows; also requires Phi_t eta = r."""
         load = force * self.shape + self.tangential_modes.T * deficit
-        eta = mpmath.lu_solve(self.matrix, load)
+        eta = self.factorised.solve(load)
         joint = self.joint_modes * eta
         joint_force = mpmath.matrix([self.joint_stiffness[p] * joint[p] for p in range(joint.rows)])
         for k, row in enumerate(self.rows):

@@ -130,7 +130,7 @@ def test_regression_cases_converge_to_the_40_digit_solutions(beam_spaces, model,
     1e-6 in zeta (the values carry 12 and 7 digits). The extended-precision reference on this build's BRB agrees
     with them as closely as their printed digits allow, its full equations holding to 1e-20 of their largest term
     (40 digits less the cancellation of stuck joint forces against slip deficits up to 5e5 slip displacements
-    deep). About 45 s a case, most of it the extended-precision set-up."""
+    deep). About 5 s a case, most of it the extended-precision set-up."""
     space = beam_spaces["BRB"]
     levels = regression_levels(space, model, design, reference)
     result = qsma_designs(space, model, np.array(design)[None, :], amplitudes=levels, linear_damping=LINEAR_DAMPING)
@@ -209,7 +209,7 @@ def test_deep_levels_converge_and_equal_the_references_on_the_beams(beam_spaces,
     was within 7e-11). Flagged levels carry their reason; those the solver could not resolve are at most 0.5 %
     (measured: 0 to 2 of 800 per beam and model, where some element slid 1e10 slip displacements; the issue's
     target is 0.01 %), not counting the five-parameter Iwan levels at or past a jump of the loading path (a
-    verdict on the model, not a failure). About 30 s per beam and model. The BRB's middle-stuck design 0, level
+    verdict on the model, not a failure). 1 to 8 s per beam and model. The BRB's middle-stuck design 0, level
     14 (elements 1e5 slip displacements deep), was 1.86e-8 from the 40-digit reference in omega until accepted
     levels that deep took one more Newton step (``qsma_kernel.POLISH_DEPTH``): 3.9e-12 since."""
     space = beam_spaces[beam]
@@ -301,7 +301,7 @@ def test_the_40_digit_loading_path_jumps_where_the_kernel_flags(beam_spaces, bea
     """The first flagged level checked against the 40-digit loading path (``extended_precision.reference_levels``,
     the same rule, ``nonlinear.qsma.follow_load``) from the kernel's last converged level: there the two agree
     within 1e-8 in omega and 1e-6 in zeta, its full equations within 1e-20; on the way to the next level an
-    element with stiction crosses macroslip in 40 digits too. About a minute per case."""
+    element with stiction crosses macroslip in 40 digits too. About 3 s per case."""
     space = beam_spaces[beam]
     levels = slip * np.geomspace(1e-3, 10.0, 20)
     result = qsma_designs(space, "iwan5", np.array(design)[None, :], amplitudes=levels, linear_damping=LINEAR_DAMPING)
@@ -342,7 +342,7 @@ def test_the_least_determined_deep_levels_equal_the_40_digit_equilibria(beam_spa
     exact) moves it by at most STEP_ACCEPT. On the exact condensation it moves further along the joint's slide,
     where the motion is determined only to the condensation's round-off times the slide's condition number: on the
     BRB's case 6.5e-6 of the motion from C and b within 2e-14 of the 40-digit ones (the kernel given those, rounded
-    to float64, stops 1.6e-6 from it), which moves neither omega nor zeta (5e-12 and 1.8e-10). About 40 s per
+    to float64, stops 1.6e-6 from it), which moves neither omega nor zeta (5e-12 and 1.8e-10). About 3 s per
     case."""
     space = beam_spaces[beam]
     levels = deep_levels(space, model, design)
@@ -423,8 +423,8 @@ def test_every_converged_stiction_level_is_a_resolved_equilibrium_on_the_loading
     state that the kernel's and the 40-digit path's descent leave past a symmetry-breaking fold), and there the
     40-digit loading path equals the kernel within 1e-8 and 1e-6 (``extended_precision.reference_levels``). On the
     first REFEREED such designs per structure the kernel's last level before the jump is a 40-digit equilibrium
-    (omega 1e-8, zeta 1e-6; about 25 s each). The flagged levels with their reasons are printed (measured in
-    docs/benchmarks.md). 3-8 minutes per structure."""
+    (omega 1e-8, zeta 1e-6; about 5 s each). The flagged levels with their reasons are printed (measured in
+    docs/benchmarks.md). About a minute per structure."""
     space = joint_space(asb_superelement("CD1")) if structure == "CD1" else beam_spaces[structure]
     n_groups = max(space.superelement.patch_groups) + 1
     designs = random_designs("iwan5", N_PATH_DESIGNS, n_groups, np.random.default_rng(14))
