@@ -20,9 +20,19 @@ D_j element j's Masing dissipation per cycle at amplitude q (``slip_laws.masing_
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from nonlinear import iwan, slip_laws
+
+_LAW = ["float64(float64, float64, float64, float64, float64)"]
+# ``nonlinear.slip_laws``' backbone force and Masing dissipation compiled as numpy ufuncs (the same expressions
+# for one element at one scaled slip, broadcast like numpy's): a one-mode fit evaluates them on a few dozen
+# amplitudes some 10^5 times, where numpy's dozen calls per law cost eight times the compiled loop. They equal the
+# numpy forms to round-off: the powers round differently (numpy's vectorised power against libm's; measured in
+# tests/nonlinear/test_friction_elements.py).
+backbone_force = numba.vectorize(_LAW, cache=True)(slip_laws.backbone_force)
+masing_dissipation = numba.vectorize(_LAW, cache=True)(slip_laws.masing_dissipation)
 
 
 def element_backbone(amplitude, joint_stiffness: float, slip_force: float, chi: float | None = None,
@@ -36,8 +46,7 @@ def element_backbone(amplitude, joint_stiffness: float, slip_force: float, chi: 
     else:
         phi_max, r, s = iwan.segalman_constants(slip_force, joint_stiffness, chi, beta)
     x = np.asarray(amplitude, dtype=float) / phi_max
-    return (slip_laws.backbone_force(x, r, s, chi, theta),
-            4.0 * phi_max * slip_laws.masing_dissipation(x, r, s, chi, theta))
+    return backbone_force(x, r, s, chi, theta), 4.0 * phi_max * masing_dissipation(x, r, s, chi, theta)
 
 
 def modal_joint_backbone(amplitude, stuck_frequency_hz: float, stiffness_fraction: float, slip_force: float,
