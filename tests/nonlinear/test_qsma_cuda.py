@@ -141,6 +141,7 @@ print(json.dumps(report))
 """
 
 
+@pytest.mark.slow
 def test_the_cuda_kernels_compile_to_ptx_for_an_h100(beam_roms):
     """numba-cuda types and lowers every device function of the stuck modes and the levels (about 50 s): what the
     simulator cannot check (an array allocated in a device function, a numpy call the CUDA target lacks)."""
