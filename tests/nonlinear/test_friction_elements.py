@@ -298,7 +298,6 @@ def test_masing_dissipation_is_the_kernels_formula_without_its_cancellation(mode
     assert np.all(np.abs(value - kernel) <= 32 * np.finfo(float).eps * (np.abs(x * g) + 2.0 * np.abs(potential)))
 
 
-
 @pytest.mark.parametrize("model", MODEL_NAMES)
 def test_the_one_mode_models_compiled_laws_are_slip_laws_numpy_forms(model):
     """``nonlinear.modal_joint``'s compiled backbone force and Masing dissipation (numba ufuncs of slip_laws'
