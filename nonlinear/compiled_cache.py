@@ -3,11 +3,12 @@
 numba checks a cached kernel against the source file that defines it only (its modification time and size), but
 the kernels inline functions of the other kernel files (``nonlinear.dense_linear_algebra`` into
 ``nonlinear.stuck_modes`` and ``nonlinear.qsma_kernel``, all three into the CUDA kernels of
-``nonlinear.qsma_cuda``): after a change to one file alone (an edit, a
-``git pull``) the others would load compiled code of the old one. ``drop_stale_kernels`` keys the cache on every
-kernel file at once: the SHA-256 of their sources and of the numba and Python versions is stamped beside the
-cache, and where it differs every compiled file of those kernels is removed, so that they compile afresh. It runs
-when the package is imported (``nonlinear/__init__.py``), before any kernel is called.
+``nonlinear.qsma_cuda``; the element laws of ``nonlinear.slip_laws``, ``nonlinear.iwan`` and
+``nonlinear.parameters`` into the one-mode model of ``nonlinear.modal_joint``): after a change to one file alone
+(an edit, a ``git pull``) the others would load compiled code of the old one. ``drop_stale_kernels`` keys the
+cache on every kernel file at once: the SHA-256 of their sources and of the numba and Python versions is stamped
+beside the cache, and where it differs every compiled file of those kernels is removed, so that they compile
+afresh. It runs when the package is imported (``nonlinear/__init__.py``), before any kernel is called.
 """
 
 from __future__ import annotations
@@ -23,8 +24,9 @@ import numba
 
 KERNEL_MODULES = ("dense_linear_algebra", "stuck_modes", "qsma_kernel")
 """The CPU kernels' modules, which every QSMA call compiles at first use."""
-CACHED_MODULES = (*KERNEL_MODULES, "qsma_cuda")
-"""Every module whose compiled code numba keeps on disk: the CPU kernels and the CUDA ones built from them."""
+CACHED_MODULES = (*KERNEL_MODULES, "qsma_cuda", "modal_joint", "slip_laws", "iwan", "parameters")
+"""Every module whose compiled code numba keeps on disk: the QSMA CPU kernels and the CUDA ones built from them,
+the one-mode model's kernel and the element laws it compiles."""
 STAMP = "compiled-kernels.sha256"
 
 
@@ -49,8 +51,8 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
     with contextlib.suppress(OSError):
         if stamp.read_text() == current:
             return []
-    removed = [path for module in CACHED_MODULES for pattern in (f"{module}.*.nbi", f"{module}.*.nbc")
-               for path in cache.glob(pattern)]
+    removed = [path for module in CACHED_MODULES for prefix in ("", "guf-") for kind in ("nbi", "nbc")
+               for path in cache.glob(f"{prefix}{module}.*.{kind}")]  # guf-: numba's name for a gufunc's files
     for path in removed:
         with contextlib.suppress(FileNotFoundError):  # another process starting at once removed it first
             path.unlink()

@@ -35,6 +35,12 @@ def segalman_constants(slip_force, stiffness, chi, beta):
     equals K_T.
     """
     check_iwan(slip_force, stiffness, chi, beta)
+    return scaled_constants(slip_force, stiffness, chi, beta)
+
+
+def scaled_constants(slip_force, stiffness, chi, beta):
+    """Segalman's mapping (``segalman_constants``) without the parameters' check: arithmetic only, so that it
+    evaluates numpy arrays and compiles with numba for scalars (inside a kernel whose caller checked them)."""
     shape_factor = beta + (chi + 1.0) / (chi + 2.0)
     phi_max = slip_force * (1.0 + beta) / (stiffness * shape_factor)
     r = slip_force * (chi + 1.0) / shape_factor

@@ -15,7 +15,9 @@ mode is closed form (paper Eqs. 23-25):
 
     omega(q)^2 = F(q) / q,    zeta_J(q) = sum_j D_j(q) / (2 pi q^2 omega(q)^2),
 
-D_j element j's Masing dissipation per cycle at amplitude q (``slip_laws.masing_dissipation``).
+D_j element j's Masing dissipation per cycle at amplitude q (``slip_laws.masing_dissipation``). A fit evaluates
+it some 10^5 times on a few dozen amplitudes, so it is one compiled kernel (numba) of the same scalar expressions
+as the laws' numpy forms (equal to them to round-off: numpy's vectorised powers round differently from libm's).
 """
 
 from __future__ import annotations
@@ -24,48 +26,78 @@ import numba
 import numpy as np
 
 from nonlinear import iwan, slip_laws
+from nonlinear.parameters import check_iwan, check_jenkins, in_range
 
-_LAW = ["float64(float64, float64, float64, float64, float64)"]
-# ``nonlinear.slip_laws``' backbone force and Masing dissipation compiled as numpy ufuncs (the same expressions
-# for one element at one scaled slip, broadcast like numpy's): a one-mode fit evaluates them on a few dozen
-# amplitudes some 10^5 times, where numpy's dozen calls per law cost eight times the compiled loop. They equal the
-# numpy forms to round-off: the powers round differently (numpy's vectorised power against libm's; measured in
-# tests/nonlinear/test_friction_elements.py).
-backbone_force = numba.vectorize(_LAW, cache=True)(slip_laws.backbone_force)
-masing_dissipation = numba.vectorize(_LAW, cache=True)(slip_laws.masing_dissipation)
+# Segalman's mapping and ``nonlinear.slip_laws``' backbone force and Masing dissipation compiled for scalars: the
+# same expressions as their numpy forms (one law for every element, ``nonlinear.slip_laws``).
+_scaled_constants = numba.njit(iwan.scaled_constants, cache=True, error_model="numpy")
+_backbone_force = numba.njit(slip_laws.backbone_force, cache=True, error_model="numpy")
+_masing_dissipation = numba.njit(slip_laws.masing_dissipation, cache=True, error_model="numpy")
+_in_range = numba.njit(in_range, cache=True)
 
 
-def element_backbone(amplitude, joint_stiffness: float, slip_force: float, chi: float | None = None,
-                     beta: float = 0.0, theta: float = 1.0):
-    """Restoring force (n,) and Masing dissipation per cycle (n,) of one element at modal amplitudes (n,)
-    m kg^0.5 with stuck tangent ``joint_stiffness`` K_T and slip force F_S (modal units, module docstring). chi
-    None: a Jenkins element (F_S, K_T); else an Iwan element (F_S, K_T, chi, beta) with stiction ratio theta
-    (five-parameter form, paper Eq. 21)."""
-    if chi is None:
-        phi_max, r, s, chi = slip_force / joint_stiffness, 0.0, slip_force, -0.5
+@numba.njit(cache=True, error_model="numpy")
+def _element(amplitude, joint_stiffness, slip_force, chi, beta, theta, iwan):
+    """Restoring force and Masing dissipation per cycle of one element at a modal amplitude (module docstring):
+    an Iwan element (Segalman's mapping) where ``iwan``, else a Jenkins one (r = 0, s = F_S, phi_max = F_S / K_T,
+    chi and beta unused)."""
+    if iwan:
+        phi_max, r, s = _scaled_constants(slip_force, joint_stiffness, chi, beta)
     else:
-        phi_max, r, s = iwan.segalman_constants(slip_force, joint_stiffness, chi, beta)
-    x = np.asarray(amplitude, dtype=float) / phi_max
-    return backbone_force(x, r, s, chi, theta), 4.0 * phi_max * masing_dissipation(x, r, s, chi, theta)
+        phi_max, r, s, chi = slip_force / joint_stiffness, 0.0, slip_force, -0.5
+    x = amplitude / phi_max
+    return (_backbone_force(x, r, s, chi, theta),
+            4.0 * phi_max * _masing_dissipation(x, r, s, chi, theta))
+
+
+@numba.guvectorize(["void(float64, float64, float64, float64, float64, float64, float64, float64, float64, "
+                    "boolean, boolean, float64[:], float64[:], boolean[:])"],
+                   "(),(),(),(),(),(),(),(),(),(),()->(),(),()", cache=True)
+def _one_mode_backbone(amplitude, omega_squared_0, kappa, slip_force, kappa_2, slip_force_2, chi, beta, theta,
+                       iwan, second, frequency, damping, parameters_in_range):
+    """Natural frequency (Hz) and joint damping at one amplitude (module docstring's omega(q)^2 and zeta_J(q)):
+    the joint's element (kappa, F_S) and, where ``second``, the second one (kappa_2, F_S,2), of Iwan's law where
+    ``iwan``, else of Jenkins', and whether their parameters lie in their ranges (``nonlinear.parameters.in_range``;
+    where they do not, NaN, computing nothing); a numpy ufunc (broadcast like one) with three outputs."""
+    joint_stiffness, joint_stiffness_2 = kappa * omega_squared_0, kappa_2 * omega_squared_0
+    parameters_in_range[0] = _in_range(slip_force, joint_stiffness, chi, beta, theta, iwan) and (
+        not second or _in_range(slip_force_2, joint_stiffness_2, chi, beta, theta, iwan))
+    if not parameters_in_range[0]:
+        frequency[0], damping[0] = np.nan, np.nan
+        return
+    force = (1.0 - (kappa + kappa_2 if second else kappa)) * omega_squared_0 * amplitude
+    element_force, dissipation = _element(amplitude, joint_stiffness, slip_force, chi, beta, theta, iwan)
+    force += element_force
+    if second:
+        element_force, element_dissipation = _element(amplitude, joint_stiffness_2, slip_force_2, chi, beta, theta,
+                                                      iwan)
+        force += element_force
+        dissipation += element_dissipation
+    omega_squared = force / amplitude
+    frequency[0] = np.sqrt(omega_squared) / (2.0 * np.pi)
+    damping[0] = dissipation / (2.0 * np.pi * amplitude ** 2 * omega_squared)
 
 
 def modal_joint_backbone(amplitude, stuck_frequency_hz: float, stiffness_fraction: float, slip_force: float,
                          chi: float | None = None, beta: float = 0.0, theta: float = 1.0, second_stage=None):
     """Natural frequency (Hz) and joint damping ratio at modal amplitudes (n,) m kg^0.5 of the one-mode model
-    (module docstring). The joint's element: share kappa = ``stiffness_fraction``, ``slip_force``, and chi, beta,
-    theta as in :func:`element_backbone`; ``second_stage``: None, or (kappa_2, F_S,2) of a second element of the
-    same law (chi, beta, theta) in parallel. Returns (frequency_hz (n,), damping (n,))."""
-    amplitude = np.asarray(amplitude, dtype=float)
-    omega_squared_0 = (2.0 * np.pi * stuck_frequency_hz) ** 2
-    elements = [(stiffness_fraction, slip_force)]
-    if second_stage is not None:
-        elements.append(second_stage)
-    force = (1.0 - sum(element[0] for element in elements)) * omega_squared_0 * amplitude
-    dissipation = np.zeros_like(amplitude)
-    for kappa, element_slip_force in elements:
-        element_force, element_dissipation = element_backbone(amplitude, kappa * omega_squared_0, element_slip_force,
-                                                              chi, beta, theta)
-        force = force + element_force
-        dissipation = dissipation + element_dissipation
-    omega_squared = force / amplitude
-    return np.sqrt(omega_squared) / (2.0 * np.pi), dissipation / (2.0 * np.pi * amplitude ** 2 * omega_squared)
+    (module docstring). The joint's element: share kappa = ``stiffness_fraction``, slip force F_S (modal units);
+    chi None: a Jenkins element (F_S, K_T = kappa omega_0^2), else an Iwan element (F_S, K_T, chi, beta) with
+    stiction ratio theta (five-parameter form, paper Eq. 21); ``second_stage``: None, or (kappa_2, F_S,2) of a
+    second element of the same law (chi, beta, theta) in parallel. The parameters broadcast against the amplitudes
+    like numpy's (rows of parameters (b, 1) give (b, n)). Returns (frequency_hz, damping);
+    ``nonlinear.parameters.FrictionParameterError`` where an element's parameters leave their ranges."""
+    omega_squared_0 = (2.0 * np.pi * np.asarray(stuck_frequency_hz, dtype=float)) ** 2
+    kappa_2, slip_force_2 = (0.0, 1.0) if second_stage is None else second_stage
+    frequency, damping, parameters_in_range = _one_mode_backbone(
+        amplitude, omega_squared_0, stiffness_fraction, slip_force, kappa_2, slip_force_2,
+        -0.5 if chi is None else chi, beta, theta, chi is not None, second_stage is not None)
+    if not parameters_in_range.all():
+        for kappa, element_slip_force in [(stiffness_fraction, slip_force)] + ([] if second_stage is None
+                                                                               else [second_stage]):
+            stiffness = kappa * omega_squared_0
+            if chi is None:
+                check_jenkins(stiffness, element_slip_force)
+            else:
+                check_iwan(element_slip_force, stiffness, chi, beta, theta)
+    return frequency, damping

@@ -26,7 +26,8 @@ def test_a_change_to_any_kernel_file_drops_every_kernel_s_compiled_code(tmp_path
         shutil.copy(SOURCES / f"{module}.py", tmp_path)
     cache = tmp_path / "__pycache__"
     cache.mkdir()
-    compiled = [cache / f"{module}.kernel-10.py311.{kind}" for module in CACHED_MODULES for kind in ("nbi", "nbc")]
+    compiled = [cache / f"{prefix}{module}.kernel-10.py311.{kind}" for module in CACHED_MODULES
+                for prefix in ("", "guf-") for kind in ("nbi", "nbc")]  # guf-: a gufunc's files
     other = cache / "joint.cpython-311.pyc"
     for path in [*compiled, other]:
         path.write_bytes(b"compiled")

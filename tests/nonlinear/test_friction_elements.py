@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from nonlinear import iwan, jenkins, modal_joint, slip_laws
+from nonlinear import iwan, jenkins, slip_laws
 from nonlinear.parameters import FrictionParameterError
 from nonlinear.friction_models import MODEL_NAMES
 from nonlinear.joint import (patch_elements, random_designs, scaled_law, slip_displacement,
@@ -296,23 +296,3 @@ def test_masing_dissipation_is_the_kernels_formula_without_its_cancellation(mode
     value = slip_laws.masing_dissipation(x, law.r, law.s, law.chi, law.theta)
     assert np.all(value >= 0.0)
     assert np.all(np.abs(value - kernel) <= 32 * np.finfo(float).eps * (np.abs(x * g) + 2.0 * np.abs(potential)))
-
-
-@pytest.mark.parametrize("model", MODEL_NAMES)
-def test_the_one_mode_models_compiled_laws_are_slip_laws_numpy_forms(model):
-    """``nonlinear.modal_joint``'s compiled backbone force and Masing dissipation (numba ufuncs of slip_laws'
-    scalar forms) equal the numpy forms on Table 3 elements from stuck to deep macroslip, and at macroslip exactly
-    (|x| = 1, the static peak), to 4 eps of the value plus r min(|x|, 1) / (chi + 1): the powers round differently
-    (numpy's vectorised power against libm's), and the force's 1 - |x|^(chi+1) cancels near macroslip (measured:
-    at most 0.6 eps of that scale, 6.7 eps of the value)."""
-    elements, u = table3_elements_from_stuck_to_deep_macroslip(model, 9)
-    law = scaled_law(elements)
-    x = np.concatenate([u / law.phi_max, np.sign(u)], axis=-1)
-    r, s, chi, theta = (np.concatenate([value, value], axis=-1)
-                        for value in np.broadcast_arrays(law.r, law.s, law.chi, law.theta, u)[:4])
-    scale = r * np.minimum(np.abs(x), 1.0) / (chi + 1.0)
-    for compiled, numpy_form in ((modal_joint.backbone_force, slip_laws.backbone_force),
-                                 (modal_joint.masing_dissipation, slip_laws.masing_dissipation)):
-        value, reference = compiled(x, r, s, chi, theta), numpy_form(x, r, s, chi, theta)
-        assert np.all(np.abs(value - reference) <= 4 * np.finfo(float).eps * (np.abs(reference) + scale)), (
-            numpy_form.__name__)
