@@ -26,7 +26,7 @@ import numba
 import numpy as np
 
 from nonlinear import iwan, slip_laws
-from nonlinear.parameters import check_iwan, check_jenkins, in_range
+from nonlinear.parameters import check_iwan, check_jenkins, check_stiction_ratio, in_range
 
 # Segalman's mapping and ``nonlinear.slip_laws``' backbone force and Masing dissipation compiled for scalars: the
 # same expressions as their numpy forms (one law for every element, ``nonlinear.slip_laws``).
@@ -59,7 +59,8 @@ def _one_mode_backbone(amplitude, omega_squared_0, kappa, slip_force, kappa_2, s
     the joint's element (kappa, F_S) and, where ``second``, the second one (kappa_2, F_S,2), of Iwan's law where
     ``iwan``, else of Jenkins', and whether their parameters lie in their ranges (``nonlinear.parameters.in_range``;
     where they do not, NaN, computing nothing); a numpy ufunc (broadcast like one) with three outputs."""
-    joint_stiffness, joint_stiffness_2 = kappa * omega_squared_0, kappa_2 * omega_squared_0
+    joint_stiffness = kappa * omega_squared_0
+    joint_stiffness_2 = kappa_2 * omega_squared_0 if second else 0.0
     parameters_in_range[0] = _in_range(slip_force, joint_stiffness, chi, beta, theta, iwan) and (
         not second or _in_range(slip_force_2, joint_stiffness_2, chi, beta, theta, iwan))
     if not parameters_in_range[0]:
@@ -92,12 +93,13 @@ def modal_joint_backbone(amplitude, stuck_frequency_hz: float, stiffness_fractio
     frequency, damping, parameters_in_range = _one_mode_backbone(
         amplitude, omega_squared_0, stiffness_fraction, slip_force, kappa_2, slip_force_2,
         -0.5 if chi is None else chi, beta, theta, chi is not None, second_stage is not None)
-    if not parameters_in_range.all():
+    if parameters_in_range.size == 0 or not parameters_in_range.all():  # no amplitude: the checks all the same
         for kappa, element_slip_force in [(stiffness_fraction, slip_force)] + ([] if second_stage is None
                                                                                else [second_stage]):
             stiffness = kappa * omega_squared_0
             if chi is None:
                 check_jenkins(stiffness, element_slip_force)
+                check_stiction_ratio(theta)
             else:
                 check_iwan(element_slip_force, stiffness, chi, beta, theta)
     return frequency, damping

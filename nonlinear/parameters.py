@@ -49,15 +49,21 @@ def check_iwan(slip_force, stiffness, chi, beta, theta=1.0) -> None:
     _require((chi > -1.0) & (chi < 0.0), "Iwan exponent chi", "in the open interval (-1, 0)", chi)
     beta = np.asarray(beta, dtype=float)
     _require(np.isfinite(beta) & (beta >= 0.0), "Iwan macroslip ratio beta", "finite and >= 0", beta)
+    check_stiction_ratio(theta)
+
+
+def check_stiction_ratio(theta) -> None:
+    """The stiction ratio theta = F_S^dynamic / F_S^static of an element's law: in [0, 1]."""
     theta = np.asarray(theta, dtype=float)
     _require((theta >= 0.0) & (theta <= 1.0), "stiction ratio theta", "in [0, 1]", theta)
 
 
-
 def in_range(slip_force, stiffness, chi, beta, theta, iwan) -> bool:
     """Whether one element's parameters (scalars) lie in their ranges: ``check_iwan``'s conditions for an Iwan
-    element (``iwan`` True), ``check_jenkins``'s for a Jenkins one (chi, beta, theta unused). Written for numba to
-    compile inside a kernel, whose caller raises the error of those checks where it is False."""
-    if not (math.isfinite(stiffness) and stiffness > 0.0 and math.isfinite(slip_force) and slip_force > 0.0):
+    element (``iwan`` True), ``check_jenkins``'s and ``check_stiction_ratio``'s for a Jenkins one (chi and beta
+    unused). Written for numba to compile inside a kernel, whose caller raises the error of those checks where it
+    is False."""
+    if not (math.isfinite(stiffness) and stiffness > 0.0 and math.isfinite(slip_force) and slip_force > 0.0
+            and 0.0 <= theta <= 1.0):
         return False
-    return not iwan or (-1.0 < chi < 0.0 and math.isfinite(beta) and beta >= 0.0 and 0.0 <= theta <= 1.0)
+    return not iwan or (-1.0 < chi < 0.0 and math.isfinite(beta) and beta >= 0.0)

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from nonlinear import iwan, jenkins
-from nonlinear.modal_joint import modal_joint_backbone
-from nonlinear.parameters import FrictionParameterError, check_iwan, check_jenkins, in_range
+from nonlinear.modal_joint import _in_range, modal_joint_backbone
+from nonlinear.parameters import (FrictionParameterError, check_iwan, check_jenkins, check_stiction_ratio,
+                                  in_range)
 
 STUCK_FREQUENCY_HZ = 170.0
 OMEGA_SQUARED_0 = (2.0 * np.pi * STUCK_FREQUENCY_HZ) ** 2
@@ -94,28 +95,31 @@ def test_rows_of_parameters_are_each_rows_model():
     ({"slip_force": -1.0}, "slip force"), ({"kappa": 0.0}, "tangential stiffness"),
     ({"second_stage": (0.1, np.nan)}, "slip force"), ({"second_stage": (-0.1, 20.0)}, "tangential stiffness"),
     ({"chi": None, "slip_force": 0.0}, "slip force"), ({"chi": None, "second_stage": (0.0, 20.0)}, "stiffness"),
+    ({"chi": None, "theta": 1.5}, "theta"), ({"amplitude": np.array([]), "chi": 0.5}, "chi"),
 ])
 def test_parameters_outside_their_ranges_are_refused_by_name(change, message):
-    parameters = {"kappa": 0.3, "slip_force": 2.0, "chi": -0.4, "beta": 0.2, "theta": 0.9,
-                  "second_stage": (0.1, 20.0), **change}
+    parameters = {"amplitude": np.geomspace(1e-4, 1e-2, 5), "kappa": 0.3, "slip_force": 2.0, "chi": -0.4,
+                  "beta": 0.2, "theta": 0.9, "second_stage": (0.1, 20.0), **change}
     with pytest.raises(FrictionParameterError, match=message):
-        modal_joint_backbone(np.geomspace(1e-4, 1e-2, 5), STUCK_FREQUENCY_HZ, parameters["kappa"],
+        modal_joint_backbone(parameters["amplitude"], STUCK_FREQUENCY_HZ, parameters["kappa"],
                              parameters["slip_force"], parameters["chi"], parameters["beta"], parameters["theta"],
                              parameters["second_stage"])
 
 
 def test_the_kernels_range_test_is_the_checks():
-    """``nonlinear.parameters.in_range`` (compiled inside the kernel, which calls the checks only where it is
-    False) accepts exactly what ``check_iwan`` and ``check_jenkins`` accept, at and around every edge."""
+    """``nonlinear.parameters.in_range``, as Python and as compiled inside the kernel (which calls the checks only
+    where it is False), accepts exactly what ``check_iwan`` and ``check_jenkins`` with ``check_stiction_ratio``
+    accept, at and around every edge."""
     edges = [-np.inf, -2.0, -1.0, -0.999, -0.5, -1e-300, 0.0, 1e-300, 0.5, 1.0, 1.5, np.inf, np.nan]
     for slip_force, stiffness, chi, beta, theta in itertools.product(
             [-1.0, 0.0, 2.0, np.inf, np.nan], [0.0, 3.0e5, np.nan], edges, [-1.0, 0.0, 0.2, np.inf], edges):
         for iwan_law, check in ((True, lambda: check_iwan(slip_force, stiffness, chi, beta, theta)),
-                                (False, lambda: check_jenkins(stiffness, slip_force))):
+                                (False, lambda: (check_jenkins(stiffness, slip_force), check_stiction_ratio(theta)))):
             try:
                 check()
                 accepted = True
             except FrictionParameterError:
                 accepted = False
-            assert in_range(slip_force, stiffness, chi, beta, theta, iwan_law) == accepted, (
-                slip_force, stiffness, chi, beta, theta, iwan_law)
+            for range_test in (in_range, _in_range):
+                assert range_test(slip_force, stiffness, chi, beta, theta, iwan_law) == accepted, (
+                    range_test, slip_force, stiffness, chi, beta, theta, iwan_law)
