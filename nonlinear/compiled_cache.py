@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 
 import numba
+from numba.core.caching import UserProvidedCacheLocator
 
 KERNEL_MODULES = ("dense_linear_algebra", "stuck_modes", "qsma_kernel")
 """The CPU kernels' modules, which every QSMA call compiles at first use."""
@@ -38,13 +39,23 @@ def kernel_digest(folder: Path) -> str:
     return digest.hexdigest()
 
 
+def cache_folder(folder: Path) -> Path:
+    """Where numba keeps the compiled code of the modules in ``folder``: its own subfolder of ``NUMBA_CACHE_DIR``
+    where that is set (numba's ``UserProvidedCacheLocator``: the folder's name and a hash of its path), else
+    ``folder/__pycache__``."""
+    if numba.config.CACHE_DIR:
+        return Path(numba.config.CACHE_DIR) / UserProvidedCacheLocator.get_suitable_cache_subpath(
+            str(Path(folder) / "__init__.py"))
+    return Path(folder) / "__pycache__"
+
+
 def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
-    """Remove numba's cached index and data files (``.nbi``, ``.nbc``) of the cached modules in
-    ``folder/__pycache__`` unless the stamp there holds the current ``kernel_digest``, then stamp it; returns the
-    files removed. Nothing is done where the folder cannot be written (numba then caches elsewhere, and an
-    installed package's files change all together)."""
-    cache = folder / "__pycache__"
-    if not os.access(folder, os.W_OK):
+    """Remove numba's cached index and data files (``.nbi``, ``.nbc``) of the cached modules in their
+    ``cache_folder`` unless the stamp there holds the current ``kernel_digest``, then stamp it; returns the files
+    removed. Nothing is done where neither ``NUMBA_CACHE_DIR`` is set nor the folder can be written (numba then
+    caches elsewhere, and an installed package's files change all together)."""
+    cache = cache_folder(folder)
+    if not numba.config.CACHE_DIR and not os.access(folder, os.W_OK):
         return []
     current = kernel_digest(folder)
     stamp = cache / STAMP
@@ -56,7 +67,7 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
     for path in removed:
         with contextlib.suppress(FileNotFoundError):  # another process starting at once removed it first
             path.unlink()
-    cache.mkdir(exist_ok=True)
+    cache.mkdir(parents=True, exist_ok=True)
     temporary = cache / f".{STAMP}-{os.getpid()}"
     temporary.write_text(current)
     os.replace(temporary, stamp)
@@ -64,11 +75,11 @@ def drop_stale_kernels(folder: Path = Path(__file__).parent) -> list[Path]:
 
 
 def kernels_cached(folder: Path = Path(__file__).parent) -> bool:
-    """Whether numba's on-disk cache (``NUMBA_CACHE_DIR`` where set, else ``folder/__pycache__``) holds compiled
-    code, an index file ``.nbi``, of every kernel module: where it does not, the first QSMA call compiles them
-    (about half a minute and 0.5 GB on two cores, once)."""
-    cache = Path(numba.config.CACHE_DIR or folder / "__pycache__")
-    return cache.is_dir() and all(next(cache.rglob(f"{module}.*.nbi"), None) is not None for module in KERNEL_MODULES)
+    """Whether numba's on-disk cache (``cache_folder``) holds compiled code, an index file ``.nbi``, of every
+    kernel module: where it does not, the first QSMA call compiles them (about half a minute and 0.5 GB on two
+    cores, once)."""
+    cache = cache_folder(folder)
+    return cache.is_dir() and all(next(cache.glob(f"{module}.*.nbi"), None) is not None for module in KERNEL_MODULES)
 
 
 @functools.cache

@@ -14,7 +14,10 @@ import pytest
 
 import nonlinear
 from locations import ASB_MODELS
-from nonlinear.compiled_cache import (CACHED_MODULES, KERNEL_MODULES, STAMP, announce_compiling,
+from numba.core.caching import UserProvidedCacheLocator
+
+from nonlinear import slip_laws
+from nonlinear.compiled_cache import (CACHED_MODULES, KERNEL_MODULES, STAMP, announce_compiling, cache_folder,
                                      drop_stale_kernels, kernels_cached)
 
 SOURCES = Path(nonlinear.__file__).parent
@@ -40,6 +43,31 @@ def test_a_change_to_any_kernel_file_drops_every_kernel_s_compiled_code(tmp_path
         source.write("\n# edited\n")
     assert sorted(drop_stale_kernels(tmp_path)) == sorted(compiled)
     assert not any(path.exists() for path in compiled) and other.exists()
+
+
+def test_a_cache_in_numba_cache_dir_follows_the_sources_too(tmp_path, monkeypatch):
+    """With ``NUMBA_CACHE_DIR`` set numba keeps the compiled code in a subfolder of it named after the sources'
+    folder (where numba's own locator puts it), and an edit of one kernel file drops every kernel's code there."""
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba-cache"))
+    assert str(cache_folder(SOURCES)) == UserProvidedCacheLocator.from_function(
+        slip_laws.backbone_force, slip_laws.__file__).get_cache_path()
+    sources = tmp_path / "nonlinear"
+    sources.mkdir()
+    for module in CACHED_MODULES:
+        shutil.copy(SOURCES / f"{module}.py", sources)
+    cache = cache_folder(sources)
+    assert cache.parent == tmp_path / "numba-cache"
+    cache.mkdir(parents=True)
+    compiled = [cache / f"{prefix}{module}.kernel-10.py311.nbi" for module in CACHED_MODULES for prefix in ("", "guf-")]
+    for path in compiled:
+        path.write_bytes(b"index")
+    assert sorted(drop_stale_kernels(sources)) == sorted(compiled)  # no stamp yet: nothing is trusted
+    for path in compiled:
+        path.write_bytes(b"index again")
+    assert drop_stale_kernels(sources) == []
+    with open(sources / "slip_laws.py", "a") as source:  # an edit of the element laws the one-mode kernel compiles
+        source.write("\n# edited\n")
+    assert sorted(drop_stale_kernels(sources)) == sorted(compiled)
 
 
 def test_the_kernels_are_cached_only_where_every_kernel_has_its_index(tmp_path, monkeypatch):
