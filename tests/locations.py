@@ -10,6 +10,7 @@ REPOSITORY = Path(__file__).resolve().parents[1]
 SHARED = REPOSITORY.parent / "shared"
 CHALLENGE = SHARED / "data" / "ringdown-challenge"  # virtual ring-downs from another generator, with their key
 ASB_MODELS = SHARED / "data" / "asb-reduced-models"  # the ASB's reduced models, MAT_NULLRED_<configuration>.mat
+ASB_BACKBONES = SHARED / "data" / "asb-backbones"  # the ASB's measured backbones, ASB_<configuration>_20Nm_BB.mat
 REFERENCE = SHARED / "reference"  # the paper's tables and the BRB deck's dimensions, as transcribed files
 
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from discrepancy.fitted_model import evaluate, model_record
-from discrepancy.loop import (EVIDENCE, Fit, base_starts, discrepancy_loop, final_model, fit, model_backbone,
-                             refit_nested, select_effects)
+from discrepancy.loop import (EVIDENCE, SETTLED, Fit, base_starts, discrepancy_loop, final_model, fit,
+                             model_backbone, refit_nested, restart_candidates, select_effects)
 from cli.console import main
 from study.structures import BackboneLevels
 
@@ -149,6 +149,29 @@ def test_refitting_from_nested_optima_makes_the_answer_independent_of_the_path(p
         for effect in model.effects:
             smaller = frozenset(model.effects) - {effect}
             assert smaller in evaluated and evaluated[smaller].chi_squared >= model.chi_squared
+
+
+def test_candidate_answers_are_restarted_from_their_own_optima_until_none_moves():
+    """Fits at BIC 500 (the reference), 80 (a), 50 (a + b), 45 (a + b + c) and 300 (c): the candidates are a + b and
+    a + b + c (within EVIDENCE of 45). Restarting a + b + c lowers it to 30, which leaves a + b outside; restarted
+    again from 30 it lowers by SETTLED / 2 only, so it stays at 30. Each candidate optimum is restarted once (a + b
+    at 50, a + b + c at 45 and at 30), no other model, and the models around are refitted once, after the move."""
+    evaluated = {frozenset(name): fake(tuple(name), 2 + len(name), bic)
+                 for name, bic in (("", 500.0), ("a", 80.0), ("ab", 50.0), ("abc", 45.0), ("c", 300.0))}
+    calls, refits = [], []
+
+    def restarted(model):
+        calls.append(("".join(model.effects), model.bic))
+        lower = 15.0 if model.bic > 40.0 else SETTLED / 2
+        return fake(model.effects, model.n_parameters, model.bic - lower) if "c" in model.effects else None
+
+    def improves(found, known):
+        return found.bic < known.bic - SETTLED
+
+    restart_candidates(evaluated, restarted, lambda model: model is not None, improves, lambda: refits.append(1))
+    assert calls == [("ab", 50.0), ("abc", 45.0), ("abc", 30.0)]
+    assert evaluated[frozenset("abc")].bic == 30.0 and evaluated[frozenset("ab")].bic == 50.0
+    assert refits == [1]
 
 
 REFITS = {"undetermined": {"theta": "not determined (0.5, standard deviation 4 in its logit)"}, "held": {}}

@@ -14,9 +14,9 @@ from cli.console import main as surrogacy
 from discrepancy.files import verdict_summary
 from discrepancy.virtual_data import write_undeclared_ringdown
 from report.document import Folders, write_pipeline_report
-from locations import ASB_MODELS
+from locations import ASB_BACKBONES, ASB_MODELS
 
-ASB_C1 = ASB_MODELS.parent / "asb-backbones" / "ASB_C1_20Nm_BB.mat"
+ASB_C1 = ASB_BACKBONES / "ASB_C1_20Nm_BB.mat"
 
 
 def test_run_log_records_each_run_with_its_status(tmp_path):

@@ -9,14 +9,12 @@ import shutil
 import pytest
 
 from cli.console import main as surrogacy
-from locations import ASB_MODELS
+from locations import ASB_BACKBONES, ASB_MODELS
 from report.studies import study_folder, study_section
 from study.datasets import DATASETS, dataset
 from study.exploration import manifest
 from study.report import study_lines, write_report
 from study.workflow import read_study
-
-ASB_BACKBONES = ASB_MODELS.parent / "asb-backbones"
 
 
 @pytest.fixture(scope="module")
