@@ -73,6 +73,12 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     if stopped:
         lines += ["", f"NOT CONVERGED: the fit of step {', '.join(stopped)} stopped on its evaluation budget, not on "
                       "its tolerances; its chi^2 is an upper bound of the model's optimum."]
+    on_drop = [f"step {number}, the {element}: {reason}" for number, step in enumerate(verdict.steps)
+               for element, reason in step.fit.on_drop.items()]
+    if on_drop:
+        lines += ["", "ON A STICTION DROP (its optimum puts the drop on a level, where the residuals jump; its "
+                      "covariance takes the slope of the level's side and the drop anywhere between the levels "
+                      "around it): " + "; ".join(on_drop) + "."]
     last = verdict.steps[-1]
     if last.candidates:
         lines += ["", "Candidates at the last decision (BIC; an effect is added when it lowers the BIC by more "
@@ -199,7 +205,7 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
                    "reduced_chi_squared": step.reduced_chi_squared, "bic": step.fit.bic, "errors": step.errors,
                    "candidates": step.candidates, "not_accepted": step.rejected,
                    "undetermined_parameters": step.fit.undetermined, "held_parameters": step.fit.held,
-                   "converged": step.fit.converged}
+                   "on_drop": step.fit.on_drop, "converged": step.fit.converged}
                   for step in verdict.steps]})
 
 

@@ -25,6 +25,13 @@ freeing it lowers chi^2 by less than ``LIMIT_TEST`` (a likelihood-ratio test at 
 chi^2_0 and chi^2_1 that a parameter on the boundary of its range follows): a constrained optimum with one
 parameter fewer, recorded as held with its evidence.
 
+A stiction drop. With stiction (theta < 1) an element's force drops at its slip amplitude phi_max: the backbone
+jumps there, and a fit's optimum can put the drop on a measured level, the rest of its chi^2 pulling the drop
+across and the jump holding it back (the measured ASB C2 and C4 answers, to 3e-8 and 9e-8 of the level). A forward
+difference across it is the jump over the step, not a slope: such a Jacobian column is the other side's difference
+(``across_jumps``), and the points place the drop only between that level and the next one on its stuck side, a
+gap of ln phi_max taken as uniform in the covariance (``stiction_drops``; recorded as the fit's ``on_drop``).
+
 Determined. A fit's other effect parameters must be determined by the points: at the optimum, with J the Jacobian
 of the residuals in units of the measurement's uncertainty (what the points determine at their stated noise,
 whatever the model still misses), the covariance of the effect parameters with the others held is
@@ -75,7 +82,7 @@ from scipy.optimize import least_squares
 from scipy.special import expit, logit
 
 from discrepancy.effects import EFFECTS, ONE_MODE_EFFECTS, SECOND_STAGE, STAGE_SUFFIX
-from nonlinear.modal_joint import modal_joint_backbone
+from nonlinear.modal_joint import modal_joint_backbone, slip_amplitudes
 from study.structures import BackboneLevels
 
 EVIDENCE = 10.0  # BIC decrease an effect must bring to be added
@@ -92,6 +99,8 @@ BRANCHES = 2  # the best additions a forward path branches into at its first ste
 ZETA_START = 1e-6  # least start of a fitted linear damping (a nominal of 0 would start its log at -inf)
 SETTLED = 0.1  # BIC decrease by which a refit replaces a model's fit (less is the least squares' own tolerance)
 LIMIT_TEST = 2.706  # likelihood ratio above which a parameter is away from its law's limit (5 %, 50:50 chi^2_0/chi^2_1)
+JUMP = 10.0  # one-sided differences of a column this many times apart: the larger crossed a jump (not a slope)
+ON_DROP = 1e-6  # relative distance of a level from an element's slip amplitude at which it sits on stiction's drop
 SHAPES = tuple(product((-0.2, -0.5, -0.8), (3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0)))  # Iwan's (chi, beta) of restarts
 
 
@@ -153,8 +162,9 @@ class Fit(NamedTuple):
     of parameters fitted, its effect parameters that the points leave at a bound or undetermined
     (``determinacy``: name -> reason), those held at their law's limit (``held``: name -> the evidence), the
     covariance of its variables and whether its least squares stopped on its tolerances (``converged``), not on
-    its evaluation budget, and its effects whose own change of the model is below the measurement's resolution
-    (``unresolved``: effect -> reason)."""
+    its evaluation budget, its effects whose own change of the model is below the measurement's resolution
+    (``unresolved``: effect -> reason), and its elements whose stiction drop sits on a measured level
+    (``on_drop``: element -> what the points tell of its slip amplitude; ``stiction_drops``)."""
 
     effects: tuple
     parameters: dict
@@ -168,6 +178,7 @@ class Fit(NamedTuple):
     covariance: np.ndarray | None = None
     converged: bool = False
     unresolved: dict = {}
+    on_drop: dict = {}
 
 
 PHYSICAL_LIMITS = {
@@ -304,13 +315,77 @@ def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float
                           f"{max(ratio, 0.0):.3g} < {LIMIT_TEST}")
     parameters = _to_parameters(vector, specification)
     frequency, damping = at_levels(parameters)
+    on_drop, gaps = stiction_drops(vector, specification, measurement.amplitude, nominal_frequency_hz)
+    jacobian = smooth_jacobian(residuals, vector, jacobian)
+    gaps[:, list(values)] = 0.0
     held_names = set(held)
-    undetermined = determinacy(jacobian, vector, specification,
+    undetermined = determinacy(np.vstack([jacobian, gaps]), vector, specification,
                                [i for i in effect_indices if specification[i][0] not in held_names])
     k = len(specification) - len(priors) - len(held)
     unresolved = unresolved_effects(measurement, effects, parameters, (frequency, damping), at_levels)
     return Fit(tuple(effects), parameters, chi_squared, bic(chi_squared, k, n), frequency, damping, k, undetermined,
-               held, parameter_covariance(jacobian, chi_squared, n - k), converged, unresolved)
+               held, parameter_covariance(jacobian, chi_squared, n - k, gaps), converged, unresolved, on_drop)
+
+
+def smooth_jacobian(residuals, vector, jacobian) -> np.ndarray:
+    """The forward-difference Jacobian (m, p) of ``residuals`` (rows of variables (b, p) -> residuals (b, m)) at
+    ``vector`` (p,), ``jacobian`` (``forward_difference_jacobian``'s), with each column that crosses a jump of the
+    residuals replaced by the backward difference (``across_jumps``)."""
+    backward = -forward_difference_jacobian(lambda rows: residuals(2.0 * vector - rows), vector)
+    return across_jumps(jacobian, jacobian, backward)
+
+
+def across_jumps(difference, forward, backward) -> np.ndarray:
+    """``difference`` (m, p), a derivative's estimate by columns (one per variable), with each column where one of
+    the one-sided differences ``forward``, ``backward`` (m, p) has ``JUMP`` times the other's norm or more replaced
+    by the other: that one crossed a jump of the function, and gives the jump divided by the step, not a slope (a
+    stiction drop moved across a level by a step of 1e-8: a column of 1.5e8 on the measured ASB C2 where the other
+    side's is 71, which pins its variable in a covariance); the other is the slope of the side the point is on."""
+    forward_norm, backward_norm = np.linalg.norm(forward, axis=0), np.linalg.norm(backward, axis=0)
+    return np.where(forward_norm >= JUMP * backward_norm, backward,
+                    np.where(backward_norm >= JUMP * forward_norm, forward, difference))
+
+
+def stiction_drops(vector, specification, amplitude, nominal_frequency_hz: float) -> tuple[dict, np.ndarray]:
+    """The elements of a model with stiction whose drop (theta < 1: the force falls at the slip amplitude phi_max,
+    ``nonlinear.modal_joint.slip_amplitudes``) sits on a measured level (within ``ON_DROP`` of it, relative: where
+    a fit's optimum puts it, moving the drop across that level jumps the residuals), and what the points tell of
+    phi_max: only that it lies between that level and the next one on its stuck side (none past the measured
+    range). Returns
+    (element -> the reason, in words; rows (d, p) to stack under the Jacobian, one per closed gap: the gradient of
+    ln phi_max over the variables divided by the standard deviation of ln phi_max uniform over the gap,
+    ln(upper / lower) / sqrt(12)). ``vector`` (p,) of the variables of ``specification``; ``amplitude`` (n,)
+    increasing, m kg^0.5."""
+    amplitude = np.asarray(amplitude, dtype=float)
+    parameters = _to_parameters(vector, specification)
+    if parameters.get("theta", 1.0) >= 1.0:
+        return {}, np.zeros((0, len(vector)))
+
+    def log_slip_amplitudes(rows):
+        p = _to_parameters(rows.T, specification)
+        second = (p["kappa" + STAGE_SUFFIX], p["slip_force" + STAGE_SUFFIX]) if "kappa" + STAGE_SUFFIX in p else None
+        return np.log(np.array(slip_amplitudes(nominal_frequency_hz * (1.0 + p.get("frequency_shift", 0.0)),
+                                               p["kappa"], p["slip_force"], p.get("chi"), p.get("beta", 0.0),
+                                               second))).T
+
+    gradient = forward_difference_jacobian(log_slip_amplitudes, vector)  # (elements, p)
+    slip = np.exp(log_slip_amplitudes(vector[None])[0])
+    reasons, rows = {}, []
+    for element, phi_max, slope in zip(("joint element", "second slip stage"), slip, gradient):
+        level = int(np.argmin(np.abs(amplitude / phi_max - 1.0)))
+        if abs(amplitude[level] / phi_max - 1.0) > ON_DROP:
+            continue
+        slipped = amplitude[level] >= phi_max
+        other = level - 1 if slipped else level + 1
+        where = f"its stiction drop sits on the level at amplitude {amplitude[level]:.4g}"
+        if not 0 <= other < amplitude.size:
+            reasons[element] = f"{where}, the last on its side: the points bound its slip amplitude on one side only"
+            continue
+        lower, upper = sorted((amplitude[level], amplitude[other]))
+        reasons[element] = (f"{where}: the points place its slip amplitude only between {lower:.4g} and {upper:.4g} "
+                            f"(uniform there in the covariance)")
+        rows.append(slope / (np.log(upper / lower) / np.sqrt(12.0)))
+    return reasons, np.array(rows).reshape(len(rows), len(vector))
 
 
 def unresolved_effects(measurement: BackboneLevels, effects, parameters: dict, backbone, model) -> dict:
@@ -357,14 +432,18 @@ def model_variables(effects) -> list:
     return list(BASE) + [p for effect in effects for p in EFFECTS[effect].parameters]
 
 
-def parameter_covariance(jacobian, chi_squared: float, dof: int) -> np.ndarray:
+def parameter_covariance(jacobian, chi_squared: float, dof: int, bounds=()) -> np.ndarray:
     """Covariance (p, p) of a weighted least-squares optimum's variables, V S^-2 V^T from the singular values S and
     right singular vectors V of J (m, p), the Jacobian of the residuals in units of the measurement's uncertainty,
     its singular values floored at ``SINGULAR_FLOOR`` of J's largest entry (a direction the points do not see gets
     a huge variance, as in ``determinacy``; a held variable's zero column gives it zero variance), scaled by
     chi^2 per degree of freedom where that exceeds 1 (a residual beyond the stated noise widens it, never
-    narrows it)."""
+    narrows it). ``bounds``: rows (d, p) of what the points tell besides their residuals (``stiction_drops``),
+    stacked under J scaled by that factor, not scaled themselves."""
     jacobian = np.asarray(jacobian, dtype=float)
+    scale = max(1.0, chi_squared / max(dof, 1))
+    if len(bounds):
+        jacobian, scale = np.vstack([jacobian / np.sqrt(scale), bounds]), 1.0
     free = np.any(jacobian != 0.0, axis=0)
     covariance = np.zeros((jacobian.shape[1], jacobian.shape[1]))
     if not free.any():
@@ -372,7 +451,7 @@ def parameter_covariance(jacobian, chi_squared: float, dof: int) -> np.ndarray:
     _, singular, rows = np.linalg.svd(jacobian[:, free], full_matrices=False)
     floor = max(SINGULAR_FLOOR * float(np.max(np.abs(jacobian))), np.finfo(float).tiny)
     covariance[np.ix_(free, free)] = (rows.T / np.maximum(singular, floor) ** 2) @ rows
-    return covariance * max(1.0, chi_squared / max(dof, 1))
+    return covariance * scale
 
 
 def bic(chi_squared: float, n_parameters: int, n_residuals: int) -> float:

@@ -103,3 +103,16 @@ def modal_joint_backbone(amplitude, stuck_frequency_hz: float, stiffness_fractio
             else:
                 check_iwan(element_slip_force, stiffness, chi, beta, theta)
     return frequency, damping
+
+
+def slip_amplitudes(stuck_frequency_hz, stiffness_fraction, slip_force, chi: float | None = None, beta=0.0,
+                    second_stage=None) -> list:
+    """Modal amplitudes phi_max (m kg^0.5) at which the elements of ``modal_joint_backbone`` (the joint's, then the
+    second stage's; its arguments) slip whole: F_S / K_T for Jenkins, Segalman's phi_max for Iwan
+    (``iwan.scaled_constants``). There a stiction ratio theta < 1 drops the element's force by s (1 - theta)
+    (``slip_laws.backbone_force`` at |x| = 1): the backbone jumps. Arithmetic: arrays of parameters give arrays."""
+    omega_squared_0 = (2.0 * np.pi * np.asarray(stuck_frequency_hz, dtype=float)) ** 2
+    elements = [(stiffness_fraction, slip_force)] + ([] if second_stage is None else [second_stage])
+    return [element_slip_force / (kappa * omega_squared_0) if chi is None
+            else iwan.scaled_constants(element_slip_force, kappa * omega_squared_0, chi, beta)[0]
+            for kappa, element_slip_force in elements]
