@@ -92,6 +92,9 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
             f"{effects or 'the reference'} (BIC {value:.4g})" for effects, value in verdict.alternatives.items())
                   + f" fit as well with as many parameters (BIC within {EVIDENCE:g}); the data do not tell them "
                     "from the answer below."]
+    if verdict.better_not_accepted:
+        lines += ["", f"Fit better (BIC lower by more than {EVIDENCE:g}) but not accepted: " + "; ".join(
+            f"{effects} ({why})" for effects, why in verdict.better_not_accepted.items()) + "."]
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
     lines += ["", f"Verdict: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
@@ -199,6 +202,7 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     write_json(out / "discrepancy.json", {
         **record, "effects": verdict.effects, "unexplained": verdict.unexplained, "findings": verdict.findings,
         "joint_law": verdict.joint_law, "added": verdict.added, "alternatives": verdict.alternatives,
+        "better_not_accepted": verdict.better_not_accepted,
         "reference_residual_features": features,
         "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
                                                          for k, v in step.fit.parameters.items()},

@@ -27,10 +27,13 @@ parameter fewer, recorded as held with its evidence.
 
 A stiction drop. With stiction (theta < 1) an element's force drops at its slip amplitude phi_max: the backbone
 jumps there, and a fit's optimum can put the drop on a measured level, the rest of its chi^2 pulling the drop
-across and the jump holding it back (the measured ASB C2 and C4 answers, to 3e-8 and 9e-8 of the level). A forward
-difference across it is the jump over the step, not a slope: such a Jacobian column is the other side's difference
-(``across_jumps``), and the points place the drop only between that level and the next one on its stuck side, a
-gap of ln phi_max taken as uniform in the covariance (``stiction_drops``; recorded as the fit's ``on_drop``).
+across and the jump holding it back (the measured ASB C2 and C4 stiction models, to 3e-8 and 9e-8 of the level).
+The least squares only creep along such a boundary, so a fit whose optimum sits on a drop is fitted again with
+each such slip amplitude kept where it is (``along_levels``: the smooth problem's optimum on that boundary; C4's
+answer went from BIC 414.92 to 404.73). A forward difference across the drop is the jump over the step, not a
+slope: such a Jacobian column is the other side's difference (``across_jumps``), and the points place the drop
+only between that level and the next one on its stuck side, a gap of ln phi_max taken as uniform in the
+covariance (``stiction_drops``; recorded as the fit's ``on_drop``).
 
 Determined. A fit's other effect parameters must be determined by the points: at the optimum, with J the Jacobian
 of the residuals in units of the measurement's uncertainty (what the points determine at their stated noise,
@@ -65,7 +68,8 @@ the library's (chi, beta), and each candidate answer with microslip is fitted ag
 shape of ``SHAPES`` (``restart_candidates``: 21 starts, too many for every model the loop fits). The answer (``final_model``) is, among every fitted model
 that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of the lowest BIC:
 the loop never ends on a model worse by its own criterion than one it evaluated, and the other models within
-``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart.
+``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart; the models it
+evaluated that fit better than it by more than ``EVIDENCE`` but that the rules refuse are named with the reasons.
 A residual still above ``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect,
 the parameters, chi^2, BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not
 accepted with the reason.
@@ -313,6 +317,11 @@ def fit(measurement: BackboneLevels, effects: tuple, nominal_frequency_hz: float
             values = trial
             held[name] = (f"held at its law's limit, {PHYSICAL_LIMITS[name][1]}: freeing it lowers chi^2 by "
                           f"{max(ratio, 0.0):.3g} < {LIMIT_TEST}")
+    on_drops = levels_on_drops(vector, specification, measurement.amplitude, nominal_frequency_hz)
+    if on_drops:
+        along = along_levels(residuals, vector, specification, nominal_frequency_hz, on_drops, values)
+        if along[0] < chi_squared:
+            chi_squared, vector, jacobian, converged = along
     parameters = _to_parameters(vector, specification)
     frequency, damping = at_levels(parameters)
     on_drop, gaps = stiction_drops(vector, specification, measurement.amplitude, nominal_frequency_hz)
@@ -346,46 +355,89 @@ def across_jumps(difference, forward, backward) -> np.ndarray:
                     np.where(backward_norm >= JUMP * forward_norm, forward, difference))
 
 
+ELEMENTS = (("joint element", ""), ("second slip stage", STAGE_SUFFIX))
+"""The one-mode model's slip elements: (name, the suffix of their parameters kappa and slip_force)."""
+
+
+def log_slip_amplitudes(rows, specification, nominal_frequency_hz: float) -> np.ndarray:
+    """ln phi_max (b, elements) of the elements (``ELEMENTS`` the model holds) at rows of variables (b, p) of
+    ``specification`` (``nonlinear.modal_joint.slip_amplitudes``); phi_max is proportional to the element's slip
+    force in both laws."""
+    p = _to_parameters(np.asarray(rows, dtype=float).T, specification)
+    second = (p["kappa" + STAGE_SUFFIX], p["slip_force" + STAGE_SUFFIX]) if "kappa" + STAGE_SUFFIX in p else None
+    return np.log(np.array(slip_amplitudes(nominal_frequency_hz * (1.0 + p.get("frequency_shift", 0.0)), p["kappa"],
+                                           p["slip_force"], p.get("chi"), p.get("beta", 0.0), second))).T
+
+
+def levels_on_drops(vector, specification, amplitude, nominal_frequency_hz: float) -> dict:
+    """Element (index in ``ELEMENTS``) -> the level (index in ``amplitude`` (n,), increasing) its stiction drop sits
+    on: with stiction (theta < 1), a level within ``ON_DROP`` of the element's slip amplitude, relative."""
+    if _to_parameters(vector, specification).get("theta", 1.0) >= 1.0:
+        return {}
+    amplitude = np.asarray(amplitude, dtype=float)
+    slip = np.exp(log_slip_amplitudes(np.asarray(vector)[None], specification, nominal_frequency_hz)[0])
+    levels = [int(np.argmin(np.abs(amplitude / phi_max - 1.0))) for phi_max in slip]
+    return {element: level for element, (level, phi_max) in enumerate(zip(levels, slip))
+            if abs(amplitude[level] / phi_max - 1.0) <= ON_DROP}
+
+
 def stiction_drops(vector, specification, amplitude, nominal_frequency_hz: float) -> tuple[dict, np.ndarray]:
     """The elements of a model with stiction whose drop (theta < 1: the force falls at the slip amplitude phi_max,
-    ``nonlinear.modal_joint.slip_amplitudes``) sits on a measured level (within ``ON_DROP`` of it, relative: where
-    a fit's optimum puts it, moving the drop across that level jumps the residuals), and what the points tell of
-    phi_max: only that it lies between that level and the next one on its stuck side (none past the measured
-    range). Returns
-    (element -> the reason, in words; rows (d, p) to stack under the Jacobian, one per closed gap: the gradient of
-    ln phi_max over the variables divided by the standard deviation of ln phi_max uniform over the gap,
+    ``nonlinear.modal_joint.slip_amplitudes``) sits on a measured level (``levels_on_drops``: where a fit's optimum
+    puts it, moving the drop across that level jumps the residuals), and what the points tell of phi_max: only
+    that it lies between that level and the next one on its stuck side (none past the measured range). Returns
+    (element name -> the reason, in words; rows (d, p) to stack under the Jacobian, one per closed gap: the gradient
+    of ln phi_max over the variables divided by the standard deviation of ln phi_max uniform over the gap,
     ln(upper / lower) / sqrt(12)). ``vector`` (p,) of the variables of ``specification``; ``amplitude`` (n,)
-    increasing, m kg^0.5."""
+    increasing."""
     amplitude = np.asarray(amplitude, dtype=float)
-    parameters = _to_parameters(vector, specification)
-    if parameters.get("theta", 1.0) >= 1.0:
+    on_drops = levels_on_drops(vector, specification, amplitude, nominal_frequency_hz)
+    if not on_drops:
         return {}, np.zeros((0, len(vector)))
-
-    def log_slip_amplitudes(rows):
-        p = _to_parameters(rows.T, specification)
-        second = (p["kappa" + STAGE_SUFFIX], p["slip_force" + STAGE_SUFFIX]) if "kappa" + STAGE_SUFFIX in p else None
-        return np.log(np.array(slip_amplitudes(nominal_frequency_hz * (1.0 + p.get("frequency_shift", 0.0)),
-                                               p["kappa"], p["slip_force"], p.get("chi"), p.get("beta", 0.0),
-                                               second))).T
-
-    gradient = forward_difference_jacobian(log_slip_amplitudes, vector)  # (elements, p)
-    slip = np.exp(log_slip_amplitudes(vector[None])[0])
+    slip = np.exp(log_slip_amplitudes(np.asarray(vector)[None], specification, nominal_frequency_hz)[0])
+    gradient = forward_difference_jacobian(
+        lambda rows: log_slip_amplitudes(rows, specification, nominal_frequency_hz), vector)  # (elements, p)
     reasons, rows = {}, []
-    for element, phi_max, slope in zip(("joint element", "second slip stage"), slip, gradient):
-        level = int(np.argmin(np.abs(amplitude / phi_max - 1.0)))
-        if abs(amplitude[level] / phi_max - 1.0) > ON_DROP:
-            continue
-        slipped = amplitude[level] >= phi_max
-        other = level - 1 if slipped else level + 1
+    for element, level in on_drops.items():
+        other = level - 1 if amplitude[level] >= slip[element] else level + 1
         where = f"its stiction drop sits on the level at amplitude {amplitude[level]:.4g}"
+        name = ELEMENTS[element][0]
         if not 0 <= other < amplitude.size:
-            reasons[element] = f"{where}, the last on its side: the points bound its slip amplitude on one side only"
+            reasons[name] = f"{where}, the last on its side: the points bound its slip amplitude on one side only"
             continue
         lower, upper = sorted((amplitude[level], amplitude[other]))
-        reasons[element] = (f"{where}: the points place its slip amplitude only between {lower:.4g} and {upper:.4g} "
-                            f"(uniform there in the covariance)")
-        rows.append(slope / (np.log(upper / lower) / np.sqrt(12.0)))
+        reasons[name] = (f"{where}: the points place its slip amplitude only between {lower:.4g} and {upper:.4g} "
+                         f"(uniform there in the covariance)")
+        rows.append(gradient[element] / (np.log(upper / lower) / np.sqrt(12.0)))
     return reasons, np.array(rows).reshape(len(rows), len(vector))
+
+
+def along_levels(residuals, vector, specification, nominal_frequency_hz: float, on_drops: dict, held: dict):
+    """The least-squares optimum of ``residuals`` (rows of variables (b, p) -> residuals (b, m)) from ``vector``
+    (p,) with the slip amplitude of each element of ``on_drops`` (``levels_on_drops``) kept at its value there, on
+    its level's side of the drop (each element's log slip force set by the others: phi_max is proportional to it),
+    and the variables of ``held`` (index -> value) held: where a fit's optimum sits on a drop it is the smooth
+    problem's optimum on that boundary, which the free least squares only creep towards (a drop pulled across the
+    level jumps the residuals). Returns ``best_least_squares``'s (chi^2, vector, Jacobian, converged), the vector
+    with the slip forces so set and the Jacobian that of the free variables' forward differences."""
+    elements = list(on_drops)
+    indices = [next(i for i, (name, _, _) in enumerate(specification)
+                    if name == "slip_force" + ELEMENTS[element][1]) for element in elements]
+    target = log_slip_amplitudes(np.asarray(vector)[None], specification, nominal_frequency_hz)[0, elements]
+
+    def pinned(rows):
+        rows = np.array(rows, dtype=float)
+        rows[..., indices] += target - log_slip_amplitudes(rows.reshape(-1, rows.shape[-1]), specification,
+                                                           nominal_frequency_hz)[:, elements].reshape(
+                                                               *rows.shape[:-1], len(elements))
+        return rows
+
+    chi_squared, found, _, converged = best_least_squares(lambda rows: residuals(pinned(rows)), [vector],
+                                                          {**held, **{index: vector[index] for index in indices}})
+    found = pinned(found)
+    jacobian = forward_difference_jacobian(residuals, found)
+    jacobian[:, list(held)] = 0.0
+    return chi_squared, found, jacobian, converged
 
 
 def unresolved_effects(measurement: BackboneLevels, effects, parameters: dict, backbone, model) -> dict:
@@ -521,9 +573,10 @@ class Step(NamedTuple):
 class Verdict:
     """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
     checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
-    unexplained (a residual above the noise, or a finding outside the library), the final fit, and the other
+    unexplained (a residual above the noise, or a finding outside the library), the final fit, the other
     models the selection cannot tell from it (``alternatives``: effects -> BIC, within ``EVIDENCE`` of it with as
-    many parameters)."""
+    many parameters), and the models it evaluated that fit better by more than ``EVIDENCE`` but cannot be accepted
+    (``better_not_accepted``: effects -> their BIC and the reasons, ``admissible``)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
@@ -531,6 +584,7 @@ class Verdict:
     findings: list = field(default_factory=list)
     final: Fit | None = None
     alternatives: dict = field(default_factory=dict)
+    better_not_accepted: dict = field(default_factory=dict)
 
     @property
     def joint_law(self) -> list:
@@ -680,6 +734,11 @@ def select_effects(measurement: BackboneLevels, fitted, library, restarted=None)
         verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
                                   {"before refinement": current.bic}))
     verdict.final = final
+    verdict.better_not_accepted = {
+        ", ".join(sorted(model.effects)):
+            f"BIC {model.bic:.4g}: " + "; ".join(admissible(measurement, model, reference, model.effects))
+        for model in evaluated.values()
+        if model is not None and model.bic < final.bic - EVIDENCE and not accepted(model)}
     verdict.effects = list(final.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict
