@@ -4,16 +4,16 @@ its parameters' uncertainty, and the range it was fitted over.
 Record (``model_record``, written as ``final_model`` in discrepancy.json): the effects, the parameters, the
 fitted variables (``discrepancy.loop.TRANSFORMS`` of them: log of a positive parameter, logit of a bounded one)
 with their covariance (``discrepancy.loop.parameter_covariance``), the parameters held at their law's limit and
-the elements whose stiction drop sits on a level (``discrepancy.loop.stiction_drops``), the nominal low-amplitude frequency f_0 (Hz)
-and linear damping zeta_0 the model was fitted with, the amplitude scale q_max that the effects outside the joint
-are written in (``discrepancy.loop.outside_joint``: c q / q_max, gamma (q / q_max)^2), and the amplitude range
-of the points fitted, in the measurement's amplitude unit.
+the elements whose stiction drop sits on a level (``discrepancy.loop.stiction_drops``), the nominal low-amplitude
+frequency f_0 (Hz) and linear damping zeta_0 the model was fitted with, the amplitude scale q_max that the effects
+outside the joint are written in (``discrepancy.loop.outside_joint``: c q / q_max, gamma (q / q_max)^2), and the
+amplitude range of the points fitted, in the measurement's amplitude unit.
 
 Band (``evaluate``): linearised propagation of the variables' covariance C, y +- 1.96 sqrt(g^T C g) at each
-amplitude, g the gradient of the frequency or damping there with respect to the variables (central differences; one
-side's where the other crosses a jump of the model, ``discrepancy.loop.across_jumps``): a pointwise 95 % band of the
-parameters' uncertainty. Amplitudes outside the fitted range are extrapolation: the
-model's form carries them, not the points.
+amplitude, g the gradient of the frequency or damping there with respect to the variables (central differences;
+one side's where the other crosses a jump of the model, ``discrepancy.loop.across_jumps``): a pointwise 95 % band of
+the parameters' uncertainty. Amplitudes outside the fitted range are extrapolation: the model's form carries them,
+not the points.
 """
 
 from __future__ import annotations
@@ -87,10 +87,9 @@ def evaluate(record: dict, amplitude) -> dict:
 
     curve = backbone(vector)
     steps = STEP * np.maximum(1.0, np.abs(vector))
-    forward = np.column_stack([(backbone(vector + step * unit) - curve) / step
-                               for step, unit in zip(steps, np.eye(vector.size))])
-    backward = np.column_stack([(curve - backbone(vector - step * unit)) / step
-                                for step, unit in zip(steps, np.eye(vector.size))])
+    shifts = steps[:, None] * np.eye(vector.size)
+    forward = np.column_stack([backbone(vector + shift) - curve for shift in shifts]) / steps
+    backward = np.column_stack([curve - backbone(vector - shift) for shift in shifts]) / steps
     gradient = across_jumps((forward + backward) / 2.0, forward, backward)
     covariance = np.asarray(record["covariance"], dtype=float)
     spread = Z_95 * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gradient, covariance, gradient), 0.0))
