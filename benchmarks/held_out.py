@@ -6,8 +6,11 @@ at other sizes and noise seeds, in the challenge's layout (``benchmarks.second_m
 Effects, applied to the reference's omega(q) and zeta(q) at every instant of the envelope equations, with q_top =
 1.8406e-4 m kg^0.5 (the challenge README's amplitude of the 2 % drop): mass loading omega / sqrt(m), cubic
 stiffening omega (1 + k q^2) with k q_top^2 = ``stiffening``, amplitude damping zeta + c q with c q_top = ``rise``
-zeta_ref(q_top), linear damping zeta + ``added_zeta``. Each file's CSV says only that it is virtual; its truth is in
-``key.json`` beside the files (case -> effects and seed).
+zeta_ref(q_top), linear damping zeta + ``added_zeta``; and the two kinds outside any one-mode library
+(``HIT_EFFECTS``, the challenge's P6 and P7 kinds): a second mode (``second``: its frequency over the reference's
+lowest-amplitude one, its displacement envelope's share of the target's) and a drift of the frequency within each
+hit (``drift``: its relative fall over the 1.65 s decay). Each file's CSV says only that it is virtual; its truth is
+in ``key.json`` beside the files (case -> effects and seed).
 
 Run: ``python -m benchmarks.held_out OUT [CASE ...]``; then ``surrogacy freevib OUT/CASE.csv --mode-hz 170`` and
 ``surrogacy discrepancy BACKBONE`` as a user runs them.
@@ -46,8 +49,19 @@ CASES = {
     "z.3e-4c.4s35": ({"added_zeta": 3e-4, "rise": 0.4}, 35), "m1.02s36": ({"mass": 1.02}, 36),
     "m1.005k.003s37": ({"mass": 1.005, "stiffening": 0.003}, 37), "k.010s38": ({"stiffening": 0.010}, 38),
     "c.8s39": ({"rise": 0.8}, 39), "m1.003z.3e-4s40": ({"mass": 1.003, "added_zeta": 3e-4}, 40),
+    "z.5e-4k.006s51": ({"added_zeta": 5e-4, "stiffening": 0.006}, 51),
+    "c.5k.006s52": ({"rise": 0.5, "stiffening": 0.006}, 52),
+    "m1.01z.5e-4c.5s53": ({"mass": 1.01, "added_zeta": 5e-4, "rise": 0.5}, 53),
+    "d.7e-3s54": ({"drift": 7e-4}, 54), "d2e-3s55": ({"drift": 2e-3}, 55), "d-1e-3s56": ({"drift": -1e-3}, 56),
+    "d1e-3k.006s57": ({"drift": 1e-3, "stiffening": 0.006}, 57),
+    "d1e-3m1.01s58": ({"drift": 1e-3, "mass": 1.01}, 58),
+    "f1.03a.1s59": ({"second": (1.03, 0.10)}, 59), "f1.06a.2s60": ({"second": (1.06, 0.20)}, 60),
+    "f1.04a.15k.006s61": ({"second": (1.04, 0.15), "stiffening": 0.006}, 61),
+    "f1.05a.1c.5s62": ({"second": (1.05, 0.10), "rise": 0.5}, 62),
 }
 """Case -> (effects outside the joint, noise seed)."""
+HIT_EFFECTS = ("second", "drift")
+"""The effects made by the hits' generator (``challenge_like_clean``), not by the backbone's laws."""
 
 
 def effect_laws(backbone, mass: float = 1.0, stiffening: float = 0.0, rise: float = 0.0, added_zeta: float = 0.0):
@@ -78,7 +92,9 @@ def main(argv=None) -> None:
     arguments.out.mkdir(parents=True, exist_ok=True)
     for case in arguments.cases:
         effects, seed = CASES[case]
-        hits = challenge_like_hits(challenge_like_clean(backbone, laws=effect_laws(backbone, **effects)), seed)
+        laws = effect_laws(backbone, **{name: size for name, size in effects.items() if name not in HIT_EFFECTS})
+        hits = challenge_like_hits(challenge_like_clean(backbone, laws=laws, **{name: effects[name] for name in
+                                                                                HIT_EFFECTS if name in effects}), seed)
         write_ringdown_csv(hits, arguments.out / f"{case}.csv", comment="virtual challenge-like hammer ring-downs "
                            "(benchmarks.held_out)", provenance="virtual")
         print(f"wrote {arguments.out / case}.csv", flush=True)

@@ -84,25 +84,32 @@ def log_amplitude_law(q: np.ndarray, values: np.ndarray):
 
 
 def challenge_like_clean(backbone, second=None, hits: int = 7, decay_s: float = 1.65, pretrigger_s: float = 0.05,
-                         sample_rate: float = 6400.0, laws=None) -> list[RingDown]:
+                         sample_rate: float = 6400.0, laws=None, drift: float = 0.0) -> list[RingDown]:
     """Noiseless accelerations (m/s^2) of the challenge-like hits (module docstring). backbone: the tuple of
     :func:`read_backbone_table`; second: (ratio to the lowest-amplitude frequency, share of the target's
     envelope) or None; laws: (omega (rad/s), zeta) as functions of ln q in place of the table's
-    (:func:`log_amplitude_law`), e.g. with effects outside the joint (``benchmarks.held_out``), or None."""
+    (:func:`log_amplitude_law`), e.g. with effects outside the joint (``benchmarks.held_out``), or None; drift:
+    the frequency's relative fall within each hit over ``decay_s``, omega(A) (1 - drift t / decay_s) with t the
+    time since the hit (the challenge README's P7 kind; negative: a rise)."""
     q, sensor_over_q, omega, zeta = backbone
     omega_of, zeta_of = laws or (log_amplitude_law(q, omega), log_amplitude_law(q, zeta))
     time = np.arange(int(round((pretrigger_s + decay_s) * sample_rate)) + 1) / sample_rate
     moving = time >= pretrigger_s
     shape = sensor_over_q * TARGET_SHAPE
     records = []
+
+    def drifted(t):
+        return 1.0 - drift * (t - pretrigger_s) / decay_s
+
     for number, start in enumerate(2 * q[-1] * 0.5 ** (np.arange(hits) / max(hits - 1, 1))):
         def envelope(t, state):  # state: ln A, psi
-            omega_now, zeta_now = omega_of(state[0]), zeta_of(state[0])
+            omega_now, zeta_now = omega_of(state[0]) * drifted(t), zeta_of(state[0])
             return [-zeta_now * omega_now, omega_now * np.sqrt(1 - zeta_now ** 2)]
 
         flow = solve_ivp(envelope, (time[moving][0], time[-1]), [np.log(start), 0.0], t_eval=time[moving],
                          method="DOP853", rtol=1e-10, atol=1e-12)
-        acceleration = np.exp(flow.y[0]) * np.array([omega_of(value) for value in flow.y[0]]) ** 2
+        acceleration = (np.exp(flow.y[0]) * (np.array([omega_of(value) for value in flow.y[0]])
+                                             * drifted(time[moving])) ** 2)
         signals = np.zeros((shape.size, time.size))
         signals[:, moving] = np.outer(shape, acceleration * np.sin(flow.y[1]))  # from rest: an impulse
         if second is not None:
