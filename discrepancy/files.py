@@ -202,7 +202,7 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     write_json(out / "discrepancy.json", {
         **record, "effects": verdict.effects, "unexplained": verdict.unexplained, "findings": verdict.findings,
         "joint_law": verdict.joint_law, "added": verdict.added, "alternatives": verdict.alternatives,
-        "better_not_accepted": verdict.better_not_accepted,
+        "better_not_accepted": verdict.better_not_accepted, "evaluated_models": verdict.evaluated,
         "reference_residual_features": features,
         "steps": [{"effect": step.effect, "parameters": {k: v if isinstance(v, str) else float(v)
                                                          for k, v in step.fit.parameters.items()},

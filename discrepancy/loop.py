@@ -575,8 +575,10 @@ class Verdict:
     checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
     unexplained (a residual above the noise, or a finding outside the library), the final fit, the other
     models the selection cannot tell from it (``alternatives``: effects -> BIC, within ``EVIDENCE`` of it with as
-    many parameters), and the models it evaluated that fit better by more than ``EVIDENCE`` but cannot be accepted
-    (``better_not_accepted``: effects -> their BIC and the reasons, ``admissible``)."""
+    many parameters), the models it evaluated that fit better by more than ``EVIDENCE`` but cannot be accepted
+    (``better_not_accepted``: effects -> their BIC and the reasons, ``admissible``), and every model it fitted
+    (``evaluated``: effects -> its BIC, chi^2, number of parameters and the reasons it cannot be accepted, empty
+    where it can)."""
 
     effects: list = field(default_factory=list)
     steps: list = field(default_factory=list)
@@ -585,6 +587,7 @@ class Verdict:
     final: Fit | None = None
     alternatives: dict = field(default_factory=dict)
     better_not_accepted: dict = field(default_factory=dict)
+    evaluated: dict = field(default_factory=dict)
 
     @property
     def joint_law(self) -> list:
@@ -739,6 +742,10 @@ def select_effects(measurement: BackboneLevels, fitted, library, restarted=None)
             f"BIC {model.bic:.4g}: " + "; ".join(admissible(measurement, model, reference, model.effects))
         for model in evaluated.values()
         if model is not None and model.bic < final.bic - EVIDENCE and not accepted(model)}
+    verdict.evaluated = {", ".join(sorted(model.effects)): {
+        "bic": model.bic, "chi_squared": model.chi_squared, "parameters": model.n_parameters,
+        "not_accepted": admissible(measurement, model, reference, model.effects)}
+        for model in evaluated.values() if model is not None}
     verdict.effects = list(final.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict

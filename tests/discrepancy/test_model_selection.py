@@ -45,7 +45,8 @@ def test_chi_at_iwans_limit_is_held_and_the_effect_outside_the_joint_found(seed)
     """Iwan's chi = -0.01 (dissipation about linear in amplitude, 1 % of chi's range from the law's limit 0) with
     a 0.5 % mass loading: the loop names microslip as the joint law and the stiffness change outside the joint
     with its size within 10 %, chi near 0 (held at the limit by the likelihood-ratio test or fitted free, never
-    refused as 'at its bound'), and the residual is at the noise."""
+    refused as 'at its bound'), and the residual is at the noise. The verdict's record of every model fitted holds
+    the answer, its alternatives and the better fits refused, and no accepted fit more than EVIDENCE below it."""
     measurement, _ = virtual_measurement({"chi": -0.01, "beta": 0.05, "frequency_shift": -0.005}, seed)
     verdict = discrepancy_loop(measurement, F0, ZETA0)
     assert verdict.joint_law == ["microslip"] and verdict.added == ["stiffness_change"], verdict.effects
@@ -53,6 +54,15 @@ def test_chi_at_iwans_limit_is_held_and_the_effect_outside_the_joint_found(seed)
     assert "chi" in verdict.final.held or verdict.final.parameters["chi"] < -0.0149  # held, or free off the limit
     assert verdict.final.parameters["frequency_shift"] == pytest.approx(-0.005, rel=0.1)
     assert not verdict.unexplained and verdict.steps[-1].reduced_chi_squared < 1.5
+    record = verdict.evaluated  # every model fitted: the answer, its alternatives and the refused among them
+    assert record[", ".join(sorted(verdict.effects))] == {
+        "bic": verdict.final.bic, "chi_squared": verdict.final.chi_squared,
+        "parameters": verdict.final.n_parameters, "not_accepted": []}
+    assert all(record[effects]["bic"] == bic and not record[effects]["not_accepted"]
+               for effects, bic in verdict.alternatives.items())
+    assert set(verdict.better_not_accepted) == {effects for effects, entry in record.items()
+                                                if entry["bic"] < verdict.final.bic - EVIDENCE and entry["not_accepted"]}
+    assert min(entry["bic"] for entry in record.values() if not entry["not_accepted"]) >= verdict.final.bic - EVIDENCE
 
 
 def test_a_parameter_is_held_at_its_limit_only_where_the_likelihood_ratio_allows():
