@@ -90,15 +90,16 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     if verdict.alternatives:
         lines += ["", "Within the selection's noise: " + "; ".join(
             f"{effects or 'the reference'} (BIC {value:.4g})" for effects, value in verdict.alternatives.items())
-                  + f" fit as well with as many parameters (BIC within {EVIDENCE:g}); the data do not tell them "
-                    "from the answer below."]
+                  + f" fit as well (BIC within {EVIDENCE:g} of the lowest, none holding another such model); the data "
+                    "do not tell them from the answer below."]
     if verdict.better_not_accepted:
         lines += ["", f"Fit better (BIC lower by more than {EVIDENCE:g}) but not accepted: " + "; ".join(
             f"{effects} ({why})" for effects, why in verdict.better_not_accepted.items()) + "."]
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
     lines += ["", f"Verdict: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
-        "stands for (chi^2/dof of the backbone's fit in the table above)." if outside else
+        "stands for (chi^2/dof of the backbone's fit in the table above); the backbone holds it, so the effects "
+        "named may stand for part of it." if outside else
         "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
         "The residual is at the measurement's noise.")]
     return "\n".join(lines) + "\n"

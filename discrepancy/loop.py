@@ -65,10 +65,11 @@ and, until no fit moves, each model is fitted again from the optimum of every mo
 that fits better than it, where that could make it a candidate answer (``refit_nested``), so the optimum a model
 reaches does not hang on the path that first reached it. Nor on Iwan's shape: every start of the loop's own has
 the library's (chi, beta), and each candidate answer with microslip is fitted again from its optimum with each
-shape of ``SHAPES`` (``restart_candidates``: 21 starts, too many for every model the loop fits). The answer (``final_model``) is, among every fitted model
-that meets the acceptance rules, the one with the fewest parameters of those within ``EVIDENCE`` of the lowest BIC:
-the loop never ends on a model worse by its own criterion than one it evaluated, and the other models within
-``EVIDENCE`` with as many parameters are reported beside it as answers the data do not tell apart; the models it
+shape of ``SHAPES`` (``restart_candidates``: 21 starts, too many for every model the loop fits). The answer
+(``final_model``): among every fitted model that meets the acceptance rules, those within ``EVIDENCE`` of the lowest
+BIC that hold none of the others (each further effect of a model must earn its parameters against the models it
+holds); of these the one with the lowest BIC. The loop never ends on a model worse by its own criterion than one it
+evaluated, and the other such models are reported beside it as answers the data do not tell apart; the models it
 evaluated that fit better than it by more than ``EVIDENCE`` but that the rules refuse are named with the reasons.
 A residual still above ``UNEXPLAINED`` times the noise is reported as unexplained. Each step records the effect,
 the parameters, chi^2, BIC, the L-infinity and RMS errors of frequency and damping, and the candidates not
@@ -574,8 +575,8 @@ class Verdict:
     """The loop's answer: the effects found in order, the steps with their evidence, the findings of the signal
     checks beside the backbone (``experiment.signal_checks``; :func:`with_findings`), whether something remains
     unexplained (a residual above the noise, or a finding outside the library), the final fit, the other
-    models the selection cannot tell from it (``alternatives``: effects -> BIC, within ``EVIDENCE`` of it with as
-    many parameters), the models it evaluated that fit better by more than ``EVIDENCE`` but cannot be accepted
+    models the selection cannot tell from it (``alternatives``: effects -> BIC, the other answers of
+    ``final_model``), the models it evaluated that fit better by more than ``EVIDENCE`` but cannot be accepted
     (``better_not_accepted``: effects -> their BIC and the reasons, ``admissible``), and every model it fitted
     (``evaluated``: effects -> its BIC, chi^2, number of parameters and the reasons it cannot be accepted, empty
     where it can)."""
@@ -845,25 +846,27 @@ def in_order(effects: frozenset, model: Fit) -> tuple:
 
 
 def final_model(accepted: list) -> tuple:
-    """The answer among the ``accepted`` fits (every model the loop evaluated that meets ``admissible``): of the
-    fits whose BIC is within ``EVIDENCE`` of the lowest (models the data do not tell apart from
-    the best), the one with the fewest parameters, then the lowest BIC (nothing is added that does not earn its
-    parameters). Returns (that Fit, {effects: BIC} of the others with as many parameters within ``EVIDENCE`` of
-    it: answers the selection cannot tell from it). The loop therefore never ends on a model worse by its own
-    criterion than one it evaluated and could accept, whether or not a simpler one reaches the noise: the fit's
-    floors (``study.structures.FREQUENCY_FLOOR``, ``DAMPING_FLOOR``) stand above FreeVib's standard errors at most
-    levels, so a model that misses a systematic trend can reach chi^2 per degree of freedom ``AT_NOISE``; and a
-    richer model that reaches
-    it within ``EVIDENCE`` of a simpler one above it has not earned its parameters (eight points of microslip with
-    a linear damping, chi^2/dof 2.16 by their noise: a second slip stage below the lowest point reaches 1.45 at a
-    BIC 5.2 lower)."""
+    """The answer among the ``accepted`` fits (every model the loop evaluated that meets ``admissible``). Of the
+    fits whose BIC is within ``EVIDENCE`` of the lowest (models the data do not tell apart from the best), those
+    that hold none of the others are the answers: a richer model within ``EVIDENCE`` of one it holds has not earned
+    the parameters of its further effects (eight points of microslip with a linear damping, chi^2/dof 2.16 by their
+    noise: a second slip stage below the lowest point reaches 1.45 at a BIC 5.2 lower). Of these, which are other
+    explanations of the data and not one the other's with more, the one with the lowest BIC (then the fewest
+    parameters): parsimony is already in the BIC, and a model with more parameters but not more effects of the other
+    is no richer version of it (a challenge-like linear damping with a cubic stiffening, the key's nominal:
+    microslip with a linear and an amplitude damping, 5 parameters, BIC 50.1, against microslip, a second slip stage,
+    the linear damping and the cubic, 7 parameters, 43.5; the fewest parameters named the amplitude damping and
+    not the cubic). Returns (that Fit, {effects: BIC} of the other answers: the selection cannot tell them from it).
+    The loop therefore never ends on a model worse by its own criterion than one it evaluated and could accept,
+    whether or not a simpler one reaches the noise: the fit's floors (``study.structures.FREQUENCY_FLOOR``,
+    ``DAMPING_FLOOR``) stand above FreeVib's standard errors at most levels, so a model that misses a systematic
+    trend can reach chi^2 per degree of freedom ``AT_NOISE``."""
     lowest = min(model.bic for model in accepted)
     near = [model for model in accepted if model.bic <= lowest + EVIDENCE]
-    final = min(near, key=lambda model: (model.n_parameters, model.bic))
-    alternatives = {", ".join(sorted(model.effects)): model.bic for model in near
-                    if model.n_parameters == final.n_parameters and set(model.effects) != set(final.effects)
-                    and model.bic <= final.bic + EVIDENCE}
-    return final, alternatives
+    answers = [model for model in near if not any(set(other.effects) < set(model.effects) for other in near)]
+    final = min(answers, key=lambda model: (model.bic, model.n_parameters))
+    return final, {", ".join(sorted(model.effects)): model.bic for model in answers
+                   if set(model.effects) != set(final.effects)}
 
 
 def flagged(trial: Fit, effects) -> list[str]:

@@ -278,8 +278,8 @@ def discrepancy_section(results: Path, out: Path) -> list[str]:
               "file, or the Jenkins joint refitted on the structure's superelement from the study's designs "
               "(`study-<structure>`; every model the loop tries there is refitted). An effect is accepted only "
               "with its parameters determined and neither L-infinity error worse than the reference's beyond "
-              "the measurement's uncertainty; of the models tried, the answer is the one with the fewest "
-              "parameters among those within a BIC of 10 of the best, and the others as good are listed. Errors are "
+              "the measurement's uncertainty; of the models tried within a BIC of 10 of the best that hold none of "
+              "the others, the answer is the one with the lowest BIC, and the others as good are listed. Errors are "
               "of the reference (before) and of the final model (after). Signal findings: what the checks "
               "of the ring-down's signals saw beside the backbone (a finding outside the effect library makes the "
               "verdict unexplained; \"not checked\" for a backbone without its ring-down).", "",
