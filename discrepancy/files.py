@@ -47,14 +47,26 @@ def findings_markdown(findings: list, checked: list) -> list[str]:
     return lines
 
 
+def drift_markdown(corrections: dict) -> list[str]:
+    """The drift within each hit taken out of the backbone before the fit (``experiment.signal_checks
+    .drift_corrected``: quantity -> rate, its standard error and the largest shift of a point), as Markdown lines."""
+    if not corrections:
+        return []
+    return ["Drift within each hit taken out of the backbone before the fit (the backbone as at each hit's impact, "
+            "the rate's standard error added to each point's): " + "; ".join(
+                f"{quantity} {entry['rate_per_s']:.4g} +- {entry['standard_error']:.2g} per s, points moved by up "
+                f"to {entry['largest_shift']:.3g}" for quantity, entry in corrections.items()) + ".", ""]
+
+
 def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: BackboneLevels,
-                     checked: list = (), nominal: list = ()) -> str:
+                     checked: list = (), nominal: list = (), drift: dict | None = None) -> str:
     """The nominal's lines (``discrepancy.nominal.nominal_statement``), the noise the fit assumed where the
-    measurement states none, the signal checks' findings, then the loop's
+    measurement states none, the signal checks' findings and the drift taken out of the backbone
+    (:func:`drift_markdown`), then the loop's
     steps as a Markdown table with the evidence and the errors before and after, after the features of the
     reference model's residual (``discrepancy.loop.residual_features``)."""
     lines = [f"Discrepancy loop on {source}.", "", *nominal, *assumed_noise(measurement),
-             *findings_markdown(verdict.findings, list(checked)),
+             *findings_markdown(verdict.findings, list(checked)), *drift_markdown(drift or {}),
              "Residual of the reference model, in units of the measurement's uncertainty:", "",
              "| | offset | slope / decade | curvature / decade^2 | sign changes | largest kink |", "|---|---|---|---|---|---|"]
     lines += [f"| {name} | {f['offset']:.3g} | {f['slope_per_decade']:.3g} | {f['curvature_per_decade2']:.3g} | "
@@ -98,8 +110,9 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
     lines += ["", f"Verdict: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
-        "stands for (chi^2/dof of the backbone's fit in the table above); the backbone holds it, so the effects "
-        "named may stand for part of it." if outside else
+        "stands for (chi^2/dof of the backbone's fit in the table above); " + (
+            "the effects named are those of the backbone with the drift within each hit taken out (above)." if drift
+            else "the backbone holds it, so the effects named may stand for part of it.") if outside else
         "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
         "The residual is at the measurement's noise.")]
     return "\n".join(lines) + "\n"
@@ -197,7 +210,8 @@ def write_verdict(out: Path, verdict: Verdict, measurement, source: str, record:
     features = residual_features(measurement, verdict.steps[0].fit)
     with atomic_path(out / "discrepancy.md") as temporary:
         temporary.write_text(verdict_markdown(verdict, source, features, measurement,
-                                              record.get("signal_checks", []), nominal_statement(record))
+                                              record.get("signal_checks", []), nominal_statement(record),
+                                              record.get("drift_correction"))
                              + extrapolation_markdown(record.get("final_model")))
     plot_verdict(verdict, measurement, out / "discrepancy.png", record.get("final_model"))
     write_json(out / "discrepancy.json", {

@@ -16,6 +16,7 @@ from discrepancy.nominal import nominal_record
 from discrepancy.superelement_route import from_study, structure_discrepancy_loop
 from experiment.backbone import ModeBackbone, unphysical_points
 from experiment.measured_files import read_mode_backbone
+from experiment.signal_checks import drift_corrected
 from reduction.superelement import StructureError
 from study.structures import BackboneLevels, measured_levels
 
@@ -57,11 +58,15 @@ def measured_input(path: Path, levels: int, nominal_frequency_hz: float | None,
                    nominal_damping: float | None) -> LoopInput:
     """The one-mode loop on the measured backbone file ``path`` (any backbone format of
     ``experiment.measured_files``) binned to ``levels``, from the nominal low-amplitude frequency (Hz) and linear
-    damping ratio given, each estimated from the measurement where None (``discrepancy.nominal.nominal_record``)."""
-    measured = read_mode_backbone(path)
+    damping ratio given, each estimated from the measurement where None (``discrepancy.nominal.nominal_record``).
+    A drift within each hit that the ring-down's signal checks found is taken out of the backbone first
+    (``experiment.signal_checks.drift_corrected``; the record's ``drift_correction``): the loop fits the backbone
+    as at each hit's impact, and the verdict stays unexplained by the finding."""
+    measured, drift = drift_corrected(read_mode_backbone(path))
     measurement = backbone_levels(measured, levels, path)
     nominal = nominal_record(measurement, nominal_frequency_hz, nominal_damping)
-    record = {"source": str(path), "provenance": measured.provenance, **nominal, "dropped_points": measured.dropped}
+    record = {"source": str(path), "provenance": measured.provenance, **nominal, "dropped_points": measured.dropped,
+              "drift_correction": drift}
     loop = partial(discrepancy_loop, measurement, nominal["nominal_frequency_hz"], nominal["nominal_damping"],
                    nominal_uncertainty=(nominal["nominal_frequency_standard_error_hz"],
                                         nominal["nominal_damping_standard_error"]))

@@ -48,7 +48,8 @@ class InstantaneousBackbone:
     time: (n,) s. amplitude: (n,) displacement amplitude, unit of the displacement the signal stands for
     (m for a sensor in SI units; modal amplitude for a modal coordinate). natural_frequency_hz: (n,) Hz.
     damping_ratio: (n,) fraction of critical. correlated_samples: how many consecutive estimates share data
-    (the smoothing window), so that n / correlated_samples of them are independent.
+    (the smoothing window), so that n / correlated_samples of them are independent. onset: the time of the decay's
+    start, its envelope maximum (a hammer hit's impact), s; None where not known.
     """
 
     time: np.ndarray
@@ -56,6 +57,7 @@ class InstantaneousBackbone:
     natural_frequency_hz: np.ndarray
     damping_ratio: np.ndarray
     correlated_samples: int = 1
+    onset: float | None = None
 
 
 def samples_per_period(sample_rate: float, frequency_hz: float) -> float:
@@ -212,7 +214,7 @@ def freevib(time: np.ndarray, signal: np.ndarray, mode_frequency_hz: float, *, q
         damping = -log_rate / natural
     kept = slice(trim, stop - start - trim)
     return InstantaneousBackbone(time[start:stop][kept], envelope[kept], natural[kept] / (2 * np.pi),
-                                 damping[kept], correlated_samples=window)
+                                 damping[kept], correlated_samples=window, onset=float(time[start]))
 
 
 def feldman_properties(envelope: np.ndarray, omega: np.ndarray, step: float, window: int):

@@ -77,6 +77,7 @@ and ``evidence`` (numbers). :func:`ringdown_findings` runs every check that appl
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -87,7 +88,8 @@ import scipy.stats
 import scipy.optimize
 from scipy.optimize import least_squares
 
-from experiment.backbone import RingDownBackbones, amplitude_bins, binned_means
+from experiment.backbone import (ModeBackbone, RingDownBackbones, amplitude_bins, binned_means, record_statistics,
+                                 values_at_grid)
 from experiment.hilbert import analytic_signal, slow_part
 from experiment.modal_filter import band_pass, dominant_shape
 from experiment.ringdown import DISPLACEMENT_ORDER, RingDown
@@ -569,6 +571,9 @@ def drift_findings(hits: list[RingDown], measured: RingDownBackbones, false_alar
             summary = (f"the {label} {'rises' if rate > 0 else 'falls'} by {abs(rate / level):.3g} of itself per "
                        f"{unit} of the {clock_name} at fixed amplitude ({abs(rate * span / level):.3g} over the "
                        f"{span:.4g} {unit} {of})")
+            if clock == "within":  # what the backbone's average holds of it: the correction's lever
+                evidence |= {"amplitude": grid.tolist(), "time_since_impact_s": [
+                    None if np.isnan(value) else float(value) for value in backbone_times(measured, grid)]}
             if confounded:  # the hits' strengths follow their order: the data cannot tell the two clocks apart
                 other = alone["across"][0] * said["across"][2] / level
                 evidence |= {"confounded_with": said["across"][0], "confounded_relative_change_over_span": other}
@@ -576,6 +581,48 @@ def drift_findings(hits: list[RingDown], measured: RingDownBackbones, false_alar
                             "times, and the data cannot tell the two apart")
             found.append(finding("drift", summary, evidence))
     return found
+
+
+STANDARD_ERRORS = {"natural_frequency_hz": "natural_frequency_standard_error_hz",
+                   "damping_ratio": "damping_ratio_standard_error"}
+"""A backbone quantity -> the field of its standard error (``experiment.backbone.Backbone``)."""
+
+
+def backbone_times(measured: RingDownBackbones, grid: np.ndarray) -> np.ndarray:
+    """Mean over the records of the time since each record's impact (s; its ``onset``, else its first estimate) at
+    each grid amplitude (n_grid,), averaged as the Hilbert backbone averages the frequency and damping
+    (``experiment.backbone.values_at_grid``, ``record_statistics``): a drift within each hit of rate r moves the
+    backbone's value there by r times it."""
+    estimates = [record.hilbert for record in measured.records]
+    times = values_at_grid([estimate.amplitude for estimate in estimates],
+                           [estimate.time - (estimate.time[0] if estimate.onset is None else estimate.onset)
+                            for estimate in estimates], grid)
+    return record_statistics(times)[0]
+
+
+def drift_corrected(mode: ModeBackbone) -> tuple[ModeBackbone, dict]:
+    """The backbone ``mode`` less the drift within each hit its signal checks found (``drift_findings``, clock
+    "time since each hit's impact"): each quantity y at amplitude a becomes y - r t(a), the backbone as at each
+    hit's impact, with r the finding's rate and t(a) the mean time since impact behind the point
+    (:func:`backbone_times`, interpolated in ln a); its standard error in quadrature with that of r times t(a).
+    Returns (the corrected backbone, {quantity: {"rate_per_s", "standard_error", "largest_shift"}}); the backbone
+    itself and {} where no such drift was found (a drift across the hits is not corrected: its reference time, the
+    one the nominal holds, is unknown)."""
+    corrections, backbone = {}, mode.backbone
+    for entry in mode.findings.get("found", []):
+        evidence = entry.get("evidence", {})
+        if entry["name"] != "drift" or "time_since_impact_s" not in evidence:
+            continue
+        quantity = evidence["quantity"]
+        known = [(a, t) for a, t in zip(evidence["amplitude"], evidence["time_since_impact_s"]) if t is not None]
+        amplitude, time = np.array(known).T
+        since = np.interp(np.log(backbone.amplitude), np.log(amplitude), time)
+        shift, error = evidence["rate_per_s"] * since, STANDARD_ERRORS[quantity]
+        backbone = replace(backbone, **{quantity: getattr(backbone, quantity) - shift,
+                                        error: np.hypot(getattr(backbone, error), evidence["standard_error"] * since)})
+        corrections[quantity] = {"rate_per_s": evidence["rate_per_s"], "standard_error": evidence["standard_error"],
+                                 "largest_shift": float(np.max(np.abs(shift)))}
+    return replace(mode, backbone=backbone), corrections
 
 
 def still_decaying(medians: np.ndarray, false_alarm: float) -> bool:

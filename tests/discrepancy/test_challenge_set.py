@@ -8,7 +8,8 @@ sqrt(m)), added_zeta -> linear_damping, c_per_q -> amplitude_damping (zeta + c q
 (omega (1 + k q^2)); each named with its size within 10 % and nothing else outside the joint; the joint's own law
 (an Iwan joint) is the joint law, not an effect; no effect: clean, not unexplained; a second mode or a drift
 within the hits (outside any backbone library): unexplained, with the finding that names it (the second mode's
-frequency within 0.5 % and its share within 30 %; the drift's sign and rate within 30 %).
+frequency within 0.5 % and its share within 30 %; the drift's sign and rate within 30 %, and, the drift taken
+out of the backbone, the key's effects outside the joint and nothing else).
 
 Without the nominal options the nominal is estimated from the file's lowest decade with its standard errors
 (``discrepancy.nominal``): an offset (mass loading, linear damping) may then be taken into the nominal, which then
@@ -115,6 +116,9 @@ def test_challenge_file_with_the_keys_nominal(tmp_path, key, backbones, case):
                             and entry["evidence"]["quantity"] == "natural_frequency_hz")
             assert evidence["clock"] == "time since each hit's impact"
             assert evidence["relative_change_over_span"] == pytest.approx(-truth["drift"], rel=0.3)
+            # the backbone as at each hit's impact (the drift taken out): the effects of the truth, nothing else
+            assert set(verdict["drift_correction"]) == {"natural_frequency_hz"}
+            assert set(verdict["added"]) == {EFFECT_OF[name] for name in truth if name in EFFECT_OF}, verdict["added"]
         return
     assert not verdict["unexplained"], verdict["steps"][-1]["reduced_chi_squared"]
     assert set(verdict["added"]) == {EFFECT_OF[name] for name in truth if name in EFFECT_OF}

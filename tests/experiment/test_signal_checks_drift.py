@@ -6,6 +6,8 @@
   times, a drift across the hits is named across, not within, and one within is named within alone; clean hits
   give no finding;
 - the bin means of a derivative are anticorrelated where bins share an edge (the covariance the fit whitens);
+- the drift within each hit taken out of the backbone (``drift_corrected``) gives the backbone of the same hits
+  without it, within the correction's own stated error, where the drifted backbone is many of them away;
 - the challenge set (``../shared/data/ringdown-challenge``, another generator; skipped where absent): P7, a drift
   within each hit of 1e-3 over 1.65 s, found with its sign and rate (within 30 %); P1, clean, gives none.
 """
@@ -17,9 +19,9 @@ import numpy as np
 import pytest
 
 from discrepancy.virtual_data import undeclared_ringdown
-from experiment.backbone import ringdown_backbone
+from experiment.backbone import mode_backbone, ringdown_backbone
 from experiment.measured_files import read_ringdown
-from experiment.signal_checks import derivative_covariance, drift_findings
+from experiment.signal_checks import backbone_times, derivative_covariance, drift_corrected, drift_findings
 from locations import CHALLENGE, challenge_ringdown
 
 MODE_HZ = 169.0
@@ -67,6 +69,31 @@ def test_with_strengths_apart_from_times_each_drift_is_named_by_its_own_clock(dr
 def test_clean_hits_of_different_strength_give_no_drift(seed, stamped, strengths):
     hits = undeclared_ringdown(seed=seed, **(HITS | {"start_fractions": strengths}))
     assert drift_of(hits if stamped else unstamped(hits)) == []
+
+
+def test_the_drift_taken_out_of_the_backbone_gives_the_backbone_without_it():
+    """The same seven hits (the same noise) with a frequency drift of -2e-3 over each hit's decay and without it:
+    the drifted backbone less r t(a) (the finding's rate r, t(a) the mean time since impact behind each point) is
+    the undrifted backbone within three of the error the corrected points state (their own standard error with the
+    rate's times t(a): the noise is the same in both, but the two grids, and so the bins' samples, differ by a few
+    per mille), while the drifted backbone lies ten or more of them away; the times behind the points rise as the
+    amplitude falls, to about the decay's length."""
+    clean = ringdown_backbone(undeclared_ringdown(**HITS), MODE_HZ)
+    hits = undeclared_ringdown(drift_within_hit=-2e-3, **HITS)
+    drifted = ringdown_backbone(hits, MODE_HZ)
+    findings = drift_findings(hits, drifted)
+    corrected, corrections = drift_corrected(mode_backbone(drifted, "virtual", "virtual", findings={"found": findings}))
+    assert list(corrections) == ["natural_frequency_hz"]
+    entry, times = corrections["natural_frequency_hz"], backbone_times(drifted, drifted.hilbert.amplitude)
+    assert np.all(np.diff(times[np.isfinite(times)]) < 0) and 1.0 < np.nanmax(times) < DECAY_S
+    amplitude = corrected.backbone.amplitude
+    since = np.interp(np.log(amplitude), np.log(drifted.hilbert.amplitude[np.isfinite(times)]), times[np.isfinite(times)])
+    truth = np.interp(np.log(amplitude), np.log(clean.hilbert.amplitude), clean.hilbert.natural_frequency_hz)
+    error = corrected.backbone.natural_frequency_standard_error_hz  # the points' own and the rate's times t(a)
+    inside = (amplitude > clean.hilbert.amplitude[0]) & (amplitude < clean.hilbert.amplitude[-1])
+    assert np.all(np.abs(corrected.backbone.natural_frequency_hz - truth)[inside] < 3 * error[inside])
+    before = np.interp(np.log(amplitude), np.log(drifted.hilbert.amplitude), drifted.hilbert.natural_frequency_hz)
+    assert np.max(np.abs(before - truth)[inside] / error[inside]) > 10
 
 
 def test_bin_means_of_a_derivative_are_anticorrelated_where_bins_share_an_edge():
