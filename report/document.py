@@ -320,7 +320,9 @@ def verdict_row(verdict: dict, name: str) -> str:
         "none" if verdict.get("signal_checks") else "not checked")
     outside = [entry["name"] for entry in findings if entry["outside_library"]]
     answer = (f"unexplained ({', '.join(outside)})" if outside else
-              "residual unexplained" if verdict["unexplained"] else "explained to the noise")
+              "residual unexplained" if verdict["unexplained"] else "explained to the noise") + (
+        "; the drift within each hit taken out of the backbone before the fit" if verdict.get("drift_correction")
+        else "")
     reference = (f"superelement, {verdict['steps'][0]['parameters']['design']}" if "study" in verdict
                  else "one-mode joint")
     return (f"| {name} | {verdict['provenance']} | {reference} | {found} | {seen} | {answer} | "

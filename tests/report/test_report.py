@@ -154,23 +154,27 @@ def test_report_timings_are_the_logged_runs(pipeline_report):
 
 def test_discrepancy_section_shows_the_signal_findings_beside_the_errors(tmp_path):
     """Section 8: a verdict with a finding outside the library reads "unexplained" with the finding named in the
-    same row as the errors before and after; a backbone without its ring-down reads "not checked"."""
+    same row as the errors before and after, and a drift within each hit taken out of the backbone is said there;
+    a backbone without its ring-down reads "not checked"."""
     from report.document import discrepancy_section
 
     errors = {"frequency_linf_hz": 0.5, "frequency_rms_hz": 0.2, "damping_linf": 1e-3, "damping_rms": 5e-4}
     second_mode = {"name": "second_mode", "outside_library": True, "summary": "a second mode at 174.6 Hz",
                    "evidence": {}}
+    drift = {"natural_frequency_hz": {"rate_per_s": -0.08, "standard_error": 0.01, "largest_shift": 0.12}}
     for name, findings, checked in (("ring", [second_mode], ["second_mode", "drift"]), ("asb", [], [])):
         folder = tmp_path / "results" / "discrepancy" / name
         folder.mkdir(parents=True)
         (folder / "discrepancy.json").write_text(json.dumps({
             "provenance": "virtual", "effects": [], "unexplained": bool(findings), "findings": findings,
-            "signal_checks": checked, "joint_law": [], "added": [], "alternatives": {}, "steps": [{"errors": errors, "parameters": {}}]}))
+            "signal_checks": checked, "joint_law": [], "added": [], "alternatives": {},
+            "drift_correction": drift if findings else {}, "steps": [{"errors": errors, "parameters": {}}]}))
         (folder / "discrepancy.md").write_text("Discrepancy loop\n")
     rows = {line.split("|")[1].strip(): line for line in discrepancy_section(tmp_path / "results", tmp_path)
             if line.startswith("| [")}
     ring, asb = (rows[f"[{name}](results/discrepancy/{name}/discrepancy.md)"] for name in ("ring", "asb"))
-    assert "| second_mode: a second mode at 174.6 Hz | unexplained (second_mode) | 0.5 -> 0.5 |" in ring
+    assert ("| second_mode: a second mode at 174.6 Hz | unexplained (second_mode); the drift within each hit taken "
+            "out of the backbone before the fit | 0.5 -> 0.5 |") in ring
     assert "| joint law macroslip; added outside the joint none | not checked | explained to the noise |" in asb
 
 
