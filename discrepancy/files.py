@@ -55,7 +55,21 @@ def drift_markdown(corrections: dict) -> list[str]:
     return ["Drift within each hit taken out of the backbone before the fit (the backbone as at each hit's impact, "
             "the rate's standard error added to each point's): " + "; ".join(
                 f"{quantity} {entry['rate_per_s']:.4g} +- {entry['standard_error']:.2g} per s, points moved by up "
-                f"to {entry['largest_shift']:.3g}" for quantity, entry in corrections.items()) + ".", ""]
+                f"to {entry['largest_shift']:.3g}" + (f" (the finding's reading: the data cannot tell it from a drift "
+                                                      f"over the {entry['confounded_with']})"
+                                                      if "confounded_with" in entry else "")
+                for quantity, entry in corrections.items()) + ".", ""]
+
+
+def outside_caveat(findings: list, drift: dict | None) -> str:
+    """What the effects named may stand for beside the ``findings`` outside the library: a drift within each hit
+    taken out of the backbone (``drift``, :func:`drift_markdown`'s) is not in it; anything else is."""
+    left = [entry["name"] for entry in findings if entry["outside_library"] and not (
+        drift and entry["name"] == "drift" and entry["evidence"].get("clock") == "time since each hit's impact")]
+    said = ["the drift within each hit is taken out of the backbone (above)"] if drift else []
+    if left:
+        said.append(f"the backbone holds the {', '.join(left)}, so the effects named may stand for part of it")
+    return "; ".join(said) + "."
 
 
 def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement: BackboneLevels,
@@ -110,9 +124,8 @@ def verdict_markdown(verdict: Verdict, source: str, features: dict, measurement:
     outside = [entry["name"] for entry in verdict.findings if entry["outside_library"]]
     lines += ["", f"Verdict: {verdict_summary(verdict.joint_law, verdict.added, verdict.alternatives)}. " + (
         f"UNEXPLAINED: the signals show {', '.join(outside)}, which no effect of the library fitted to the backbone "
-        "stands for (chi^2/dof of the backbone's fit in the table above); " + (
-            "the effects named are those of the backbone with the drift within each hit taken out (above)." if drift
-            else "the backbone holds it, so the effects named may stand for part of it.") if outside else
+        "stands for (chi^2/dof of the backbone's fit in the table above); " + outside_caveat(verdict.findings, drift)
+        if outside else
         "A residual above the measurement's noise remains UNEXPLAINED by the library." if verdict.unexplained else
         "The residual is at the measurement's noise.")]
     return "\n".join(lines) + "\n"

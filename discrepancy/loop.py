@@ -743,10 +743,10 @@ def select_effects(measurement: BackboneLevels, fitted, library, restarted=None)
             f"BIC {model.bic:.4g}: " + "; ".join(admissible(measurement, model, reference, model.effects))
         for model in evaluated.values()
         if model is not None and model.bic < final.bic - EVIDENCE and not accepted(model)}
-    verdict.evaluated = {", ".join(sorted(model.effects)): {
+    verdict.evaluated = {", ".join(sorted(model.effects)): {  # of the same effects reached twice, the lower BIC
         "bic": model.bic, "chi_squared": model.chi_squared, "parameters": model.n_parameters,
         "not_accepted": admissible(measurement, model, reference, model.effects)}
-        for model in evaluated.values() if model is not None}
+        for model in sorted((model for model in evaluated.values() if model is not None), key=lambda m: -m.bic)}
     verdict.effects = list(final.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict

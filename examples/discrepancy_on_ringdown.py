@@ -21,6 +21,7 @@ from discrepancy.nominal import nominal_record
 from discrepancy.virtual_data import REFERENCE_DAMPING, REFERENCE_FREQUENCY_HZ, write_undeclared_ringdown
 from experiment.measured_files import read_ringdown, stated_provenance
 from experiment.ringdown_analysis import analyse_ringdown
+from experiment.signal_checks import drift_corrected
 from study.structures import measured_levels
 
 KNOWN_EFFECT = effect("microslip")
@@ -44,6 +45,9 @@ def main(argv=None):
         parser.error("a ring-down file needs --mode-hz")
     measured, _ = analyse_ringdown(read_ringdown(arguments.ringdown), arguments.mode_hz, arguments.ringdown.stem,
                                    stated_provenance(arguments.ringdown))  # the provenance as the file states it
+    measured, drift = drift_corrected(measured)  # a drift within each hit taken out, as surrogacy discrepancy does
+    if drift:
+        print(f"drift within each hit taken out of the backbone: {drift}")
     measurement = measured_levels(measured, path=str(arguments.ringdown))
     nominal = nominal_record(measurement, arguments.nominal_frequency_hz, arguments.nominal_damping)  # else estimated
     print(f"nominal: f_0 {nominal['nominal_frequency_hz']:.6g} Hz, zeta_0 {nominal['nominal_damping']:.4g}; "

@@ -604,24 +604,32 @@ def drift_corrected(mode: ModeBackbone) -> tuple[ModeBackbone, dict]:
     """The backbone ``mode`` less the drift within each hit its signal checks found (``drift_findings``, clock
     "time since each hit's impact"): each quantity y at amplitude a becomes y - r t(a), the backbone as at each
     hit's impact, with r the finding's rate and t(a) the mean time since impact behind the point
-    (:func:`backbone_times`, interpolated in ln a); its standard error in quadrature with that of r times t(a).
-    Returns (the corrected backbone, {quantity: {"rate_per_s", "standard_error", "largest_shift"}}); the backbone
-    itself and {} where no such drift was found (a drift across the hits is not corrected: its reference time, the
-    one the nominal holds, is unknown)."""
+    (:func:`backbone_times`, interpolated in ln a, held at its ends beyond them); the point's standard error in
+    quadrature with r's times t(a). The spread over the hits is left as it was (it still holds the drift's part,
+    the hits reaching a point at different times: the loop's weight, the larger of the standard error and the
+    spread over the square root of the hits, stays conservative there), and r's error, one for every point, is
+    counted at each as if its own. Where the finding cannot tell the drift within each hit from one over the order
+    of the hits (``confounded_with``), it names the drift within each hit, and that is what is taken out.
+    Returns (the corrected backbone, {quantity: {"rate_per_s", "standard_error", "largest_shift"} and
+    "confounded_with" where the finding names it}); the backbone itself and {} where no such drift was found, or
+    where its times are absent (a drift across the hits is not corrected: its reference time, the one the nominal
+    holds, is unknown)."""
     corrections, backbone = {}, mode.backbone
     for entry in mode.findings.get("found", []):
         evidence = entry.get("evidence", {})
-        if entry["name"] != "drift" or "time_since_impact_s" not in evidence:
+        known = [(a, t) for a, t in zip(evidence.get("amplitude", []), evidence.get("time_since_impact_s", []))
+                 if t is not None]
+        if entry["name"] != "drift" or not known:
             continue
         quantity = evidence["quantity"]
-        known = [(a, t) for a, t in zip(evidence["amplitude"], evidence["time_since_impact_s"]) if t is not None]
         amplitude, time = np.array(known).T
         since = np.interp(np.log(backbone.amplitude), np.log(amplitude), time)
         shift, error = evidence["rate_per_s"] * since, STANDARD_ERRORS[quantity]
         backbone = replace(backbone, **{quantity: getattr(backbone, quantity) - shift,
                                         error: np.hypot(getattr(backbone, error), evidence["standard_error"] * since)})
         corrections[quantity] = {"rate_per_s": evidence["rate_per_s"], "standard_error": evidence["standard_error"],
-                                 "largest_shift": float(np.max(np.abs(shift)))}
+                                 "largest_shift": float(np.max(np.abs(shift)))} | (
+            {"confounded_with": evidence["confounded_with"]} if "confounded_with" in evidence else {})
     return replace(mode, backbone=backbone), corrections
 
 

@@ -61,8 +61,9 @@ def test_chi_at_iwans_limit_is_held_and_the_effect_outside_the_joint_found(seed)
         "parameters": verdict.final.n_parameters, "not_accepted": []}
     assert all(record[effects]["bic"] == bic and not record[effects]["not_accepted"]
                for effects, bic in verdict.alternatives.items())
-    assert set(verdict.better_not_accepted) == {effects for effects, entry in record.items()
-                                                if entry["bic"] < verdict.final.bic - EVIDENCE and entry["not_accepted"]}
+    assert set(verdict.better_not_accepted) == {
+        effects for effects, entry in record.items() if entry["bic"] < verdict.final.bic - EVIDENCE
+        and entry["not_accepted"]}
     assert min(entry["bic"] for entry in record.values() if not entry["not_accepted"]) >= verdict.final.bic - EVIDENCE
 
 

@@ -84,10 +84,9 @@ def test_the_drift_taken_out_of_the_backbone_gives_the_backbone_without_it():
     findings = drift_findings(hits, drifted)
     corrected, corrections = drift_corrected(mode_backbone(drifted, "virtual", "virtual", findings={"found": findings}))
     assert list(corrections) == ["natural_frequency_hz"]
-    entry, times = corrections["natural_frequency_hz"], backbone_times(drifted, drifted.hilbert.amplitude)
+    times = backbone_times(drifted, drifted.hilbert.amplitude)
     assert np.all(np.diff(times[np.isfinite(times)]) < 0) and 1.0 < np.nanmax(times) < DECAY_S
     amplitude = corrected.backbone.amplitude
-    since = np.interp(np.log(amplitude), np.log(drifted.hilbert.amplitude[np.isfinite(times)]), times[np.isfinite(times)])
     truth = np.interp(np.log(amplitude), np.log(clean.hilbert.amplitude), clean.hilbert.natural_frequency_hz)
     error = corrected.backbone.natural_frequency_standard_error_hz  # the points' own and the rate's times t(a)
     inside = (amplitude > clean.hilbert.amplitude[0]) & (amplitude < clean.hilbert.amplitude[-1])
