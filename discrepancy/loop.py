@@ -738,15 +738,13 @@ def select_effects(measurement: BackboneLevels, fitted, library, restarted=None)
         verdict.steps.append(step("selected: " + (", ".join(final.effects) or "the reference"), final,
                                   {"before refinement": current.bic}))
     verdict.final = final
-    verdict.better_not_accepted = {
-        ", ".join(sorted(model.effects)):
-            f"BIC {model.bic:.4g}: " + "; ".join(admissible(measurement, model, reference, model.effects))
-        for model in evaluated.values()
-        if model is not None and model.bic < final.bic - EVIDENCE and not accepted(model)}
     verdict.evaluated = {", ".join(sorted(model.effects)): {  # of the same effects reached twice, the lower BIC
         "bic": model.bic, "chi_squared": model.chi_squared, "parameters": model.n_parameters,
         "not_accepted": admissible(measurement, model, reference, model.effects)}
         for model in sorted((model for model in evaluated.values() if model is not None), key=lambda m: -m.bic)}
+    verdict.better_not_accepted = {effects: f"BIC {entry['bic']:.4g}: " + "; ".join(entry["not_accepted"])
+                                   for effects, entry in verdict.evaluated.items()
+                                   if entry["bic"] < final.bic - EVIDENCE and entry["not_accepted"]}
     verdict.effects = list(final.effects)
     verdict.unexplained = verdict.steps[-1].reduced_chi_squared > UNEXPLAINED
     return verdict
